@@ -1,0 +1,230 @@
+"""
+Focal-plane-array electronics: charge, noise, full well and analogue-to-digital conversion.
+
+The model is the EMVA 1288 linear camera: the mean digital signal is
+μ_y = μ_y,dark + K μ_e with μ_e the mean photo-electrons, and its variance
+σ²_y = K² (σ²_d + σ²_e) + σ²_q with σ²_e = μ_e (Poisson shot noise), σ_d the read noise and
+σ²_q = 1/12 DN² the quantisation noise; hence the photon-transfer relation
+σ²_y − σ²_y,dark = K (μ_y − μ_y,dark) below saturation.
+
+Each effect is one pure function; :meth:`Electronics.expose` applies them in physical order.
+Randomness comes only from an explicit ``rng``.
+
+References
+----------
+-   EMVA Standard 1288, Release 4.0 Linear (2021): Standard for characterization of image
+    sensors and cameras. European Machine Vision Association.
+-   Janesick, J. R. (2007). Photon Transfer, DN → λ. SPIE Press.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from radiosim.errors import RadiosimError
+
+__all__ = [
+    "etendue",
+    "add_dark_charge",
+    "apply_shot_noise",
+    "clip_full_well",
+    "apply_read_noise",
+    "quantise",
+    "Electronics",
+    "Exposure",
+]
+
+
+def etendue(active_area: float, f_number: float) -> float:
+    """
+    Étendue of a detector pixel behind a lens of image-space f-number N.
+
+    G = A · π / (4 N² + 1): the solid angle of the exit-pupil cone of half-angle θ with
+    sin θ = 1 / √(4N² + 1), times the area.
+
+    Parameters
+    ----------
+    active_area
+        Active (photosensitive) area of the pixel in the image plane [m²].
+    f_number
+        Image-space f-number N (dimensionless).
+
+    Returns
+    -------
+    float
+        Étendue [m² sr].
+
+    Examples
+    --------
+    >>> round(etendue(1.0, 0.5), 6)  # N = 0.5: the full hemisphere, π sr
+    1.570796
+    """
+    if not (active_area > 0 and f_number > 0):
+        raise RadiosimError(f"need area > 0 [m²] and f-number > 0, got {active_area}, {f_number}")
+    return active_area * math.pi / (4.0 * f_number**2 + 1.0)
+
+
+def add_dark_charge(electrons: np.ndarray, dark_current: float, integration_time: float):
+    """Mean charge plus dark charge [e⁻]: dark current [e⁻/s] × integration time [s]."""
+    return electrons + dark_current * integration_time
+
+
+def apply_shot_noise(electrons: np.ndarray, rng: np.random.Generator) -> np.ndarray:
+    """A Poisson draw of the collected charge [e⁻] around its mean [e⁻] (σ² = μ)."""
+    return rng.poisson(np.clip(electrons, 0.0, None)).astype(np.float64)
+
+
+def clip_full_well(electrons: np.ndarray, full_well: float | None):
+    """
+    Collected charge limited by the well capacity [e⁻].
+
+    Returns the clipped charge and the boolean mask of full wells.
+    """
+    if full_well is None:
+        return electrons, np.zeros(np.shape(electrons), dtype=bool)
+    full = electrons >= full_well
+    return np.minimum(electrons, full_well), full
+
+
+def apply_read_noise(electrons: np.ndarray, read_noise: float, rng: np.random.Generator):
+    """Charge plus zero-mean Gaussian read noise of ``read_noise`` e⁻ rms [e⁻]."""
+    if read_noise == 0:
+        return electrons
+    return electrons + rng.normal(0.0, read_noise, np.shape(electrons))
+
+
+def quantise(electrons: np.ndarray, gain: float, offset: float, bits: int | None):
+    """
+    Digital numbers: DN = round(K·e⁻ + offset), clipped to [0, 2^bits − 1].
+
+    With ``bits=None`` the converter is ideal: no rounding, no clipping.
+
+    Returns
+    -------
+    counts : numpy.ndarray
+        Digital numbers [DN] (float64 holding integers when ``bits`` is set).
+    low, high : numpy.ndarray of bool
+        Pixels clipped at 0 and at 2^bits − 1.
+    """
+    analogue = gain * electrons + offset  # [DN]
+    if bits is None:
+        none = np.zeros(np.shape(analogue), dtype=bool)
+        return analogue, none, none
+    top = float(2**bits - 1)
+    counts = np.clip(np.rint(analogue), 0.0, top)
+    return counts, counts <= 0.0, counts >= top
+
+
+@dataclass(frozen=True)
+class Exposure:
+    """
+    The read-out of one integration.
+
+    Attributes
+    ----------
+    electrons : numpy.ndarray
+        Charge in the well at the end of integration, after the full-well clip [e⁻].
+    counts : numpy.ndarray
+        Digital numbers [DN].
+    saturated : numpy.ndarray of bool
+        Full well or converter at its top code.
+    adc_floor : numpy.ndarray of bool
+        Converter at code 0.
+    """
+
+    electrons: np.ndarray
+    counts: np.ndarray
+    saturated: np.ndarray
+    adc_floor: np.ndarray
+
+
+@dataclass(frozen=True)
+class Electronics:
+    """
+    The pixel's charge-to-counts chain (EMVA 1288 linear model).
+
+    Attributes
+    ----------
+    full_well : float or None
+        Well capacity [e⁻]; ``None``: no saturation.
+    dark_current : float
+        Dark current [e⁻/s].
+    read_noise : float
+        Read noise [e⁻ rms].
+    shot_noise : bool
+        Draw the collected charge from a Poisson distribution.
+    gain : float
+        System gain K [DN/e⁻].
+    offset : float
+        Dark offset [DN].
+    adc_bits : int or None
+        Converter resolution [bit]; ``None``: no quantisation and no clipping.
+    """
+
+    full_well: float | None = None
+    dark_current: float = 0.0
+    read_noise: float = 0.0
+    shot_noise: bool = True
+    gain: float = 1.0
+    offset: float = 0.0
+    adc_bits: int | None = None
+
+    def __post_init__(self):
+        checks = [
+            (self.full_well is None or (math.isfinite(self.full_well) and self.full_well > 0),
+             f"full_well must be None or > 0 [e⁻], got {self.full_well!r}"),
+            (math.isfinite(self.dark_current) and self.dark_current >= 0,
+             f"dark_current must be ≥ 0 [e⁻/s], got {self.dark_current!r}"),
+            (math.isfinite(self.read_noise) and self.read_noise >= 0,
+             f"read_noise must be ≥ 0 [e⁻], got {self.read_noise!r}"),
+            (math.isfinite(self.gain) and self.gain > 0,
+             f"gain must be > 0 [DN/e⁻], got {self.gain!r}"),
+            (math.isfinite(self.offset), f"offset must be finite [DN], got {self.offset!r}"),
+            (self.adc_bits is None or (int(self.adc_bits) == self.adc_bits
+                                        and 1 <= self.adc_bits <= 32),
+             f"adc_bits must be None or an integer from 1 to 32, got {self.adc_bits!r}"),
+        ]
+        for ok, message in checks:
+            if not ok:
+                raise RadiosimError(message)
+
+    @classmethod
+    def ideal(cls) -> Electronics:
+        """Noise-free, unsaturable, unquantised electronics with K = 1 DN/e⁻."""
+        return cls(shot_noise=False)
+
+    @property
+    def is_noise_free(self) -> bool:
+        return not self.shot_noise and self.read_noise == 0
+
+    @property
+    def max_count(self) -> float:
+        """Top code of the converter [DN] (∞ without quantisation)."""
+        return math.inf if self.adc_bits is None else float(2**self.adc_bits - 1)
+
+    def expose(self, photoelectrons: np.ndarray, integration_time: float,
+               rng=None) -> Exposure:
+        """
+        Turn mean photo-electrons into a noisy, clipped, quantised read-out.
+
+        Parameters
+        ----------
+        photoelectrons
+            Mean photo-generated charge per pixel over the integration [e⁻].
+        integration_time
+            Integration time [s] (for the dark charge).
+        rng
+            Seed or :class:`numpy.random.Generator` for shot and read noise.
+        """
+        rng = np.random.default_rng(rng)
+        electrons = add_dark_charge(photoelectrons, self.dark_current, integration_time)  # [e⁻]
+        if self.shot_noise:
+            electrons = apply_shot_noise(electrons, rng)  # [e⁻], Poisson
+        electrons, full = clip_full_well(electrons, self.full_well)  # [e⁻] in the well
+        read = apply_read_noise(electrons, self.read_noise, rng)  # [e⁻] at the converter
+        counts, floor, top = quantise(read, self.gain, self.offset, self.adc_bits)  # [DN]
+        return Exposure(electrons=electrons, counts=counts, saturated=full | top,
+                        adc_floor=floor)

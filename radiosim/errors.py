@@ -1,0 +1,15 @@
+"""Errors and warnings raised by radiosim.
+
+The library never prints: it raises :class:`RadiosimError` (a :class:`ValueError`) for bad input,
+naming the offending value and what was expected, and warns with :class:`RadiosimWarning`.
+"""
+
+__all__ = ["RadiosimError", "RadiosimWarning"]
+
+
+class RadiosimError(ValueError):
+    """Invalid input or configuration: the message names the value and what was expected."""
+
+
+class RadiosimWarning(UserWarning):
+    """A result is valid but may not be what the user expects (e.g. a saturated pixel)."""

@@ -1,0 +1,117 @@
+"""
+The result of one camera measurement, with the units of every field.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import ClassVar
+
+import numpy as np
+
+__all__ = ["Measurement"]
+
+
+@dataclass(frozen=True, eq=False)
+class Measurement:
+    """
+    What one integration of the camera produced, pixel by pixel, with the scene truth beside it.
+
+    Arrays are shaped like the pixel array that the scene covers (rows, columns), row 0 at the
+    top. Pixels that are ``saturated`` or ``under_range`` have no apparent temperature (NaN):
+    they are never reported as plausible numbers.
+
+    Attributes
+    ----------
+    apparent_temperature : numpy.ndarray
+        Temperature the camera reports [K] (NaN where flagged).
+    counts : numpy.ndarray
+        Digital numbers [DN].
+    electrons : numpy.ndarray
+        Charge in the well at the end of integration [e⁻].
+    saturated : numpy.ndarray of bool
+        Full well, converter top code, or above the calibration's range.
+    under_range : numpy.ndarray of bool
+        Converter code 0 or below the calibration's range.
+    tensor_max : numpy.ndarray
+        Maximum scene temperature over the pixel's footprint × window [K].
+    tensor_mean : numpy.ndarray
+        Area- and time-weighted mean scene temperature over the same tensor [K].
+    tensor_std : numpy.ndarray
+        Weighted population standard deviation (ddof = 0) of the same [K].
+    signal_mean : numpy.ndarray
+        Weighted mean response signal [``signal_unit``].
+    signal_unit : str
+        Unit of ``signal_mean`` (``"K"`` or ``"photons s-1 m-2 sr-1"``).
+    camera : Camera
+        The camera that measured.
+    integration_time : float
+        Integration time [s].
+    t_start : float
+        Start of the integration window [s].
+    n_frames : int
+        Scene frames the window touched.
+    scene : dict
+        Description of the scene (units in the keys).
+    """
+
+    #: Units of the array fields and derived properties.
+    UNITS: ClassVar[dict[str, str]] = {
+        "apparent_temperature": "K",
+        "counts": "DN",
+        "electrons": "e-",
+        "saturated": "1",
+        "under_range": "1",
+        "tensor_max": "K",
+        "tensor_mean": "K",
+        "tensor_std": "K",
+        "peak_error": "K",
+        "uncertainty": "K",
+        "integration_time": "s",
+        "t_start": "s",
+    }
+
+    apparent_temperature: np.ndarray
+    counts: np.ndarray
+    electrons: np.ndarray
+    saturated: np.ndarray
+    under_range: np.ndarray
+    tensor_max: np.ndarray
+    tensor_mean: np.ndarray
+    tensor_std: np.ndarray
+    signal_mean: np.ndarray
+    signal_unit: str
+    camera: object
+    integration_time: float
+    t_start: float
+    n_frames: int
+    scene: dict = field(default_factory=dict)
+
+    @property
+    def peak_error(self) -> np.ndarray:
+        """Tensor maximum minus apparent temperature [K] (the paper's local peak error)."""
+        return self.tensor_max - self.apparent_temperature
+
+    @property
+    def uncertainty(self) -> np.ndarray:
+        """Tensor standard deviation [K] (the paper's measurement uncertainty)."""
+        return self.tensor_std
+
+    @property
+    def shape(self) -> tuple[int, int]:
+        return self.apparent_temperature.shape
+
+    @property
+    def valid(self) -> np.ndarray:
+        """Pixels with an apparent temperature (neither saturated nor under range)."""
+        return ~(self.saturated | self.under_range)
+
+    @property
+    def saturated_fraction(self) -> float:
+        """Fraction of pixels flagged saturated."""
+        return float(np.mean(self.saturated))
+
+    @property
+    def t_stop(self) -> float:
+        """End of the integration window [s]."""
+        return self.t_start + self.integration_time

@@ -1,0 +1,388 @@
+"""
+Radiometry: Planck's law, in-band radiance and its fast evaluation and inversion.
+
+The in-band radiance of a surface at temperature :math:`T`, seen through a spectral
+responsivity :math:`R(\\lambda)` (filter × optics × quantum efficiency) is
+
+.. math::
+
+    L_q(T) = \\int_{\\lambda_1}^{\\lambda_2} \\varepsilon(\\lambda) R(\\lambda)
+             \\frac{2 c}{\\lambda^4} \\frac{1}{e^{c_2/\\lambda T} - 1}\\, d\\lambda
+             \\quad [\\mathrm{photons\\ s^{-1}\\ m^{-2}\\ sr^{-1}}]
+
+in photon units, and the same integral of :math:`2 h c^2 / \\lambda^5 (\\ldots)` in energy units
+[W m⁻² sr⁻¹]. The constants are CODATA's exact SI values from :mod:`scipy.constants`
+(:math:`c_2 = h c / k`), not ITS-90's rounded :math:`c_2 = 0.014388` m K.
+
+:func:`band_radiance` evaluates the integral by Gauss–Legendre quadrature on the pieces between
+the nodes of the spectral curves, which is exact to rounding for piecewise-linear curves.
+:class:`BandRadianceTable` tabulates it once and evaluates it per sample (and inverts it) fast.
+
+References
+----------
+-   CIE 015:2004, Colorimetry (Planck's law as in :func:`colour.colorimetry.planck_law`).
+-   Tiesinga, E. et al. (2021). CODATA recommended values of the fundamental physical
+    constants: 2018. Rev. Mod. Phys. 93, 025010.
+-   Wiebelt, J. A. (1966). Engineering Radiation Heat Transfer. Holt, Rinehart and Winston
+    (series for the blackbody fraction :math:`F_{0\\to\\lambda T}`).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+
+import numpy as np
+import scipy.constants as sc
+from colour import SpectralDistribution
+from colour.colorimetry import planck_law
+from scipy.interpolate import CubicSpline
+from scipy.special import bernoulli, factorial
+
+from radiosim.errors import RadiosimError
+from radiosim.spectral import as_spectrum
+
+__all__ = [
+    "PLANCK_C1",
+    "PLANCK_C1L",
+    "PLANCK_C2",
+    "QUANTITIES",
+    "planck_spectral_radiance",
+    "blackbody_fraction",
+    "band_radiance",
+    "BandRadianceTable",
+]
+
+#: First radiation constant :math:`c_1 = 2 \\pi h c^2` [W m²] (CODATA, exact).
+PLANCK_C1 = 2 * math.pi * sc.h * sc.c**2
+#: First radiation constant for spectral radiance :math:`c_{1L} = 2 h c^2` [W m² sr⁻¹].
+PLANCK_C1L = 2 * sc.h * sc.c**2
+#: Second radiation constant :math:`c_2 = h c / k` [m K] (CODATA, exact).
+PLANCK_C2 = sc.h * sc.c / sc.k
+
+#: Radiance quantities and their units.
+QUANTITIES = {
+    "photon": "photons s-1 m-2 sr-1",
+    "energy": "W m-2 sr-1",
+}
+
+_BERNOULLI = bernoulli(40)  # B₁ = −1/2 convention, as in t/(eᵗ − 1) = Σ Bₖ tᵏ/k!
+_FACTORIAL = factorial(np.arange(_BERNOULLI.size), exact=False)
+_GAUSS_ORDER = 8
+_GAUSS_X, _GAUSS_W = np.polynomial.legendre.leggauss(_GAUSS_ORDER)
+_MAX_PIECE_RATIO = 1.02  # quadrature pieces span at most 2 % in wavelength
+
+
+def _check_temperature(temperature) -> np.ndarray:
+    t = np.asarray(temperature, dtype=float)
+    if not np.all(np.isfinite(t)):
+        raise RadiosimError("temperature contains NaN or infinite values; expected kelvin > 0")
+    if np.any(t <= 0):
+        raise RadiosimError(
+            f"temperature must be > 0 K, got a minimum of {t.min():g} K (°C passed as kelvin?)"
+        )
+    return t
+
+
+def _check_quantity(quantity: str) -> str:
+    if quantity not in QUANTITIES:
+        raise RadiosimError(f"quantity must be one of {', '.join(QUANTITIES)}, got {quantity!r}")
+    return quantity
+
+
+def planck_spectral_radiance(wavelength, temperature, quantity: str = "energy") -> np.ndarray:
+    """
+    Spectral radiance of a blackbody (Planck's law) with CODATA constants.
+
+    Parameters
+    ----------
+    wavelength
+        Wavelength :math:`\\lambda` [m].
+    temperature
+        Temperature :math:`T` [K].
+    quantity
+        ``"energy"``: :math:`L_\\lambda` [W m⁻² sr⁻¹ m⁻¹]; ``"photon"``:
+        :math:`L_{q,\\lambda} = L_\\lambda \\lambda / h c` [photons s⁻¹ m⁻² sr⁻¹ m⁻¹].
+
+    Returns
+    -------
+    numpy.ndarray
+        Shape ``temperature.shape + wavelength.shape`` (every temperature at every wavelength).
+
+    Examples
+    --------
+    >>> float(planck_spectral_radiance(10e-6, 300.0))  # doctest: +ELLIPSIS
+    9924...
+    """
+    _check_quantity(quantity)
+    wl = np.asarray(wavelength, dtype=float)
+    t = _check_temperature(temperature)
+    if np.any(wl <= 0) or not np.all(np.isfinite(wl)):
+        raise RadiosimError("wavelength must be finite and > 0 [m]")
+    # colour's planck_law returns L_λ = c1 / (π λ⁵ (exp(c2/λT) − 1)) for every (λ, T) pair;
+    # exp overflows to inf far in the Wien tail, where the radiance is correctly 0.
+    with np.errstate(over="ignore"):
+        radiance = np.reshape(
+            planck_law(wl.ravel(), t.ravel(), c1=PLANCK_C1, c2=PLANCK_C2), (wl.size, t.size)
+        ).T
+    if quantity == "photon":
+        radiance = radiance * (wl.ravel() / (sc.h * sc.c))
+    return radiance.reshape(t.shape + wl.shape)
+
+
+def blackbody_fraction(wavelength_temperature) -> np.ndarray:
+    """
+    Fraction :math:`F_{0\\to\\lambda T}` of blackbody exitance below wavelength λ.
+
+    Evaluated with the convergent series of Wiebelt (1966),
+    :math:`F = \\frac{15}{\\pi^4} \\sum_{n \\ge 1} \\frac{e^{-n x}}{n}
+    \\left(x^3 + \\frac{3x^2}{n} + \\frac{6x}{n^2} + \\frac{6}{n^3}\\right)`, :math:`x = c_2/\\lambda T`,
+    independent of the quadrature in :func:`band_radiance`.
+
+    Parameters
+    ----------
+    wavelength_temperature
+        Product :math:`\\lambda T` [m K], > 0.
+
+    Returns
+    -------
+    numpy.ndarray
+        Dimensionless fraction in [0, 1].
+
+    Examples
+    --------
+    >>> round(float(blackbody_fraction(2898e-6)), 5)
+    0.25005
+    """
+    lt = np.asarray(wavelength_temperature, dtype=float)
+    if np.any(lt <= 0) or not np.all(np.isfinite(lt)):
+        raise RadiosimError("λT must be finite and > 0 [m K]")
+    x = np.atleast_1d(PLANCK_C2 / lt)
+    # For x ≥ 2 the series' terms fall at least as e^{-2n}; below, use the complement
+    # 1 − F = (15/π⁴) ∫₀ˣ t³/(eᵗ − 1) dt = (15/π⁴) Σₖ Bₖ x^(k+3) / (k! (k + 3)), which converges
+    # for x < 2π with terms falling as (x/2π)^k.
+    small = x < 2.0
+    fraction = np.empty_like(x)
+    xs = x[~small]
+    total = np.zeros_like(xs)
+    for n in range(1, 40):
+        total += np.exp(-n * xs) / n * (xs**3 + 3 * xs**2 / n + 6 * xs / n**2 + 6 / n**3)
+    fraction[~small] = 15 / np.pi**4 * total
+    xb = x[small]
+    k = np.arange(_BERNOULLI.size)
+    terms = _BERNOULLI / (_FACTORIAL * (k + 3)) * xb[:, None] ** (k + 3)
+    fraction[small] = 1 - 15 / np.pi**4 * terms.sum(axis=1)
+    return fraction.reshape(lt.shape)
+
+
+def _split_factors(responsivity, emissivity):
+    """Spectral curves and the scalar factor of responsivity × emissivity."""
+    factors = []
+    if responsivity is not None:
+        if isinstance(responsivity, Sequence) and not isinstance(responsivity, str):
+            factors.extend(responsivity)
+        else:
+            factors.append(responsivity)
+    factors.append(emissivity)
+    curves, scale = [], 1.0
+    for factor in factors:
+        value = as_spectrum(factor, "responsivity or emissivity")
+        if isinstance(value, SpectralDistribution):
+            curves.append(value)
+        else:
+            scale *= value
+    return curves, scale
+
+
+def _quadrature(band, curves) -> tuple[np.ndarray, np.ndarray]:
+    """Wavelength nodes [m] and weights [m] (× the curves' product) over the band."""
+    lo, hi = (float(b) for b in band)
+    if not (np.isfinite(lo) and np.isfinite(hi) and 0 < lo < hi):
+        raise RadiosimError(f"band must be (λ1, λ2) with 0 < λ1 < λ2 in metres, got {band!r}")
+    if hi > 1e-2:
+        raise RadiosimError(f"band upper edge {hi:g} m is beyond 1 cm: a band is given in metres")
+    edges = [lo, hi]
+    for curve in curves:
+        domain = np.asarray(curve.domain, dtype=float)
+        edges.extend(domain[(domain > lo) & (domain < hi)])
+    edges = np.unique(edges)
+    pieces = []
+    for a, b in zip(edges[:-1], edges[1:]):
+        n = max(1, math.ceil(math.log(b / a) / math.log(_MAX_PIECE_RATIO)))
+        pieces.append(np.geomspace(a, b, n + 1) if n > 1 else np.array([a, b]))
+    bounds = np.unique(np.concatenate(pieces))
+    a, b = bounds[:-1, None], bounds[1:, None]
+    nodes = (0.5 * (b - a) * _GAUSS_X + 0.5 * (a + b)).ravel()
+    weights = (0.5 * (b - a) * _GAUSS_W).ravel()
+    for curve in curves:
+        weights = weights * np.asarray(curve[nodes], dtype=float)
+    return nodes, weights
+
+
+def band_radiance(
+    temperature,
+    band=(3.8e-6, 5.1e-6),
+    quantity: str = "photon",
+    responsivity=None,
+    emissivity=1.0,
+) -> np.ndarray:
+    """
+    In-band radiance of a (grey or spectral) emitter, by direct quadrature.
+
+    Parameters
+    ----------
+    temperature
+        Temperature [K], any shape, > 0.
+    band
+        Integration limits (λ1, λ2) [m].
+    quantity
+        ``"photon"`` [photons s⁻¹ m⁻² sr⁻¹] or ``"energy"`` [W m⁻² sr⁻¹].
+    responsivity
+        ``None`` (the pure blackbody integral over the band), or a dimensionless spectral
+        weight: a scalar, a ``SpectralDistribution`` (domain [m]), a shipped curve name, a CSV
+        path, or a sequence of these that multiply (e.g. filter, optics, quantum efficiency).
+    emissivity
+        Scalar (grey) or spectral emissivity, as for one ``responsivity`` factor.
+
+    Returns
+    -------
+    numpy.ndarray
+        Radiance shaped like ``temperature`` in the units of ``quantity``.
+
+    Examples
+    --------
+    Energy over a band that holds all of the spectrum is σT⁴/π:
+
+    >>> import scipy.constants as sc
+    >>> wide = band_radiance(1000.0, band=(1e-8, 1e-2), quantity="energy")
+    >>> round(float(wide / (sc.Stefan_Boltzmann * 1000.0**4 / np.pi)), 9)
+    1.0
+    """
+    _check_quantity(quantity)
+    t = _check_temperature(temperature)
+    curves, scale = _split_factors(responsivity, emissivity)
+    nodes, weights = _quadrature(band, curves)
+    flat = t.ravel()
+    out = np.empty(flat.shape)
+    chunk = max(1, 4_000_000 // nodes.size)
+    for start in range(0, flat.size, chunk):
+        spectral = planck_spectral_radiance(nodes, flat[start : start + chunk], quantity)
+        out[start : start + chunk] = spectral @ weights
+    return scale * out.reshape(t.shape)
+
+
+class BandRadianceTable:
+    """
+    Fast evaluator of in-band radiance :math:`L(T)` and of its inverse.
+
+    :math:`\\ln L` is tabulated by :func:`band_radiance` on a uniform temperature grid and
+    interpolated by a cubic spline (:math:`\\ln L \\approx a - b/T` is nearly linear in
+    :math:`1/T`, so it is far smoother than :math:`L`). Evaluation costs a few array operations
+    per sample, with no search and no spectral integral; its relative error against direct
+    quadrature is below 1e-8 over 200–2500 K with the default step (the tests assert 1e-6).
+    The inverse starts from linear interpolation of the table and takes Newton steps on the
+    spline, converging to rounding.
+
+    Parameters
+    ----------
+    band, quantity, responsivity, emissivity
+        As for :func:`band_radiance`.
+    temperature_range
+        Tabulated range (T_min, T_max) [K]; evaluation outside it raises.
+    step
+        Grid step [K].
+
+    Examples
+    --------
+    >>> table = BandRadianceTable(quantity="energy")
+    >>> t = np.array([300.0, 1012.15])
+    >>> bool(np.allclose(table(t), band_radiance(t, quantity="energy"), rtol=1e-9))
+    True
+    >>> table.temperature(table(t))
+    array([  300.  ,  1012.15])
+    """
+
+    def __init__(
+        self,
+        band=(3.8e-6, 5.1e-6),
+        quantity: str = "photon",
+        responsivity=None,
+        emissivity=1.0,
+        temperature_range=(150.0, 3000.0),
+        step: float = 2.0,
+    ):
+        t_min, t_max = (float(v) for v in temperature_range)
+        if not (0 < t_min < t_max and np.isfinite(t_max)):
+            raise RadiosimError(
+                f"temperature_range must be (T_min, T_max) with 0 < T_min < T_max [K], "
+                f"got {temperature_range!r}"
+            )
+        if not (0 < step <= (t_max - t_min) / 4):
+            raise RadiosimError(f"step must be > 0 and give at least 4 intervals, got {step!r} K")
+        self.band = tuple(float(b) for b in band)
+        self.quantity = _check_quantity(quantity)
+        self.unit = QUANTITIES[quantity]
+        n = math.ceil((t_max - t_min) / step)
+        self.step = (t_max - t_min) / n
+        self.temperatures = t_min + self.step * np.arange(n + 1)
+        self.temperatures[-1] = t_max
+        radiance = band_radiance(self.temperatures, band, quantity, responsivity, emissivity)
+        if np.any(radiance <= 0):
+            raise RadiosimError(
+                f"in-band radiance is zero at {self.temperatures[radiance <= 0][0]:g} K: the band "
+                "and responsivity do not overlap (or the range starts too cold to represent)"
+            )
+        self.log_radiance = np.log(radiance)
+        spline = CubicSpline(self.temperatures, self.log_radiance)
+        # Coefficients of each interval in u = (T − Tᵢ)/step ∈ [0, 1], highest power first.
+        scale = self.step ** np.arange(3, -1, -1)[:, None]
+        self._coefficients = tuple(np.ascontiguousarray(c) for c in spline.c * scale)
+        self.temperature_range = (t_min, t_max)
+        self.radiance_range = (float(radiance[0]), float(radiance[-1]))
+
+    def _locate(self, t: np.ndarray):
+        """Interval index and position u ∈ [0, 1] in it of temperatures inside the range."""
+        x = (t - self.temperatures[0]) * (1.0 / self.step)
+        index = np.minimum(x.astype(np.intp), self.temperatures.size - 2)
+        return index, x - index
+
+    def _polynomial(self, t: np.ndarray, derivative: bool = False):
+        index, u = self._locate(t)
+        a, b, c, d = (np.take(k, index) for k in self._coefficients)
+        value = ((a * u + b) * u + c) * u + d
+        if not derivative:
+            return value
+        return value, ((3 * a * u + 2 * b) * u + c) * (1.0 / self.step)
+
+    def log_radiance_at(self, temperature) -> np.ndarray:
+        """Natural log of the in-band radiance (of :attr:`unit`) at ``temperature`` [K]."""
+        t = np.asarray(temperature, dtype=float)
+        lo, hi = self.temperature_range
+        if t.size and not (t.min() >= lo and t.max() <= hi):  # also catches NaN
+            bad = t[~((t >= lo) & (t <= hi))].flat[0]
+            raise RadiosimError(
+                f"temperature {bad:g} K is outside the radiance table's range {lo:g}–{hi:g} K"
+            )
+        return self._polynomial(np.atleast_1d(t)).reshape(t.shape)
+
+    def __call__(self, temperature) -> np.ndarray:
+        """In-band radiance [:attr:`unit`] at ``temperature`` [K], shaped like it."""
+        return np.exp(self.log_radiance_at(temperature))
+
+    def temperature(self, radiance) -> np.ndarray:
+        """
+        Invert the table: temperature [K] whose in-band radiance is ``radiance``.
+
+        Radiances outside :attr:`radiance_range` (or ≤ 0, or NaN) give NaN: they have no
+        temperature in the tabulated range, and callers flag them.
+        """
+        radiance = np.asarray(radiance, dtype=float)
+        inside = (radiance >= self.radiance_range[0]) & (radiance <= self.radiance_range[1])
+        target = np.log(np.where(inside, radiance, self.radiance_range[0]))
+        t = np.atleast_1d(np.interp(target, self.log_radiance, self.temperatures))
+        lo, hi = self.temperature_range
+        for _ in range(4):
+            value, slope = self._polynomial(t, derivative=True)
+            t = np.clip(t - (value - target) / slope, lo, hi)
+        t = t.reshape(radiance.shape)
+        return np.where(inside, t, np.nan)

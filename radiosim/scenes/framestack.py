@@ -1,0 +1,76 @@
+"""
+A scene from an array of temperature frames, in memory or memory-mapped.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from radiosim.errors import RadiosimError
+from radiosim.scenes.base import Region, Scene, check_emissivity, check_positive
+
+__all__ = ["FrameStack"]
+
+
+class FrameStack(Scene):
+    """
+    Temperature frames from an array shaped (frames, rows, columns) [K].
+
+    The array may be a :func:`numpy.memmap` or ``np.load(..., mmap_mode="r")``: frames are read
+    (and converted to float64) one at a time, over the region the camera sees, so the stack is
+    never loaded whole. Values are checked as they are read: a NaN or a temperature ≤ 0 K raises
+    an error naming the frame, row and column.
+
+    Parameters
+    ----------
+    temperature
+        Array (frames, rows, columns) of temperatures [K], any real dtype.
+    dt
+        Frame interval [s]; frame k holds over [k·dt, (k+1)·dt).
+    dx
+        Sample pitch in object space [m].
+    emissivity
+        Grey scalar in [0, 1], grey map (rows, columns), spectral curve, shipped curve name or
+        CSV path.
+    event_time
+        Time [s] on which a measurement without a start time is centred; ``None``: windows
+        without a start begin at t = 0.
+
+    Examples
+    --------
+    >>> stack = FrameStack(np.full((10, 4, 6), 300.0), dt=0.2e-6, dx=1e-6)
+    >>> stack.shape, stack.n_frames, stack.duration
+    ((4, 6), 10, 2e-06)
+    """
+
+    def __init__(self, temperature, dt, dx, emissivity=1.0, event_time=None):
+        if not hasattr(temperature, "ndim") or not hasattr(temperature, "dtype"):
+            temperature = np.asarray(temperature)
+        if temperature.ndim != 3:
+            raise RadiosimError(
+                f"temperature must be a 3-D array (frames, rows, columns), got {temperature.ndim}"
+                f"-D with shape {temperature.shape}"
+            )
+        if not np.issubdtype(temperature.dtype, np.number) or np.issubdtype(
+            temperature.dtype, np.complexfloating
+        ):
+            raise RadiosimError(f"temperature must be real numbers, got dtype {temperature.dtype}")
+        if min(temperature.shape) == 0:
+            raise RadiosimError(f"temperature array is empty: shape {temperature.shape}")
+        self._stack = temperature
+        self.dt = check_positive(dt, "dt", "s")
+        self.dx = check_positive(dx, "dx", "m")
+        self.n_frames = int(temperature.shape[0])
+        self.shape = (int(temperature.shape[1]), int(temperature.shape[2]))
+        self.emissivity = check_emissivity(emissivity, self.shape)
+        if event_time is not None:
+            event_time = float(event_time)
+            if not 0 <= event_time <= self.n_frames * self.dt:
+                raise RadiosimError(
+                    f"event_time {event_time:g} s is outside the stack (0 to "
+                    f"{self.n_frames * self.dt:g} s)"
+                )
+        self.event_time = event_time
+
+    def _read(self, k: int, region: Region) -> np.ndarray:
+        return self._stack[k, region[0], region[1]]
