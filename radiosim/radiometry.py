@@ -151,7 +151,10 @@ def blackbody_fraction(wavelength_temperature) -> np.ndarray:
 
     Examples
     --------
-    >>> round(float(blackbody_fraction(2898e-6)), 5)
+    A quarter of the exitance lies below Wien's peak wavelength:
+
+    >>> import scipy.constants as sc
+    >>> round(float(blackbody_fraction(sc.Wien)), 5)
     0.25005
     """
     lt = np.asarray(wavelength_temperature, dtype=float)

@@ -103,8 +103,8 @@ class MovingGaussianBand(Scene):
     --------
     >>> band = MovingGaussianBand(300.0, 500.0, sigma=5e-6, velocity=2.0, x0=20e-6,
     ...                           shape=(4, 80), dx=1e-6, dt=1e-6)
-    >>> round(float(band.frame(0).max()), 1)  # band centre at 21 µm, samples at 20.5, 21.5 µm
-    795.7
+    >>> round(float(band.frame(0).max()), 1)  # centre at 21 µm at t = 0.5 µs; samples at 20.5, 21.5
+    797.5
     """
 
     def __init__(self, background=293.15, amplitude=500.0, sigma=5e-6, velocity=4.1667,

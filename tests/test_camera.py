@@ -1,0 +1,174 @@
+"""The camera end to end: presets, calibration round trip, flags, emissivity."""
+
+import numpy as np
+import pytest
+
+from radiosim import Camera, Electronics, FrameStack, MovingGaussianBand, UniformBlackbody
+from radiosim.errors import RadiosimError, RadiosimWarning
+from radiosim.radiometry import band_radiance
+from radiosim.spectral import read_spectrum
+
+DX = 960e-6 / 1440
+
+
+def nist(**electronics):
+    camera = Camera.preset("nist-ir")
+    if electronics:
+        fields = {k: getattr(camera.electronics, k) for k in
+                  ("full_well", "dark_current", "read_noise", "shot_noise", "gain", "offset",
+                   "adc_bits")}
+        camera = camera.replace(electronics=Electronics(**(fields | electronics)))
+    return camera
+
+
+def blackbody(temperature, emissivity=1.0, shape=(27, 36)):
+    return UniformBlackbody(temperature, shape=shape, dx=DX, dt=0.2e-6, emissivity=emissivity)
+
+
+def test_nist_preset_matches_the_paper():
+    cam = Camera.preset("nist-ir")
+    assert cam.fpa.shape == (120, 160)
+    assert cam.fpa.pixel_pitch * 160 == pytest.approx(0.96e-3)
+    assert cam.fpa.pixel_pitch * 120 == pytest.approx(0.72e-3)
+    assert cam.frame_rate == 600.0
+    assert cam.electronics.adc_bits == 14
+    assert 5e6 <= cam.electronics.full_well <= 18e6
+    assert cam.response == "planck"
+    assert cam.fpa.magnification == pytest.approx(5.0)
+
+
+@pytest.mark.parametrize("t_int, temperature", [
+    (1e-6, 420.0), (1e-6, 650.0), (1e-6, 900.0), (1e-6, 1200.0),
+    (10e-6, 420.0), (10e-6, 520.0), (10e-6, 640.0), (90e-6, 330.0),
+])
+def test_uniform_blackbody_round_trip_within_one_quantisation_step(t_int, temperature):
+    camera = nist(shot_noise=False, read_noise=0.0)
+    cal = camera.calibration(t_int)
+    assert temperature < cal.saturation_temperature
+    m = camera.measure(blackbody(temperature), t_int, t_start=0.0)
+    assert m.valid.all()
+    # Half a DN of rounding, converted through the local slope of the calibration curve.
+    slope = (cal.counts(temperature + 1e-3) - cal.counts(temperature - 1e-3)) / 2e-3
+    assert np.max(np.abs(m.apparent_temperature - temperature)) <= 0.5 / slope * (1 + 1e-9)
+
+
+def test_above_full_well_is_flagged_never_plausible():
+    camera = nist()
+    with pytest.warns(RadiosimWarning, match="saturated"):
+        m = camera.measure(blackbody(1012.15), 90e-6, t_start=0.0, rng=0)
+    assert m.saturated.all()
+    assert np.isnan(m.apparent_temperature).all()
+    assert np.all(m.electrons == camera.electronics.full_well)
+
+
+def test_below_the_calibration_range_is_under_range():
+    camera = nist()
+    m = camera.measure(blackbody(155.0), 1e-6, t_start=0.0, rng=0)
+    assert m.under_range.any()
+    assert np.isnan(m.apparent_temperature[m.under_range]).all()
+    assert not m.saturated.any()
+
+
+def test_noise_scatter_matches_the_calibration_slope():
+    camera = nist()
+    t_int, temperature = 10e-6, 550.0
+    m = camera.measure(blackbody(temperature, shape=(270, 360)), t_int, t_start=0.0, rng=3)
+    cal = camera.calibration(t_int)
+    el = camera.electronics
+    mean_e = cal.electrons(temperature)
+    sigma_dn = np.sqrt(el.gain**2 * (mean_e + el.read_noise**2) + 1 / 12)
+
+    def slope(t):  # dDN/dT of the calibration [DN/K]
+        return (cal.counts(t + 0.01) - cal.counts(t - 0.01)) / 0.02
+
+    sigma_t = sigma_dn / slope(temperature)
+    spread = np.std(m.apparent_temperature)
+    n = m.apparent_temperature.size
+    # Sampling error of a standard deviation, plus the change of slope across ±σ that the
+    # linear propagation ignores.
+    curvature = abs(slope(temperature + sigma_t) - slope(temperature - sigma_t)) / (
+        2 * slope(temperature))
+    assert spread == pytest.approx(sigma_t, rel=4 / np.sqrt(2 * n) + curvature)
+    assert np.mean(m.apparent_temperature) == pytest.approx(temperature, abs=4 * spread / n**0.5)
+
+
+def test_grey_emissivity_and_the_cameras_setting():
+    t_int, temperature = 5e-6, 800.0
+    scene = blackbody(temperature, emissivity=0.4)
+    exact = nist(shot_noise=False, read_noise=0.0, adc_bits=None)
+    right = exact.replace(assumed_emissivity=0.4).measure(scene, t_int, t_start=0.0)
+    np.testing.assert_allclose(right.apparent_temperature, temperature, rtol=1e-9)
+    wrong = exact.measure(scene, t_int, t_start=0.0)  # camera set to ε = 1
+    table = exact.response_model.table()
+    expected = table.temperature(0.4 * table(temperature))
+    np.testing.assert_allclose(wrong.apparent_temperature, expected, rtol=1e-9)
+    assert expected < temperature - 100
+
+
+def test_spectral_emissivity_uses_its_own_band_integral():
+    t_int, temperature = 5e-6, 900.0
+    steel = read_spectrum("emissivity_steel_clean")
+    camera = nist(shot_noise=False, read_noise=0.0, adc_bits=None, dark_current=0.0)
+    m = camera.measure(blackbody(temperature, emissivity=steel), t_int, t_start=0.0)
+    radiance = band_radiance(temperature, camera.optics.band, responsivity=camera.responsivity,
+                             emissivity=steel)
+    expected_e = radiance * camera.etendue * t_int
+    np.testing.assert_allclose(m.electrons, expected_e, rtol=1e-7)
+
+
+def test_emissivity_map_weights_each_sample():
+    stack = np.full((3, 18, 18), 700.0)
+    emissivity = np.ones((18, 18))
+    emissivity[:, 9:] = 0.5
+    camera = nist(shot_noise=False, read_noise=0.0, adc_bits=None)
+    m = camera.measure(FrameStack(stack, 0.2e-6, DX, emissivity=emissivity), 0.6e-6,
+                       t_start=0.0)
+    assert m.shape == (2, 2)
+    full, half = m.signal_mean[0, 0], m.signal_mean[0, 1]
+    assert half == pytest.approx(0.5 * full, rel=1e-12)
+
+
+def test_linear_ideal_calibration_is_the_identity():
+    cal = Camera.linear_ideal(6e-6).calibration(90e-6)
+    t = np.array([293.15, 567.0 + 273.15, 1012.15])
+    np.testing.assert_allclose(cal.temperature(cal.counts(t)), t, rtol=1e-14)
+    assert cal.saturation_temperature == np.inf
+
+
+def test_window_is_centred_on_the_event_by_default():
+    band = MovingGaussianBand(shape=(9, 90), dx=1e-6, dt=0.2e-6, event_time=10e-6)
+    m = Camera.linear_ideal(3e-6).measure(band, 2e-6)
+    assert m.t_start == pytest.approx(9e-6) and m.t_stop == pytest.approx(11e-6)
+    with pytest.raises(RadiosimError, match="would start before the first frame"):
+        Camera.linear_ideal(3e-6).measure(band, 30e-6)
+
+
+def test_integration_longer_than_the_frame_period_is_refused():
+    with pytest.raises(RadiosimError, match="exceeds the frame period"):
+        Camera.preset("nist-ir").measure(blackbody(500.0), 2e-3, t_start=0.0)
+
+
+def test_presets_and_toml_errors(tmp_path):
+    with pytest.raises(RadiosimError, match="unknown camera preset"):
+        Camera.preset("hubble")
+    bad = tmp_path / "cam.toml"
+    bad.write_text('response = "planck"\n[fpa]\npixel_pitch_um = 6.0\nfill_factr = 0.8\n')
+    with pytest.raises(RadiosimError, match=r"unknown camera key\(s\): \[fpa\] fill_factr"):
+        Camera.from_toml(bad)
+    bad.write_text("[fpa\n")
+    with pytest.raises(RadiosimError, match="not valid TOML"):
+        Camera.from_toml(bad)
+    bad.write_text('[fpa]\nshape = [4, 4]\n')
+    with pytest.raises(RadiosimError, match="pixel_pitch_um"):
+        Camera.from_toml(bad)
+
+
+def test_toml_camera_with_a_relative_csv_curve(tmp_path):
+    (tmp_path / "qe.csv").write_text("# quantity: qe\n# wavelength_unit: um\n# source: lab\n"
+                                     "# idealised: no\nw,q\n3.0,0.5\n6.0,0.5\n")
+    (tmp_path / "cam.toml").write_text(
+        'name = "mine"\n[fpa]\npixel_pitch_um = 10.0\nquantum_efficiency = "qe.csv"\n'
+        '[optics]\nband_um = [3.8, 5.1]\nf_number = 2.0\n')
+    cam = Camera.from_toml(tmp_path / "cam.toml")
+    assert cam.name == "mine" and cam.fpa.quantum_efficiency[4e-6] == pytest.approx(0.5)
+    assert cam.describe()["quantum_efficiency"] == "qe"

@@ -1,0 +1,142 @@
+"""The integrator and the linear ideal camera against naive and brute-force references."""
+
+import tracemalloc
+
+import numpy as np
+import pytest
+
+from radiosim import Camera, FocalPlaneArray, FrameStack, MovingGaussianBand
+from radiosim.errors import RadiosimError
+from radiosim.integrator import FootprintIntegrator, axis_footprints, integrate
+
+
+def naive_tensors(stack, p, first, n):
+    """The paper's method: reshape into p × p × n tensors and take mean, max and std."""
+    frames, rows, cols = stack.shape
+    ny, nx = rows // p, cols // p
+    block = stack[first:first + n, : ny * p, : nx * p].reshape(n, ny, p, nx, p)
+    return block.mean(axis=(0, 2, 4)), block.max(axis=(0, 2, 4)), block.std(axis=(0, 2, 4))
+
+
+@pytest.mark.parametrize("p, n, first", [(9, 5, 0), (9, 50, 7), (3, 1, 4), (21, 1, 0),
+                                          (6, 13, 3), (1, 2, 1)])
+def test_linear_ideal_equals_the_naive_tensor_reference(p, n, first):
+    rng = np.random.default_rng(p * 100 + n)
+    dx, dt = 0.6667e-6, 0.2e-6  # the paper's 9 samples per 6 µm pixel: not exact in floats
+    stack = rng.uniform(290.0, 1015.0, (first + n + 2, 47, 65))
+    scene = FrameStack(stack, dt=dt, dx=dx)
+    m = Camera.linear_ideal(p * dx).measure(scene, n * dt, t_start=first * dt)
+    mean, peak, std = naive_tensors(stack, p, first, n)
+    assert m.n_frames == n
+    assert m.shape == mean.shape
+    np.testing.assert_allclose(m.apparent_temperature, mean, rtol=1e-12, atol=0)
+    np.testing.assert_allclose(m.tensor_mean, mean, rtol=1e-12, atol=0)
+    np.testing.assert_array_equal(m.tensor_max, peak)
+    np.testing.assert_allclose(m.peak_error, peak - mean, rtol=1e-12, atol=1e-12 * 1015)
+    np.testing.assert_allclose(m.uncertainty, std, rtol=1e-12, atol=1e-12 * 1015)
+    assert not m.saturated.any() and not m.under_range.any()
+
+
+def test_uniform_regions_have_zero_uncertainty():
+    stack = np.full((20, 18, 18), 812.3)
+    m = Camera.linear_ideal(6.0).measure(FrameStack(stack, dt=1.0, dx=1.0), 20.0, t_start=0.0)
+    assert np.all(m.uncertainty < 1e-12 * 812.3)
+    np.testing.assert_allclose(m.apparent_temperature, 812.3, rtol=1e-15)
+
+
+def supersampled_reference(stack, s, time_factor, pitch, active, origin, t0, t1):
+    """Brute force: refine space by s and time by `time_factor`, then plain averages.
+
+    All footprint edges and window ends must fall on the refined grid.
+    """
+    fine = np.repeat(np.repeat(np.repeat(stack, time_factor, 0), s, 1), s, 2)
+    window = fine[int(round(t0 * time_factor)): int(round(t1 * time_factor))]
+    ny = int((stack.shape[1] - origin) // pitch)
+    nx = int((stack.shape[2] - origin) // pitch)
+    mean, peak, std = (np.empty((ny, nx)) for _ in range(3))
+    for i in range(ny):
+        for j in range(nx):
+            y0 = int(round((origin + i * pitch + (pitch - active) / 2) * s))
+            x0 = int(round((origin + j * pitch + (pitch - active) / 2) * s))
+            w = int(round(active * s))
+            tensor = window[:, y0:y0 + w, x0:x0 + w]
+            mean[i, j], peak[i, j], std[i, j] = tensor.mean(), tensor.max(), tensor.std()
+    return mean, peak, std
+
+
+@pytest.mark.parametrize("pitch, fill, origin, t0, duration", [
+    (2.5, 1.0, 0.0, 0.0, 3.0),      # pixels split samples
+    (2.5, 0.64, 0.5, 0.5, 3.25),    # active 2.0 of 2.5, offset origin, fractional window
+    (3.0, 0.25, 1.25, 1.75, 2.5),   # small fill factor, quarter-sample edges
+    (4.0, 0.5625, 0.0, 0.25, 0.5),  # window inside a frame pair
+])
+def test_non_integer_footprints_and_windows_match_brute_force(pitch, fill, origin, t0, duration):
+    rng = np.random.default_rng(11)
+    stack = rng.uniform(300.0, 900.0, (8, 17, 19))
+    scene = FrameStack(stack, dt=1.0, dx=1.0)
+    camera = Camera.linear_ideal(pitch).replace(
+        fpa=FocalPlaneArray(pixel_pitch=pitch, fill_factor=fill, origin=(origin, origin)))
+    m = camera.measure(scene, duration, t_start=t0)
+    mean, peak, std = supersampled_reference(stack, 4, 4, pitch, pitch * np.sqrt(fill), origin,
+                                             t0, t0 + duration)
+    np.testing.assert_allclose(m.apparent_temperature, mean, rtol=1e-12)
+    np.testing.assert_array_equal(m.tensor_max, peak)
+    np.testing.assert_allclose(m.uncertainty, std, rtol=1e-10, atol=1e-12 * 900)
+
+
+def test_moving_band_converges_to_its_closed_form_blur():
+    # A pixel much narrower than the band, a long window: the camera reads the time average.
+    band = MovingGaussianBand(300.0, 600.0, sigma=8e-6, velocity=4.0, x0=20e-6,
+                              shape=(4, 400), dx=0.25e-6, dt=0.01e-6)
+    t_int = 10e-6
+    m = Camera.linear_ideal(1e-6).measure(band, t_int, t_start=0.0)
+    x = (np.arange(m.shape[1]) + 0.5) * 1e-6
+    expected = band.time_average(x, 0.0, t_int)
+    # Errors: midpoint rule in time and box average over a 1 µm pixel, both O((h/σ)²).
+    np.testing.assert_allclose(m.apparent_temperature[0], expected, rtol=0, atol=0.5)
+
+
+def _peak_traced_memory(n_frames):
+    band = MovingGaussianBand(shape=(300, 300), dx=1e-6, dt=1e-7)
+    camera = Camera.linear_ideal(5e-6)
+    tracemalloc.start()
+    camera.measure(band, n_frames * 1e-7, t_start=0.0)
+    peak = tracemalloc.get_traced_memory()[1]
+    tracemalloc.stop()
+    return peak
+
+
+def test_peak_memory_does_not_grow_with_frames():
+    small, large = _peak_traced_memory(10), _peak_traced_memory(200)
+    assert large < 1.1 * small
+
+
+def test_scene_smaller_than_the_array_and_larger_one_cropped():
+    stack = np.full((2, 20, 31), 500.0)
+    scene = FrameStack(stack, dt=1.0, dx=1.0)
+    m = Camera.linear_ideal(3.0, shape=(100, 100)).measure(scene, 1.0, t_start=0.0)
+    assert m.shape == (6, 10)  # only whole pixels the scene covers
+    m = Camera.linear_ideal(3.0, shape=(2, 4)).measure(scene, 1.0, t_start=0.0)
+    assert m.shape == (2, 4)  # aligned on the scene's top-left corner
+
+
+def test_footprint_larger_than_the_frame_is_refused():
+    scene = FrameStack(np.full((2, 20, 31), 500.0), dt=1.0, dx=1.0)
+    with pytest.raises(RadiosimError, match="no whole pixel fits along y"):
+        Camera.linear_ideal(21.0).measure(scene, 1.0, t_start=0.0)
+
+
+def test_axis_pieces_weights_sum_to_one():
+    ax = axis_footprints(100, 0.7e-6, 6.1e-6, 0.81, max_pixels=50, origin=0.3e-6)
+    sums = np.add.reduceat(ax.weight, ax.starts)
+    np.testing.assert_allclose(sums, 1.0, rtol=1e-14)
+    integrator = FootprintIntegrator(ax, ax)
+    assert integrator.shape == (ax.n_pixels, ax.n_pixels)
+
+
+def test_integrate_accumulates_the_signal_separately():
+    scene = FrameStack(np.random.default_rng(2).uniform(300, 600, (4, 12, 12)), dt=1.0, dx=1.0)
+    integrator = FootprintIntegrator.for_scene(scene, 3.0, 1.0, (4, 4))
+    stats = integrate(scene, integrator, 0.0, 4.0, signal=lambda t: t**2)
+    block = scene._stack.reshape(4, 4, 3, 4, 3)
+    np.testing.assert_allclose(stats.signal_mean, (block**2).mean(axis=(0, 2, 4)), rtol=1e-12)

@@ -1,0 +1,101 @@
+"""Scenes: validation, streaming, time windows, analytic expectations."""
+
+import numpy as np
+import pytest
+from scipy.integrate import quad
+
+from radiosim import FrameStack, MovingGaussianBand, UniformBlackbody
+from radiosim.errors import RadiosimError
+from radiosim.integrator import frame_weights
+
+
+def test_framestack_reads_a_memory_mapped_stack_frame_by_frame(tmp_path):
+    data = np.random.default_rng(0).uniform(300, 900, (6, 5, 7)).astype(np.float32)
+    np.save(tmp_path / "stack.npy", data)
+    stack = np.load(tmp_path / "stack.npy", mmap_mode="r")
+    scene = FrameStack(stack, dt=0.2e-6, dx=1e-6)
+    frame = scene.frame(4, (slice(1, 4), slice(2, 7)))
+    assert frame.dtype == np.float64 and frame.shape == (3, 5)
+    np.testing.assert_array_equal(frame, data[4, 1:4, 2:7].astype(np.float64))
+    assert isinstance(scene._stack, np.memmap)  # not loaded whole
+
+
+@pytest.mark.parametrize("value, message", [
+    (np.nan, r"frame 2: temperature at row 3, column 1 is NaN"),
+    (-4.0, r"frame 2: temperature at row 3, column 1 is -4 K"),
+    (0.0, r"is 0 K; temperatures must be > 0 K"),
+])
+def test_bad_temperatures_are_named_when_read(value, message):
+    data = np.full((4, 5, 6), 400.0)
+    data[2, 3, 1] = value
+    scene = FrameStack(data, dt=1.0, dx=1.0)
+    scene.frame(1)
+    with pytest.raises(RadiosimError, match=message):
+        scene.frame(2)
+
+
+@pytest.mark.parametrize("kwargs, message", [
+    ({"temperature": np.ones((4, 5))}, "3-D array"),
+    ({"temperature": np.ones((0, 4, 5))}, "empty"),
+    ({"dt": 0.0}, "dt must be finite and > 0"),
+    ({"dx": -1e-6}, "dx must be finite and > 0"),
+    ({"dx": "wide"}, "dx must be a number"),
+    ({"emissivity": np.ones((3, 3))}, "emissivity map has shape"),
+    ({"emissivity": 1.5}, "emissivity"),
+    ({"event_time": 1.0}, "event_time"),
+])
+def test_framestack_rejects_bad_input(kwargs, message):
+    args = {"temperature": np.full((4, 5, 6), 300.0), "dt": 1e-6, "dx": 1e-6} | kwargs
+    with pytest.raises(RadiosimError, match=message):
+        FrameStack(**args)
+
+
+def test_frame_index_outside_scene():
+    scene = FrameStack(np.full((3, 2, 2), 300.0), dt=1.0, dx=1.0)
+    with pytest.raises(RadiosimError, match="frame 3 is outside the scene"):
+        scene.frame(3)
+
+
+@pytest.mark.parametrize("start_frame", [0, 1, 17, 333, 1000])
+@pytest.mark.parametrize("n", [5, 50, 125, 450])
+def test_window_of_n_frames_covers_exactly_n_frames(start_frame, n):
+    dt = 0.2e-6
+    first, weights = frame_weights(start_frame * dt, n * dt, dt)
+    assert first == start_frame
+    assert weights.size == n
+    np.testing.assert_allclose(weights, 1.0 / n, rtol=1e-12)
+
+
+def test_fractional_window_weights_are_overlaps():
+    first, weights = frame_weights(0.3, 2.0, 1.0)
+    assert first == 0
+    np.testing.assert_allclose(weights, [0.35, 0.5, 0.15])
+    assert weights.sum() == pytest.approx(1.0)
+
+
+@pytest.mark.parametrize("args, message", [
+    ((-1e-6, 1e-6, 1e-7, 100), "before the scene's first frame"),
+    ((0.0, 2e-5, 1e-7, 100), "runs past the scene's last frame"),
+    ((0.0, 0.0, 1e-7, 100), "integration time must be"),
+])
+def test_windows_outside_the_scene_are_refused(args, message):
+    with pytest.raises(RadiosimError, match=message):
+        frame_weights(*args)
+
+
+def test_moving_band_time_average_is_the_integral():
+    band = MovingGaussianBand(300.0, 500.0, sigma=4e-6, velocity=3.0, x0=10e-6)
+    x, t0, t1 = 37e-6, 1e-6, 12e-6
+    numeric, _ = quad(lambda t: float(band.temperature(x, t)), t0, t1, epsrel=1e-12)
+    assert band.time_average(x, t0, t1) == pytest.approx(numeric / (t1 - t0), rel=1e-12)
+
+
+def test_analytic_scenes_sample_mid_time_and_centres():
+    band = MovingGaussianBand(300.0, 500.0, sigma=4e-6, velocity=3.0, x0=0.0, shape=(2, 30),
+                              dx=1e-6, dt=1e-6)
+    frame = band.frame(2)
+    x = (np.arange(30) + 0.5) * 1e-6
+    np.testing.assert_allclose(frame[1], band.temperature(x, 2.5e-6), rtol=1e-15)
+    uniform = UniformBlackbody(700.0, shape=(3, 4))
+    assert uniform.frame(10**6).tolist() == np.full((3, 4), 700.0).tolist()
+    assert band.describe()["velocity_m_per_s"] == 3.0
