@@ -101,7 +101,9 @@ class PlanckResponse:
     def signal(self, temperature: np.ndarray, emissivity=1.0) -> np.ndarray:
         """ε·L_q(T) of each sample [photons s⁻¹ m⁻² sr⁻¹]."""
         radiance = self.table(emissivity)(temperature)
-        if isinstance(emissivity, SpectralDistribution):
+        if isinstance(emissivity, SpectralDistribution) or (
+            np.isscalar(emissivity) and emissivity == 1.0
+        ):
             return radiance
         return radiance * emissivity
 
