@@ -405,12 +405,7 @@ class Camera:
         response = self.response_model
         signal = None
         if isinstance(response, PlanckResponse):
-            emissivity = scene.emissivity
-            if isinstance(emissivity, np.ndarray):
-                emissivity = integrator.expand(emissivity[integrator.region])
-
-            def signal(t_pieces):
-                return response.signal(t_pieces, emissivity)
+            signal = self._signal_function(scene, integrator, response)
 
         # Tensor statistics [K] and mean signal [response unit] over footprint × window.
         stats = integrate(scene, integrator, float(t_start), t_int, signal)
@@ -446,6 +441,29 @@ class Camera:
             n_frames=stats.n_frames,
             scene=scene.describe(),
         )
+
+    @staticmethod
+    def _signal_function(scene, integrator, response):
+        """The per-piece signal of frame k: T [K] → ε·L_q(T) [photons s⁻¹ m⁻² sr⁻¹], with the
+        scene's emissivity (uniform, a grey map, or per region and frame)."""
+        emissivity = scene.emissivity
+        if isinstance(emissivity, np.ndarray):
+            emissivity = integrator.expand(emissivity[integrator.region])
+
+        def signal(t_pieces, k):
+            by_region = scene.emissivity_map(k, integrator.region)
+            if by_region is None:
+                return response.signal(t_pieces, emissivity)
+            codes, values = by_region
+            codes = integrator.expand(codes)
+            out = np.empty_like(t_pieces)
+            for code, value in values.items():
+                here = codes == code
+                if here.any():
+                    out[here] = response.signal(t_pieces[here], value)
+            return out
+
+        return signal
 
     def describe(self) -> dict:
         """Plain metadata (str, int, float) describing the camera, with units in the keys."""

@@ -113,6 +113,17 @@ def _presets(args) -> int:
     return 0
 
 
+def _preview(args) -> int:
+    from radiosim.plotting import preview_scene
+    from radiosim.scenes import SegmentedChip
+
+    scene = SegmentedChip(args.params) if args.params else SegmentedChip()
+    t = args.time if args.time is not None else scene.event_time
+    preview_scene(scene, t, args.out)
+    print(f"wrote {args.out} (t = {t * 1e6:.2f} µs)")
+    return 0
+
+
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(
         prog="radiosim", description="Radiometric simulation of infrared cameras."
@@ -131,6 +142,15 @@ def build_parser() -> argparse.ArgumentParser:
     run.set_defaults(func=_run)
     presets = sub.add_parser("presets", help="list the camera presets")
     presets.set_defaults(func=_presets)
+    scene = sub.add_parser("scene", help="the built-in segmented-chip scene")
+    scene_sub = scene.add_subparsers(dest="scene_command", required=True)
+    preview = scene_sub.add_parser("preview", help="write a PNG of the scene with the tool, "
+                                   "shear plane and Columns I-III (like the paper's Figure 4)")
+    preview.add_argument("--time", type=parse_time, default=None,
+                         help="time with a unit (default: the fully developed band)")
+    preview.add_argument("--params", help="TOML file of chip parameters")
+    preview.add_argument("--out", default="scene.png", help="PNG path (default scene.png)")
+    preview.set_defaults(func=_preview)
     return parser
 
 

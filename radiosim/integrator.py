@@ -31,6 +31,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable
+from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
 
 import numpy as np
@@ -309,12 +310,25 @@ class FootprintIntegrator:
         return np.repeat(np.repeat(per_pixel, self.rows.counts, axis=0), self.cols.counts, axis=1)
 
 
+def _prefetched(scene: Scene, indices: range, region: Region):
+    """Frames of ``indices`` in order, each read while the previous one is being used."""
+    with ThreadPoolExecutor(max_workers=1) as pool:
+        pending = None
+        for k in indices:
+            following = pool.submit(scene.frame, k, region)
+            if pending is not None:
+                yield pending.result()
+            pending = following
+        if pending is not None:
+            yield pending.result()
+
+
 def integrate(
     scene: Scene,
     integrator: FootprintIntegrator,
     t_start: float,
     duration: float,
-    signal: Callable[[np.ndarray], np.ndarray] | None = None,
+    signal: Callable[[np.ndarray, int], np.ndarray] | None = None,
 ) -> TensorStatistics:
     """
     Stream the window's frames through the integrator and accumulate tensor statistics.
@@ -328,8 +342,11 @@ def integrate(
     t_start, duration
         Integration window [s].
     signal
-        Response per piece: maps T on the piece grid [K] to the signal [response unit];
-        ``None`` for the linear response (the signal is T itself).
+        Response per piece: maps T on the piece grid [K] and the frame index to the signal
+        [response unit]; ``None`` for the linear response (the signal is T itself).
+
+    Frames are read one ahead on a worker thread, so producing a frame (scene evaluation,
+    disk reads) overlaps with integrating the previous one.
 
     Returns
     -------
@@ -338,7 +355,8 @@ def integrate(
     first, weights = frame_weights(t_start, duration, scene.dt, scene.n_frames)
     region = integrator.region
     reference = mean_dev = mean_sq = signal_mean = t_max = None
-    for weight, frame in zip(weights, scene.frames(first, first + weights.size, region)):
+    frames = _prefetched(scene, range(first, first + weights.size), region)
+    for k, weight, frame in zip(range(first, first + weights.size), weights, frames):
         t = integrator.expand(frame)  # [K], on the piece grid
         if reference is None:
             reference = integrator.pixel_mean(t)
@@ -352,7 +370,7 @@ def integrate(
         mean_sq += weight * integrator.pixel_mean(deviation * deviation)
         np.maximum(t_max, integrator.pixel_max(t), out=t_max)
         if signal is not None:
-            signal_mean += weight * integrator.pixel_mean(signal(t))
+            signal_mean += weight * integrator.pixel_mean(signal(t, k))
     mean = reference + mean_dev
     variance = np.clip(mean_sq - mean_dev * mean_dev, 0.0, None)
     return TensorStatistics(

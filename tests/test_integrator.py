@@ -137,6 +137,6 @@ def test_axis_pieces_weights_sum_to_one():
 def test_integrate_accumulates_the_signal_separately():
     scene = FrameStack(np.random.default_rng(2).uniform(300, 600, (4, 12, 12)), dt=1.0, dx=1.0)
     integrator = FootprintIntegrator.for_scene(scene, 3.0, 1.0, (4, 4))
-    stats = integrate(scene, integrator, 0.0, 4.0, signal=lambda t: t**2)
+    stats = integrate(scene, integrator, 0.0, 4.0, signal=lambda t, k: t**2)
     block = scene._stack.reshape(4, 4, 3, 4, 3)
     np.testing.assert_allclose(stats.signal_mean, (block**2).mean(axis=(0, 2, 4)), rtol=1e-12)

@@ -99,3 +99,31 @@ def test_analytic_scenes_sample_mid_time_and_centres():
     uniform = UniformBlackbody(700.0, shape=(3, 4))
     assert uniform.frame(10**6).tolist() == np.full((3, 4), 700.0).tolist()
     assert band.describe()["velocity_m_per_s"] == 3.0
+
+
+def test_step_edge_readings_are_area_fractions_linear_and_planck():
+    from radiosim import Camera
+    from radiosim.scenes import StepEdge
+
+    pitch = 4e-6
+    # Linear: exact for any edge position, even inside a sample.
+    edge = StepEdge(1000.0, 300.0, edge=13.3e-6, shape=(8, 40), dx=1e-6, dt=1e-6)
+    m = Camera.linear_ideal(pitch).measure(edge, 1e-6, t_start=0.0)
+    left = np.arange(m.shape[1]) * pitch
+    f = edge.hot_fraction(left, left + pitch)
+    np.testing.assert_allclose(m.apparent_temperature[0], 300.0 + 700.0 * f, rtol=1e-14)
+    # Planck, edge on a sample boundary: the temperature of the mean radiance, hotter than
+    # the mean temperature.
+    edge = StepEdge(1000.0, 300.0, edge=13e-6, shape=(8, 40), dx=1e-6, dt=1e-6)
+    m = Camera.linear_ideal(pitch).measure(edge, 1e-6, t_start=0.0)
+    f = edge.hot_fraction(left, left + pitch)
+    camera = Camera.preset("nist-ir").replace(
+        fpa=Camera.preset("nist-ir").fpa.__class__(pixel_pitch=pitch, shape=(2, 10)),
+        electronics=Camera.linear_ideal(pitch).electronics)
+    planck = camera.measure(edge, 1e-6, t_start=0.0)
+    table = camera.response_model.table()
+    expected = table.temperature(f * table(1000.0) + (1 - f) * table(300.0))
+    np.testing.assert_allclose(planck.apparent_temperature[0], expected, rtol=1e-9)
+    straddling = (f > 0) & (f < 1)
+    assert np.all(planck.apparent_temperature[0][straddling] >
+                  m.apparent_temperature[0][straddling])

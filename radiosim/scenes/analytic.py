@@ -16,7 +16,7 @@ from scipy.special import erf
 from radiosim.errors import RadiosimError
 from radiosim.scenes.base import Region, Scene, check_emissivity, check_positive
 
-__all__ = ["UniformBlackbody", "MovingGaussianBand"]
+__all__ = ["UniformBlackbody", "MovingGaussianBand", "StepEdge"]
 
 
 def _shape(shape) -> tuple[int, int]:
@@ -165,3 +165,60 @@ class MovingGaussianBand(Scene):
             "velocity_m_per_s": self.velocity,
             "x0_m": self.x0,
         }
+
+
+class StepEdge(Scene):
+    """
+    A straight vertical edge between a hot and a cold half-plane: the size-of-source limit.
+
+    T = T_hot for x < x_edge, T_cold beyond. A sample that the edge crosses holds the area
+    average of its two parts, so a pixel's linear reading is exactly
+    f·T_hot + (1 − f)·T_cold with f the hot fraction of its footprint (:meth:`hot_fraction`),
+    and a pixel whose footprint lies wholly on one side reads that side exactly. With the edge
+    on a sample boundary every sample is pure, and a radiometric pixel reads exactly the
+    temperature of the area-weighted radiance, L⁻¹(f·L(T_hot) + (1 − f)·L(T_cold)).
+
+    Parameters
+    ----------
+    hot, cold
+        Temperatures [K] left and right of the edge.
+    edge
+        Edge position x [m] from the scene's left edge.
+    shape, dx, dt, emissivity, n_frames
+        As for :class:`UniformBlackbody`.
+
+    Examples
+    --------
+    >>> edge = StepEdge(1000.0, 300.0, edge=2.5e-6, shape=(2, 5), dx=1e-6)
+    >>> edge.frame(0)[0].tolist()
+    [1000.0, 1000.0, 650.0, 300.0, 300.0]
+    """
+
+    def __init__(self, hot=1000.0, cold=293.15, edge=32e-6, shape=(64, 64), dx=1e-6, dt=1e-6,
+                 emissivity=1.0, n_frames=None):
+        self.hot = check_positive(hot, "hot", "K")
+        self.cold = check_positive(cold, "cold", "K")
+        self.edge = float(edge)
+        self.shape = _shape(shape)
+        self.dx = check_positive(dx, "dx", "m")
+        self.dt = check_positive(dt, "dt", "s")
+        if not 0 <= self.edge <= self.shape[1] * self.dx:
+            raise RadiosimError(f"edge {edge!r} m is outside the scene (0 to "
+                                f"{self.shape[1] * self.dx:g} m)")
+        self.emissivity = check_emissivity(emissivity, self.shape)
+        self.n_frames = None if n_frames is None else int(n_frames)
+
+    def hot_fraction(self, x0, x1) -> np.ndarray:
+        """Hot fraction of the interval [x0, x1] [m] (dimensionless)."""
+        x0, x1 = np.asarray(x0, dtype=float), np.asarray(x1, dtype=float)
+        return np.clip((self.edge - x0) / (x1 - x0), 0.0, 1.0)
+
+    def _read(self, k: int, region: Region) -> np.ndarray:
+        j = np.arange(region[1].start, region[1].stop)
+        f = self.hot_fraction(j * self.dx, (j + 1) * self.dx)
+        row = self.cold + f * (self.hot - self.cold)
+        return np.broadcast_to(row, (region[0].stop - region[0].start, row.size))
+
+    def describe(self) -> dict:
+        return super().describe() | {"hot_K": self.hot, "cold_K": self.cold,
+                                     "edge_m": self.edge}

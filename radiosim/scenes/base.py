@@ -19,7 +19,7 @@ from colour import SpectralDistribution
 from radiosim.errors import RadiosimError
 from radiosim.spectral import as_spectrum
 
-__all__ = ["Region", "Scene", "check_frame", "check_positive", "check_emissivity"]
+__all__ = ["Region", "Scene", "CroppedScene", "check_frame", "check_positive", "check_emissivity"]
 
 #: A rectangular region of a frame: (row slice, column slice), both with explicit bounds.
 Region = tuple[slice, slice]
@@ -142,6 +142,17 @@ class Scene(ABC):
         for k in range(start, stop):
             yield self.frame(k, region)
 
+    def emissivity_map(self, k: int, region: Region):
+        """
+        Emissivity of frame ``k`` over ``region`` when it changes with time, as
+        (integer region codes, {code: emissivity}); ``None`` when :attr:`emissivity` holds.
+        """
+        return None
+
+    def crop(self, rows: tuple[int, int], cols: tuple[int, int]) -> "CroppedScene":
+        """The window (row start, stop) × (column start, stop) of this scene, as a scene."""
+        return CroppedScene(self, rows, cols)
+
     def describe(self) -> dict:
         """Plain metadata (str, int, float) describing the scene, with units in the keys."""
         emissivity = self.emissivity
@@ -157,4 +168,59 @@ class Scene(ABC):
             "dt_s": self.dt,
             "n_frames": -1 if self.n_frames is None else self.n_frames,
             "emissivity": emissivity,
+        }
+
+
+class CroppedScene(Scene):
+    """
+    A rectangular window of another scene, itself a scene (same dx, dt, frames, event).
+
+    Parameters
+    ----------
+    scene
+        The scene to crop.
+    rows, cols
+        (start, stop) sample indices of the window; it must lie inside the scene.
+
+    Examples
+    --------
+    >>> from radiosim.scenes import UniformBlackbody
+    >>> CroppedScene(UniformBlackbody(500.0, shape=(40, 50)), (10, 30), (0, 25)).shape
+    (20, 25)
+    """
+
+    def __init__(self, scene: Scene, rows: tuple[int, int], cols: tuple[int, int]):
+        bounds = []
+        for (start, stop), size, axis in ((rows, scene.shape[0], "rows"),
+                                          (cols, scene.shape[1], "columns")):
+            start, stop = int(start), int(stop)
+            if not 0 <= start < stop <= size:
+                raise RadiosimError(f"crop {axis} {start}–{stop} is outside the scene's "
+                                    f"0–{size} {axis}")
+            bounds.append((start, stop))
+        self.parent = scene
+        self.offset = (bounds[0][0], bounds[1][0])
+        self.shape = (bounds[0][1] - bounds[0][0], bounds[1][1] - bounds[1][0])
+        self.dx, self.dt, self.n_frames = scene.dx, scene.dt, scene.n_frames
+        self.event_time = scene.event_time
+        emissivity = scene.emissivity
+        if isinstance(emissivity, np.ndarray):
+            emissivity = emissivity[bounds[0][0]:bounds[0][1], bounds[1][0]:bounds[1][1]]
+        self.emissivity = emissivity
+
+    def _shift(self, region: Region) -> Region:
+        (r0, c0), (rs, cs) = self.offset, region
+        return (slice(rs.start + r0, rs.stop + r0), slice(cs.start + c0, cs.stop + c0))
+
+    def _read(self, k: int, region: Region) -> np.ndarray:
+        return self.parent._read(k, self._shift(region))
+
+    def emissivity_map(self, k: int, region: Region):
+        return self.parent.emissivity_map(k, self._shift(region))
+
+    def describe(self) -> dict:
+        return self.parent.describe() | {
+            "crop_rows": f"{self.offset[0]}-{self.offset[0] + self.shape[0]}",
+            "crop_columns": f"{self.offset[1]}-{self.offset[1] + self.shape[1]}",
+            "rows": self.shape[0], "columns": self.shape[1],
         }

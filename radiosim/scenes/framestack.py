@@ -9,7 +9,10 @@ import numpy as np
 from radiosim.errors import RadiosimError
 from radiosim.scenes.base import Region, Scene, check_emissivity, check_positive
 
-__all__ = ["FrameStack"]
+__all__ = ["FrameStack", "TEMPERATURE_OFFSETS"]
+
+#: Temperature units accepted at the edges and their offset to kelvin.
+TEMPERATURE_OFFSETS = {"K": 0.0, "C": 273.15}
 
 
 class FrameStack(Scene):
@@ -35,6 +38,11 @@ class FrameStack(Scene):
     event_time
         Time [s] on which a measurement without a start time is centred; ``None``: windows
         without a start begin at t = 0.
+    units
+        ``"K"`` (default) or ``"C"``: the unit of the array's values, converted to kelvin as
+        frames are read.
+    description
+        Extra metadata (str/int/float values) for :meth:`describe`, e.g. the source file.
 
     Examples
     --------
@@ -43,7 +51,8 @@ class FrameStack(Scene):
     ((4, 6), 10, 2e-06)
     """
 
-    def __init__(self, temperature, dt, dx, emissivity=1.0, event_time=None):
+    def __init__(self, temperature, dt, dx, emissivity=1.0, event_time=None, units="K",
+                 description=None):
         if not hasattr(temperature, "ndim") or not hasattr(temperature, "dtype"):
             temperature = np.asarray(temperature)
         if temperature.ndim != 3:
@@ -71,6 +80,16 @@ class FrameStack(Scene):
                     f"{self.n_frames * self.dt:g} s)"
                 )
         self.event_time = event_time
+        if units not in TEMPERATURE_OFFSETS:
+            raise RadiosimError(f"units must be one of {', '.join(TEMPERATURE_OFFSETS)}, "
+                                f"got {units!r}")
+        self.units = units
+        self._extra = dict(description or {})
 
     def _read(self, k: int, region: Region) -> np.ndarray:
-        return self._stack[k, region[0], region[1]]
+        values = np.asarray(self._stack[k, region[0], region[1]], dtype=np.float64)
+        offset = TEMPERATURE_OFFSETS[self.units]
+        return values + offset if offset else values
+
+    def describe(self) -> dict:
+        return super().describe() | {"source_units": self.units} | self._extra

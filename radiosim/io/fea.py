@@ -1,0 +1,235 @@
+"""
+FEA nodal exports: scattered, moving nodes resampled onto a regular grid, step by step.
+
+The file is a CSV with the columns ``time, x, y, temperature`` (any order, named in a header
+row); each distinct time is one output step of the simulation, and nodes need not be on a grid
+nor stay in place between steps (remeshing). Units are stated by the caller or in a header
+comment ``# units: time=us, length=um, temperature=C``.
+
+Each step is triangulated (Delaunay) and interpolated linearly inside the mesh. Triangles whose
+longest edge exceeds ``max_edge`` are not part of the mesh (a Delaunay triangulation also fills
+the concave gaps of a cutting simulation, such as the air between chip and tool); samples
+outside the mesh get the stated ``fill`` temperature.
+"""
+
+from __future__ import annotations
+
+import csv
+import math
+from pathlib import Path
+
+import numpy as np
+from scipy.spatial import Delaunay
+
+from radiosim.errors import RadiosimError
+from radiosim.scenes.base import Region, Scene, check_emissivity, check_positive
+from radiosim.scenes.framestack import TEMPERATURE_OFFSETS
+
+__all__ = ["read_fea_nodes", "FeaNodes", "LENGTH_UNITS", "TIME_UNITS"]
+
+#: Length and time units accepted for FEA files, with their factor to SI.
+LENGTH_UNITS = {"m": 1.0, "mm": 1e-3, "um": 1e-6, "µm": 1e-6}
+TIME_UNITS = {"s": 1.0, "ms": 1e-3, "us": 1e-6, "µs": 1e-6, "ns": 1e-9}
+_COLUMNS = ("time", "x", "y", "temperature")
+
+
+def _parse(path: Path):
+    """Rows of (time, x, y, temperature) and the units stated in the header, if any."""
+    stated = {}
+    try:
+        handle = path.open(newline="", encoding="utf-8")
+    except OSError as exc:
+        raise RadiosimError(f"cannot read FEA file {path}: {exc}") from exc
+    rows = []
+    with handle:
+        header = None
+        for number, line in enumerate(csv.reader(handle), start=1):
+            if not line or not "".join(line).strip():
+                continue
+            first = line[0].strip()
+            if first.startswith("#"):
+                text = ",".join(line).lstrip("#").strip()
+                if text.lower().startswith("units:"):
+                    for item in text[6:].split(","):
+                        key, sep, value = item.partition("=")
+                        if sep:
+                            stated[key.strip().lower()] = value.strip()
+                continue
+            if header is None:
+                names = [c.strip().lower() for c in line]
+                missing = [c for c in _COLUMNS if c not in names]
+                if missing:
+                    raise RadiosimError(f"{path}, line {number}: header lacks column(s) "
+                                        f"{', '.join(missing)}; expected {', '.join(_COLUMNS)}")
+                header = [names.index(c) for c in _COLUMNS]
+                width = len(names)
+                continue
+            if len(line) != width:
+                raise RadiosimError(f"{path}, line {number}: expected {width} fields, got "
+                                    f"{len(line)}")
+            try:
+                values = [float(line[i]) for i in header]
+            except ValueError:
+                raise RadiosimError(f"{path}, line {number}: a value is not a number: "
+                                    f"{','.join(line)!r}") from None
+            if not all(math.isfinite(v) for v in values):
+                raise RadiosimError(f"{path}, line {number}: NaN or infinite value")
+            rows.append(values)
+    if header is None or not rows:
+        raise RadiosimError(f"{path}: no data (expected a header {','.join(_COLUMNS)} and rows)")
+    return np.array(rows), stated
+
+
+class FeaNodes(Scene):
+    """
+    A scene resampled from FEA nodes, one frame per simulation step.
+
+    Build it with :func:`read_fea_nodes`. Frames are interpolated on demand (the triangulation
+    of each step is kept), so memory holds the nodes, not a gridded stack.
+    """
+
+    def __init__(self, steps, times, dx, origin, shape, fill, max_edge, emissivity, source):
+        self._steps = steps  # list of (points [m], temperature [K])
+        self.times = times
+        self.dt = float(np.mean(np.diff(times))) if len(times) > 1 else None
+        self.dx = dx
+        self.origin = origin  # (x of column 0's left edge, y of row 0's top edge) [m]
+        self.shape = shape
+        self.n_frames = len(steps)
+        self.fill = fill
+        self.max_edge = max_edge
+        self.emissivity = check_emissivity(emissivity, shape)
+        self.event_time = None
+        self._source = source
+        self._triangulations: dict[int, tuple] = {}
+
+    def _mesh(self, k):
+        if k not in self._triangulations:
+            points, _ = self._steps[k]
+            try:
+                tri = Delaunay(points)
+            except Exception as exc:  # qhull errors: too few or collinear nodes
+                raise RadiosimError(f"step {k} (t = {self.times[k]:g} s) of {self._source}: "
+                                    f"cannot triangulate its {len(points)} nodes: {exc}") from None
+            corners = points[tri.simplices]
+            edges = np.linalg.norm(corners - np.roll(corners, 1, axis=1), axis=2).max(axis=1)
+            self._triangulations = {k: (tri, edges <= self.max_edge)}  # keep the latest only
+        return self._triangulations[k]
+
+    def _read(self, k: int, region: Region) -> np.ndarray:
+        tri, valid = self._mesh(k)
+        _, temperature = self._steps[k]
+        rows = np.arange(region[0].start, region[0].stop)
+        cols = np.arange(region[1].start, region[1].stop)
+        x = self.origin[0] + (cols + 0.5) * self.dx
+        y = self.origin[1] - (rows + 0.5) * self.dx
+        grid = np.column_stack([np.tile(x, rows.size), np.repeat(y, cols.size)])
+        simplex = tri.find_simplex(grid)
+        inside = simplex >= 0
+        inside[inside] = valid[simplex[inside]]
+        out = np.full(grid.shape[0], self.fill)
+        s = simplex[inside]
+        transform = tri.transform[s]
+        bary = np.einsum("ijk,ik->ij", transform[:, :2], grid[inside] - transform[:, 2])
+        weights = np.column_stack([bary, 1 - bary.sum(axis=1)])
+        out[inside] = np.einsum("ij,ij->i", weights, temperature[tri.simplices[s]])
+        return out.reshape(rows.size, cols.size)
+
+    def describe(self) -> dict:
+        return super().describe() | {"source": self._source, "fill_K": self.fill,
+                                     "max_edge_m": self.max_edge}
+
+
+def read_fea_nodes(path, dx, dt=None, units=None, fill=293.15, bounds=None, max_edge=None,
+                   emissivity=1.0) -> FeaNodes:
+    """
+    Read an FEA nodal CSV (time, x, y, temperature) and resample it onto a regular grid.
+
+    Parameters
+    ----------
+    path
+        The CSV file.
+    dx
+        Sample pitch of the output grid [m].
+    dt
+        Frame interval [s]; ``None``: the step of the file's times, which must be uniform.
+        If given, it must match them.
+    units
+        Dict with ``time`` (s, ms, us, ns), ``length`` (m, mm, um) and ``temperature`` (K, C);
+        keys not given come from the header comment ``# units: time=…, length=…,
+        temperature=…``; a unit stated nowhere is an error.
+    fill
+        Temperature outside the mesh [K] (e.g. the ambient 293.15 K).
+    bounds
+        (x_min, x_max, y_min, y_max) of the grid [m]; ``None``: the nodes' extent over all
+        steps. Row 0 of the frames is the top (y_max).
+    max_edge
+        Longest triangle edge that is part of the mesh [m]; ``None``: 4 × the median edge of
+        the first step's triangulation.
+    emissivity
+        As for :class:`~radiosim.FrameStack`.
+
+    Returns
+    -------
+    FeaNodes
+        A scene with one frame per step.
+    """
+    path = Path(path)
+    data, stated = _parse(path)
+    units = {**stated, **(units or {})}
+    for key, table in (("time", TIME_UNITS), ("length", LENGTH_UNITS),
+                       ("temperature", TEMPERATURE_OFFSETS)):
+        if key not in units:
+            raise RadiosimError(f"{path}: the {key} unit is stated nowhere; pass "
+                                f"units={{'{key}': …}} ({', '.join(table)}) or add a header "
+                                f"'# units: time=…, length=…, temperature=…'")
+        if units[key] not in table:
+            raise RadiosimError(f"{path}: {key} unit {units[key]!r} is not one of "
+                                f"{', '.join(table)}")
+    time = data[:, 0] * TIME_UNITS[units["time"]]
+    xy = data[:, 1:3] * LENGTH_UNITS[units["length"]]
+    temperature = data[:, 3] + TEMPERATURE_OFFSETS[units["temperature"]]
+    if np.any(temperature <= 0):
+        line = int(np.argmax(temperature <= 0))
+        raise RadiosimError(f"{path}: data row {line + 1} has temperature "
+                            f"{temperature[line]:g} K ≤ 0 (wrong unit?)")
+    if fill is None or not (math.isfinite(fill) and fill > 0):
+        raise RadiosimError(f"fill must be a temperature > 0 [K], got {fill!r}")
+    dx = check_positive(dx, "dx", "m")
+
+    times, inverse = np.unique(time, return_inverse=True)
+    steps = []
+    for k in range(times.size):
+        mine = inverse == k
+        if mine.sum() < 3:
+            raise RadiosimError(f"{path}: step {k} (t = {times[k]:g} s) has {mine.sum()} "
+                                "node(s); at least 3 are needed")
+        steps.append((xy[mine], temperature[mine]))
+    if times.size > 1:
+        step = np.diff(times)
+        uneven = np.abs(step - step.mean()) > 1e-6 * step.mean()
+        if uneven.any():
+            k = int(np.argmax(uneven))
+            raise RadiosimError(f"{path}: steps are not evenly spaced in time (step {k} → {k + 1}"
+                                f" is {step[k]:g} s, the mean is {step.mean():g} s)")
+        if dt is not None and abs(dt - step.mean()) > 1e-6 * step.mean():
+            raise RadiosimError(f"{path}: dt = {dt:g} s does not match the file's step "
+                                f"{step.mean():g} s")
+    elif dt is None:
+        raise RadiosimError(f"{path}: a single step; pass dt [s]")
+    if bounds is None:
+        bounds = (xy[:, 0].min(), xy[:, 0].max(), xy[:, 1].min(), xy[:, 1].max())
+    x0, x1, y0, y1 = (float(b) for b in bounds)
+    shape = (int(math.floor((y1 - y0) / dx + 1e-9)), int(math.floor((x1 - x0) / dx + 1e-9)))
+    if min(shape) < 1:
+        raise RadiosimError(f"{path}: the grid {bounds} holds no {dx:g} m sample")
+    if max_edge is None:
+        tri = Delaunay(steps[0][0])
+        corners = steps[0][0][tri.simplices]
+        max_edge = 4 * float(np.median(np.linalg.norm(corners - np.roll(corners, 1, axis=1),
+                                                      axis=2)))
+    scene = FeaNodes(steps, times, dx, (x0, y1), shape, float(fill), float(max_edge),
+                     emissivity, str(path))
+    if dt is not None:
+        scene.dt = check_positive(dt, "dt", "s")
+    return scene

@@ -1,0 +1,175 @@
+"""Importers: NumPy stacks, EXR sequences, FEA nodal CSV."""
+
+import warnings
+
+import numpy as np
+import OpenEXR
+import pytest
+
+from radiosim import Camera, RadiosimWarning
+from radiosim.errors import RadiosimError
+from radiosim.io import read_fea_nodes, read_frames
+
+
+@pytest.fixture
+def stack():
+    return np.random.default_rng(0).uniform(20.0, 700.0, (5, 6, 8)).astype(np.float32)
+
+
+def test_npy_in_celsius_is_memory_mapped_and_converted(tmp_path, stack):
+    np.save(tmp_path / "s.npy", stack)
+    scene = read_frames(tmp_path / "s.npy", dt=0.2e-6, dx=1e-6, units="C")
+    assert isinstance(scene._stack, np.memmap)
+    np.testing.assert_allclose(scene.frame(3), stack[3].astype(np.float64) + 273.15)
+    assert scene.describe()["source_units"] == "C"
+
+
+def test_uncompressed_npz_is_memory_mapped_compressed_is_loaded_with_warning(tmp_path, stack):
+    np.savez(tmp_path / "a.npz", temperature=stack, other=np.zeros(3))
+    scene = read_frames(tmp_path / "a.npz", dt=1e-6, dx=1e-6, units="K", key="temperature")
+    assert isinstance(scene._stack, np.memmap)
+    np.testing.assert_array_equal(scene.frame(4), stack[4].astype(np.float64))
+    np.savez_compressed(tmp_path / "b.npz", stack)
+    with pytest.warns(RadiosimWarning, match="compressed"):
+        scene = read_frames(tmp_path / "b.npz", dt=1e-6, dx=1e-6, units="K")
+    np.testing.assert_array_equal(scene.frame(1), stack[1].astype(np.float64))
+
+
+@pytest.mark.parametrize("kwargs, message", [
+    ({"units": None}, "carry no unit"),
+    ({"units": "F"}, "not K or C"),
+    ({"dt": None}, "pass dt"),
+])
+def test_numpy_files_need_units_and_steps(tmp_path, stack, kwargs, message):
+    np.save(tmp_path / "s.npy", stack)
+    args = {"dt": 1e-6, "dx": 1e-6, "units": "K"} | kwargs
+    with pytest.raises(RadiosimError, match=message):
+        read_frames(tmp_path / "s.npy", **args)
+
+
+def test_npz_errors(tmp_path, stack):
+    np.savez(tmp_path / "two.npz", a=stack, b=stack)
+    with pytest.raises(RadiosimError, match="say which with key"):
+        read_frames(tmp_path / "two.npz", dt=1e-6, dx=1e-6, units="K")
+    (tmp_path / "bad.npz").write_bytes(b"not a zip")
+    with pytest.raises(RadiosimError, match="bad.npz is not a readable .npz"):
+        read_frames(tmp_path / "bad.npz", dt=1e-6, dx=1e-6, units="K")
+
+
+def write_exr(path, image, **attributes):
+    header = {"compression": OpenEXR.ZIP_COMPRESSION, "type": OpenEXR.scanlineimage}
+    header.update(attributes)
+    with OpenEXR.File(header, {"temperature": image.astype(np.float32)}) as exr:
+        exr.write(str(path))
+
+
+def test_exr_sequence_in_natural_order_with_header_units(tmp_path, stack):
+    for k in (0, 1, 2, 10):  # frame_10 must come after frame_2
+        write_exr(tmp_path / f"frame_{k}.exr", stack[min(k, 4)], temperature_unit="C",
+                  dt_s=0.2e-6, dx_m=0.5e-6)
+    scene = read_frames(tmp_path)
+    assert scene.n_frames == 4 and scene.shape == (6, 8)
+    assert scene.dt == pytest.approx(0.2e-6, rel=1e-6) and scene.units == "C"
+    np.testing.assert_allclose(scene.frame(3), stack[4] + 273.15, rtol=1e-6)
+    same = read_frames(str(tmp_path / "frame_*.exr"))
+    np.testing.assert_array_equal(same.frame(2), scene.frame(2))
+
+
+def test_exr_errors_name_the_file_and_frame(tmp_path, stack):
+    write_exr(tmp_path / "f_0.exr", stack[0])
+    with pytest.raises(RadiosimError, match="states no temperature unit"):
+        read_frames(tmp_path, dt=1e-6, dx=1e-6)
+    (tmp_path / "f_1.exr").write_bytes(b"garbage")
+    scene = read_frames(tmp_path, dt=1e-6, dx=1e-6, units="K")
+    with pytest.raises(RadiosimError, match=r"frame 1: cannot read EXR file .*f_1.exr"):
+        scene.frame(1)
+    write_exr(tmp_path / "f_1.exr", stack[0][:3])
+    with pytest.raises(RadiosimError, match=r"frame 1: .*is \(3, 8\), the first frame is"):
+        read_frames(tmp_path, dt=1e-6, dx=1e-6, units="K").frame(1)
+    with pytest.raises(RadiosimError, match="no frames found"):
+        read_frames(tmp_path / "nothing_*.exr")
+
+
+def fea_csv(path, steps, header="# units: time=us, length=um, temperature=C"):
+    lines = [header, "x,y,time,temperature"]
+    for t, (xy, temp) in steps.items():
+        lines += [f"{x!r},{y!r},{t!r},{v!r}" for (x, y), v in zip(xy, temp)]
+    path.write_text("\n".join(lines) + "\n")
+
+
+def linear_field(xy, t):
+    return 100.0 + 2.0 * xy[:, 0] - 0.5 * xy[:, 1] + 10.0 * t  # °C, µm, µs
+
+
+def test_fea_nodes_moving_and_remeshed_reproduce_a_linear_field(tmp_path):
+    rng = np.random.default_rng(5)
+    steps = {}
+    g = np.linspace(0, 100, 21)
+    xx, yy = np.meshgrid(g, g)
+    grid = np.column_stack([xx.ravel(), yy.ravel()])
+    boundary = (grid == 0) | (grid == 100)
+    for t in (0.0, 0.5, 1.0):
+        # A remeshed, moving mesh: interior nodes jittered differently at every step.
+        xy = grid + np.where(boundary, 0.0, rng.uniform(-2.0, 2.0, grid.shape))
+        steps[t] = (xy, linear_field(xy, t))
+    fea_csv(tmp_path / "run.csv", steps)
+    scene = read_fea_nodes(tmp_path / "run.csv", dx=5e-6)
+    assert scene.n_frames == 3 and scene.dt == pytest.approx(0.5e-6)
+    assert scene.shape == (20, 20)
+    x = (np.arange(20) + 0.5) * 5.0
+    y = 100.0 - (np.arange(20) + 0.5) * 5.0
+    xx, yy = np.meshgrid(x, y)
+    expected = linear_field(np.column_stack([xx.ravel(), yy.ravel()]), 1.0).reshape(20, 20)
+    # Linear interpolation is exact for a linear field.
+    np.testing.assert_allclose(scene.frame(2), expected + 273.15, rtol=1e-12)
+
+
+def test_fea_outside_a_concave_mesh_gets_the_fill(tmp_path):
+    # An L-shaped body: the notch x > 50, y > 50 has no material.
+    g = np.arange(0, 101, 5.0)
+    xx, yy = np.meshgrid(g, g)
+    xy = np.column_stack([xx.ravel(), yy.ravel()])
+    xy = xy[~((xy[:, 0] > 50) & (xy[:, 1] > 50))]
+    steps = {0.0: (xy, np.full(len(xy), 500.0)), 1.0: (xy, np.full(len(xy), 500.0))}
+    fea_csv(tmp_path / "l.csv", steps)
+    scene = read_fea_nodes(tmp_path / "l.csv", dx=10e-6, fill=293.15)
+    frame = scene.frame(0)
+    assert frame[0, -1] == pytest.approx(293.15)  # top right: the notch
+    assert frame[-1, 0] == pytest.approx(773.15)  # bottom left: material
+    m = Camera.linear_ideal(20e-6).measure(scene, 1e-6, t_start=0.0)
+    assert m.shape == (5, 5)
+
+
+@pytest.mark.parametrize("body, message", [
+    ("x,y,time\n1,2,3\n", "lacks column"),
+    ("# units: time=us, length=um, temperature=C\nx,y,time,temperature\n1,2,0,abc\n",
+     "line 3: a value is not a number"),
+    ("# units: time=us, length=um, temperature=C\nx,y,time,temperature\n1,2,0\n",
+     "line 3: expected 4 fields"),
+    ("x,y,time,temperature\n0,0,0,1\n1,0,0,1\n0,1,0,1\n", "time unit is stated nowhere"),
+    ("# units: time=fortnight, length=um, temperature=C\nx,y,time,temperature\n0,0,0,1\n",
+     "time unit 'fortnight'"),
+    ("# units: time=us, length=um, temperature=K\nx,y,time,temperature\n0,0,0,-5\n0,1,0,5\n"
+     "1,0,0,5\n", "temperature -5 K"),
+    ("# units: time=us, length=um, temperature=C\nx,y,time,temperature\n0,0,0,1\n1,1,0,1\n",
+     "at least 3"),
+])
+def test_fea_errors_name_the_line_and_problem(tmp_path, body, message):
+    path = tmp_path / "bad.csv"
+    path.write_text(body)
+    with pytest.raises(RadiosimError, match=message):
+        read_fea_nodes(path, dx=1e-6, dt=1e-6)
+
+
+def test_fea_uneven_steps_are_refused(tmp_path):
+    xy = np.array([[0, 0], [10, 0], [0, 10], [10, 10]], dtype=float)
+    steps = {t: (xy, np.full(4, 300.0)) for t in (0.0, 1.0, 2.5)}
+    fea_csv(tmp_path / "u.csv", steps)
+    with pytest.raises(RadiosimError, match="not evenly spaced"):
+        read_fea_nodes(tmp_path / "u.csv", dx=1e-6)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        steps = {t: (xy, np.full(4, 300.0)) for t in (0.0, 1.0, 2.0)}
+        fea_csv(tmp_path / "e.csv", steps)
+        with pytest.raises(RadiosimError, match="does not match"):
+            read_fea_nodes(tmp_path / "e.csv", dx=1e-6, dt=3e-6)
