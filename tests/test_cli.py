@@ -9,14 +9,24 @@ from radiosim.cli import main, parse_time
 
 
 def test_run_prints_and_writes_the_demo_table(capsys, tmp_path):
-    assert main(["run", "--integration-times", "1us", "10us", "--out", str(tmp_path)]) == 0
+    args = ["run", "--integration-times", "1us", "10us", "--emissivity", "0.3",
+            "--out", str(tmp_path)]
+    assert main(args) == 0
     out = capsys.readouterr().out
     assert "linear-ideal" in out and "nist-ir" in out
     rows = list(csv.DictReader((tmp_path / "demo.csv").open()))
     assert [r["camera"] for r in rows] == ["linear-ideal"] * 2 + ["nist-ir"] * 2
-    # Motion blur: the longer window reads the band colder.
-    assert float(rows[1]["mean_at_band_C"]) < float(rows[0]["mean_at_band_C"])
-    assert rows[0]["frames"] == "6"  # a 1 µs window centred mid-frame touches 6 frames
+    # Motion blur: the longer window reads the shear band colder.
+    assert float(rows[1]["column_I_apparent_C"]) < float(rows[0]["column_I_apparent_C"])
+    assert rows[0]["frames"] == "5"  # 1 µs centred on the event frame: exactly 5 frames
+    # The camera set to ε = 1 reads a grey body of ε = 0.3 far colder than the ideal camera.
+    assert float(rows[2]["apparent_peak_C"]) < float(rows[0]["apparent_peak_C"]) - 100
+
+
+def test_scene_preview_writes_a_png(tmp_path, capsys):
+    out = tmp_path / "scene.png"
+    assert main(["scene", "preview", "--time", "45us", "--out", str(out)]) == 0
+    assert out.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
 
 
 def test_presets_lists_nist(capsys):

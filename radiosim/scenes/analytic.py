@@ -190,7 +190,7 @@ class StepEdge(Scene):
     Examples
     --------
     >>> edge = StepEdge(1000.0, 300.0, edge=2.5e-6, shape=(2, 5), dx=1e-6)
-    >>> edge.frame(0)[0].tolist()
+    >>> np.round(edge.frame(0)[0], 9).tolist()
     [1000.0, 1000.0, 650.0, 300.0, 300.0]
     """
 

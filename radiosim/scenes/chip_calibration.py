@@ -49,16 +49,18 @@ TARGETS = {
     "long_std_K": (118.0, 10.0),
 }
 
-#: Parameters the calibration adjusts, with their bounds (SI units).
+#: Parameters the calibration adjusts and their bounds (SI units). A bound given with a
+#: reference parameter is a multiple of it: the forming band starts at least as wide as it
+#: ends (σ_init ≥ σ_rel, SCENE.md), so band_initial_width is fitted as σ_init / σ_rel.
 FREE_PARAMETERS = {
-    "band_width": (4e-6, 20e-6),
-    "band_initial_width": (8e-6, 40e-6),
-    "band_amplitude": (250.0, 500.0),
-    "chip_diffusivity": (2e-6, 20e-6),
-    "primary_rise": (200.0, 330.0),
-    "secondary_rise": (280.0, 420.0),
-    "modulation": (0.05, 0.35),
-    "slip_fraction": (0.1, 0.5),
+    "band_width": (4e-6, 20e-6, None),
+    "band_initial_width": (1.0, 3.0, "band_width"),
+    "band_amplitude": (250.0, 500.0, None),
+    "chip_diffusivity": (2e-6, 20e-6, None),
+    "primary_rise": (200.0, 330.0, None),
+    "secondary_rise": (280.0, 420.0, None),
+    "modulation": (0.05, 0.35, None),
+    "slip_fraction": (0.1, 0.6, None),
 }
 
 SMALL_PITCH, LARGE_PITCH = 6e-6, 14e-6  # 35 µm² (9 × 9) and 188 µm² (21 × 21) pixels
@@ -178,7 +180,8 @@ def calibrate(start: ChipParameters | None = None, names=None, dt: float = 1e-6,
 
     Minimises Σ ((value − target)/tolerance)² over ``names`` (default :data:`FREE_PARAMETERS`)
     within their bounds with :func:`scipy.optimize.least_squares` (trust-region reflective,
-    finite differences), on frames of ``dt`` for speed; the result should be checked at 0.2 µs.
+    finite differences, at most ``max_evaluations`` residual evaluations besides the Jacobian's),
+    on frames of ``dt`` for speed; check the result at 0.2 µs (:func:`evaluate_targets`).
 
     Returns
     -------
@@ -193,20 +196,31 @@ def calibrate(start: ChipParameters | None = None, names=None, dt: float = 1e-6,
     names = list(names or FREE_PARAMETERS)
     lo = np.array([FREE_PARAMETERS[n][0] for n in names])
     hi = np.array([FREE_PARAMETERS[n][1] for n in names])
-    scale = hi - lo
+    reference = [FREE_PARAMETERS[n][2] for n in names]
 
     def unpack(z):
-        return start.replace(**{n: float(lo[i] + z[i] * scale[i]) for i, n in enumerate(names)})
+        values = {n: float(lo[i] + z[i] * (hi[i] - lo[i])) for i, n in enumerate(names)}
+        for i, n in enumerate(names):
+            if reference[i] is not None:
+                values[n] *= values.get(reference[i], getattr(start, reference[i]))
+        return start.replace(**values)
+
+    def pack(params):
+        z = []
+        for i, n in enumerate(names):
+            value = getattr(params, n)
+            if reference[i] is not None:
+                value /= getattr(params, reference[i])
+            z.append((value - lo[i]) / (hi[i] - lo[i]))
+        return np.clip(z, 0.0, 1.0)
 
     def fun(z):
-        values = evaluate_targets(unpack(z), dt=dt)
-        r = residuals(values)
-        logger.info("cost %.3f at %s", float(r @ r), z)
+        r = residuals(evaluate_targets(unpack(z), dt=dt))
+        logger.info("cost %.3f at %s", float(r @ r), np.array2string(z, precision=4))
         return r
 
-    z0 = np.clip([(getattr(start, n) - lo[i]) / scale[i] for i, n in enumerate(names)], 0, 1)
-    fit = least_squares(fun, z0, bounds=(0.0, 1.0), diff_step=1e-3, max_nfev=max_evaluations,
-                        x_scale=0.1)
+    fit = least_squares(fun, pack(start), bounds=(0.0, 1.0), diff_step=1e-3,
+                        max_nfev=max_evaluations, x_scale=0.1)
     params = unpack(fit.x)
     return params, evaluate_targets(params, dt=dt)
 
