@@ -59,6 +59,9 @@ REGIONS = {"air": 0, "workpiece": 1, "chip": 2, "tool": 3}
 COLUMNS = {"I": 440e-6, "II": 300e-6, "III": 160e-6}
 
 _CELSIUS = 273.15
+_REACH = 6.0  # Gaussian band terms are evaluated within 6 σ: exp(−18) ≈ 1.5e-8 of the peak
+_NEGLIGIBLE = 1e-3  # K: static fields of moving terms below this are not evaluated
+_FADE_REACH = 10.0  # the rake-face fade is 1 − O(e^{−20}) beyond 10 fade lengths
 _UM, _US = 1e-6, 1e-6
 
 
@@ -404,7 +407,7 @@ class _Geometry:
         self.cos_field, self.sin_field = cos_field, sin_field
         self.s, self.n, self.zeta, self.xi = s, n, zeta, xi
         # Band terms reach the chip and, for the forming band, the workpiece near L0.
-        reach = 8 * max(p.band_initial_width, p.band_width)
+        reach = _REACH * max(p.band_initial_width, p.band_width)
         self.forming_zone = (chip_max | (workpiece & left)) & (np.abs(xi) < reach)
         self.rake_fade = smooth_step(n / p.rake_fade)
         reach_n = p.band_exponent_reach * p.chip_thickness
@@ -425,9 +428,11 @@ class _RegionData:
         self.static = np.ascontiguousarray(g.static[rs, cs])
         self.regions = np.ascontiguousarray(g.static_regions[rs, cs])
         cos_field, sin_field = sub(g.cos_field), sub(g.sin_field)
-        self.periodic = np.flatnonzero((cos_field != 0) | (sin_field != 0))
+        # The modulation's amplitude dies away from the rake face: drop it below 1 mK.
+        self.periodic = np.flatnonzero(np.hypot(cos_field, sin_field) > _NEGLIGIBLE)
         self.cos_field, self.sin_field = cos_field[self.periodic], sin_field[self.periodic]
         zeta, fade = sub(g.zeta), sub(g.rake_fade)
+        n_all = sub(g.n)
         self.chip = np.flatnonzero(sub(g.chip_max))
         if self.chip.size:
             z = zeta[self.chip]
@@ -439,7 +444,9 @@ class _RegionData:
             position = z / step - first
             self.zeta_index = np.minimum(position.astype(np.intp), self.zeta_grid.size - 2)
             self.zeta_frac = position - self.zeta_index
-            self.chip_fade = fade[self.chip]
+            # The rake-face fade S(n / 2 µm) differs from 1 by < 1e-8 beyond 20 µm.
+            self.chip_faded = np.flatnonzero(n_all[self.chip] < _FADE_REACH * p.rake_fade)
+            self.chip_fade = fade[self.chip][self.chip_faded]
         forming = np.flatnonzero(sub(g.forming_zone))
         xi = sub(g.xi)[forming]
         order = np.argsort(np.abs(xi), kind="stable")
@@ -447,7 +454,8 @@ class _RegionData:
         self.forming_abs_xi = np.abs(xi[order])
         self.forming_xi2 = xi[order] ** 2
         self.forming_exponent = sub(g.band_exponent)[self.forming]
-        self.forming_fade = fade[self.forming]
+        self.forming_faded = n_all[self.forming] < _FADE_REACH * p.rake_fade
+        self.forming_fade = np.where(self.forming_faded, fade[self.forming], 1.0)
         self.surface = np.flatnonzero(sub(g.surface_zone))
         self.surface_zeta = zeta[self.surface]
         self.surface_n = sub(g.n)[self.surface]
@@ -572,24 +580,32 @@ class SegmentedChip(Scene):
                 sigma2 = p.band_width**2 + 2 * p.chip_diffusivity * (tau + k * p.period)
                 amplitude = (p.band_amplitude + r.background(0.0)
                              - r.background(zk * sin_b)) * math.sqrt(p.band_width**2 / sigma2)
-                reach = 8 * math.sqrt(sigma2) / sin_b
+                reach = _REACH * math.sqrt(sigma2) / sin_b
                 lo, hi = np.searchsorted(r.zeta_grid, (zk - reach, zk + reach))
                 dz = (r.zeta_grid[lo:hi] - zk) * sin_b
                 profile[lo:hi] += amplitude * np.exp(-dz * dz / (2 * sigma2))
             left = profile[r.zeta_index]
             excess = left + r.zeta_frac * (profile[r.zeta_index + 1] - left)
-            flat[r.chip] += excess * r.chip_fade
+            excess[r.chip_faded] *= r.chip_fade
+            flat[r.chip] += excess
 
         # The forming band on L0, on the samples within reach of its current width [K].
         base = min(max((theta - p.slip_time / p.period) / (1 - p.slip_time / p.period), 0.0),
                    1.0)
         if base > 0 and r.forming.size:
             widest = p.band_width + (p.band_initial_width - p.band_width) * (1 - base) ** 2
-            n = np.searchsorted(r.forming_abs_xi, 8 * max(widest, p.band_width))
+            n = np.searchsorted(r.forming_abs_xi, _REACH * max(widest, p.band_width))
             f = np.exp(r.forming_exponent[:n] * math.log(base))
-            sigma = p.band_width + (p.band_initial_width - p.band_width) * (1 - f) ** 2
-            flat[r.forming[:n]] += p.band_amplitude * f * np.exp(
-                -r.forming_xi2[:n] / (2 * sigma * sigma)) * r.forming_fade[:n]
+            sigma = (1 - f) ** 2
+            sigma *= p.band_initial_width - p.band_width
+            sigma += p.band_width
+            sigma *= sigma
+            sigma *= -2.0
+            excess = np.divide(r.forming_xi2[:n], sigma)
+            np.exp(excess, out=excess)
+            excess *= f
+            excess *= r.forming_fade[:n]
+            flat[r.forming[:n]] += p.band_amplitude * excess
 
         # The saw-tooth free surface: beyond it, air.
         air = None
