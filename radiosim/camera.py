@@ -35,7 +35,8 @@ from radiosim.integrator import FootprintIntegrator, integrate
 from radiosim.measurement import Measurement
 from radiosim.response import LinearResponse, PlanckResponse
 from radiosim.scenes.base import Scene, check_positive
-from radiosim.spectral import as_spectrum
+from radiosim.spectral import as_spectrum, available_spectra, read_spectrum, spectral_distribution
+from radiosim.units import shift
 
 __all__ = ["Optics", "FocalPlaneArray", "Camera", "available_presets", "PRESET_DIRECTORY"]
 
@@ -269,21 +270,33 @@ class Camera:
         data = dict(data)
         sections = {key: dict(data.pop(key, {})) for key in ("optics", "fpa", "electronics")}
 
-        def take(section: dict, key: str, default=None, scale=None):
+        def take(section: dict, key: str, default=None, exponent=None):
+            """A value converted to SI by the power of ten ``exponent`` (−6 for µm)."""
             value = section.pop(key, default)
-            if value is None or scale is None:
+            if value is None or exponent is None:
                 return value
-            if isinstance(value, list):
-                return tuple(float(v) * scale for v in value)
-            return float(value) * scale
+            try:
+                if isinstance(value, list):
+                    return tuple(shift(v, exponent) for v in value)
+                return shift(value, exponent)
+            except (TypeError, ValueError):
+                raise RadiosimError(f"{key} must be a number or a list of numbers, got "
+                                    f"{value!r}") from None
 
         def curve(section: dict, key: str):
             value = section.pop(key, 1.0)
             if isinstance(value, str) and base is not None and (base / value).is_file():
                 return base / value
+            if isinstance(value, dict):  # inline: {name, wavelength_um = [...], value = [...]}
+                try:
+                    return spectral_distribution(np.asarray(value["wavelength_um"]) * 1e-6,
+                                                 value["value"], value.get("name", key))
+                except KeyError as exc:
+                    raise RadiosimError(f"inline curve {key} needs wavelength_um and value "
+                                        f"lists, missing {exc}") from None
             return value
 
-        um = 1e-6
+        um = -6
         optics = Optics(
             band=take(sections["optics"], "band_um", [3.8, 5.1], um),
             f_number=take(sections["optics"], "f_number", 2.5),
@@ -295,10 +308,10 @@ class Camera:
             raise RadiosimError("[fpa] needs pixel_pitch_um (object-space pixel pitch in µm)")
         shape = fpa_data.pop("shape", None)
         fpa = FocalPlaneArray(
-            pixel_pitch=take(fpa_data, "pixel_pitch_um", scale=um),
+            pixel_pitch=take(fpa_data, "pixel_pitch_um", exponent=um),
             shape=None if shape is None else tuple(shape),
             fill_factor=take(fpa_data, "fill_factor", 1.0),
-            detector_pitch=take(fpa_data, "detector_pitch_um", scale=um),
+            detector_pitch=take(fpa_data, "detector_pitch_um", exponent=um),
             quantum_efficiency=curve(fpa_data, "quantum_efficiency"),
             origin=take(fpa_data, "origin_um", [0.0, 0.0], um),
         )
@@ -322,7 +335,7 @@ class Camera:
             frame_rate=take(data, "frame_rate_hz"),
             assumed_emissivity=take(data, "assumed_emissivity", 1.0),
             linear_responsivity=take(data, "linear_responsivity_e_per_s_per_K", 1e6),
-            calibration_range=take(data, "calibration_range_K", [150.0, 3000.0], 1.0),
+            calibration_range=take(data, "calibration_range_K", [150.0, 3000.0], 0),
         )
         data.pop("description", None)
         leftovers = [k for k in data] + [
@@ -331,6 +344,47 @@ class Camera:
         if leftovers:
             raise RadiosimError(f"unknown camera key(s): {', '.join(leftovers)}")
         return camera
+
+    def to_dict(self) -> dict:
+        """
+        The camera in the preset structure (edge units in the keys), so that
+        :meth:`from_dict` rebuilds it exactly. Shipped curves are named; others are inlined.
+        """
+        el, fpa, optics = self.electronics, self.fpa, self.optics
+
+        def um(value):  # [m] → [µm], exact on the decimal representation
+            return shift(value, 6)
+
+        fpa_out = {"pixel_pitch_um": um(fpa.pixel_pitch), "fill_factor": fpa.fill_factor,
+                   "quantum_efficiency": _curve_entry(fpa.quantum_efficiency),
+                   "origin_um": [um(fpa.origin[0]), um(fpa.origin[1])]}
+        if fpa.shape is not None:
+            fpa_out["shape"] = list(fpa.shape)
+        if fpa.detector_pitch is not None:
+            fpa_out["detector_pitch_um"] = um(fpa.detector_pitch)
+        electronics = {"dark_current_e_per_s": el.dark_current, "read_noise_e": el.read_noise,
+                       "shot_noise": el.shot_noise, "gain_dn_per_e": el.gain,
+                       "offset_dn": el.offset}
+        if el.full_well is not None:
+            electronics["full_well_e"] = el.full_well
+        if el.adc_bits is not None:
+            electronics["adc_bits"] = el.adc_bits
+        out = {"name": self.name, "response": self.response,
+               "assumed_emissivity": self.assumed_emissivity,
+               "linear_responsivity_e_per_s_per_K": self.linear_responsivity,
+               "calibration_range_K": list(self.calibration_range)}
+        if self.frame_rate is not None:
+            out["frame_rate_hz"] = self.frame_rate
+        out["optics"] = {"band_um": [um(b) for b in optics.band], "f_number": optics.f_number,
+                         "transmission": _curve_entry(optics.transmission),
+                         "spectral_filter": _curve_entry(optics.spectral_filter)}
+        out["fpa"] = fpa_out
+        out["electronics"] = electronics
+        return out
+
+    def to_toml(self) -> str:
+        """The camera as a TOML preset (see :meth:`to_dict`)."""
+        return dumps_toml(self.to_dict())
 
     def replace(self, **changes) -> Camera:
         """A copy with some fields changed (``dataclasses.replace``)."""
@@ -465,6 +519,27 @@ class Camera:
 
         return signal
 
+    def record(self, scene: Scene, integration_time: float, n_frames: int,
+               t_start: float | None = None, rng=None) -> list[Measurement]:
+        """
+        Record ``n_frames`` camera frames at the camera's frame rate.
+
+        Frame i integrates over [t_start + i/frame_rate, … + integration_time]; ``t_start``
+        defaults to the start that centres the first frame's window on the scene's event.
+        One generator drives the noise of all frames.
+        """
+        if self.frame_rate is None:
+            raise RadiosimError(f"{self.name} has no frame rate; set frame_rate to record")
+        if int(n_frames) != n_frames or n_frames < 1:
+            raise RadiosimError(f"n_frames must be a whole number ≥ 1, got {n_frames!r}")
+        rng = np.random.default_rng(rng)
+        if t_start is None:
+            t_start = 0.0 if scene.event_time is None else scene.event_time - 0.5 * float(
+                integration_time)
+        period = 1.0 / self.frame_rate
+        return [self.measure(scene, integration_time, t_start + i * period, rng)
+                for i in range(int(n_frames))]
+
     def describe(self) -> dict:
         """Plain metadata (str, int, float) describing the camera, with units in the keys."""
         el = self.electronics
@@ -491,6 +566,47 @@ class Camera:
             "frame_rate_hz": -1.0 if self.frame_rate is None else self.frame_rate,
             "assumed_emissivity": self.assumed_emissivity,
         }
+
+
+def _curve_entry(value):
+    """A curve as a shipped name (if it is one, unchanged) or an inline table."""
+    if not isinstance(value, SpectralDistribution):
+        return float(value)
+    name = value.name
+    if name in available_spectra():
+        shipped = read_spectrum(name)
+        if np.array_equal(shipped.domain, value.domain) and np.array_equal(shipped.values,
+                                                                           value.values):
+            return name
+    return {"name": name, "wavelength_um": (np.asarray(value.domain) * 1e6).tolist(),
+            "value": np.asarray(value.values).tolist()}
+
+
+def _toml_scalar(value) -> str:
+    if isinstance(value, bool):
+        return "true" if value else "false"
+    if isinstance(value, (int, np.integer)):
+        return str(int(value))
+    if isinstance(value, (float, np.floating)):
+        return repr(float(value))
+    if isinstance(value, str):
+        return '"' + value.replace("\\", "\\\\").replace('"', '\\"') + '"'
+    if isinstance(value, (list, tuple)):
+        return "[" + ", ".join(_toml_scalar(v) for v in value) + "]"
+    if isinstance(value, dict):
+        return "{ " + ", ".join(f"{k} = {_toml_scalar(v)}" for k, v in value.items()) + " }"
+    raise TypeError(f"cannot write {type(value).__name__} to TOML")
+
+
+def dumps_toml(data: dict) -> str:
+    """A small TOML writer for radiosim's own structures: top-level keys and one level of
+    tables whose values are numbers, strings, booleans, lists and inline tables."""
+    lines = [f"{k} = {_toml_scalar(v)}" for k, v in data.items() if not isinstance(v, dict)
+             or k not in ("optics", "fpa", "electronics")]
+    for key, table in data.items():
+        if isinstance(table, dict) and key in ("optics", "fpa", "electronics"):
+            lines += ["", f"[{key}]"] + [f"{k} = {_toml_scalar(v)}" for k, v in table.items()]
+    return "\n".join(lines) + "\n"
 
 
 def available_presets() -> tuple[str, ...]:

@@ -22,27 +22,20 @@ import numpy as np
 from radiosim import __version__
 from radiosim.camera import Camera, available_presets
 from radiosim.errors import RadiosimError, RadiosimWarning
+from radiosim.units import parse_quantity
 
 __all__ = ["main", "demo_scene"]
 
-_UNITS = {"us": 1e-6, "µs": 1e-6, "ms": 1e-3, "ns": 1e-9, "s": 1.0}
-
-
 def parse_time(text: str) -> float:
-    """A duration with a unit (``10us``, ``0.5ms``, ``200ns``) in seconds."""
-    for unit in sorted(_UNITS, key=len, reverse=True):
-        if text.endswith(unit):
-            number = text[: -len(unit)].strip()
-            try:
-                value = float(number) * _UNITS[unit]
-            except ValueError:
-                break
-            if value > 0:
-                return value
-            break
-    raise argparse.ArgumentTypeError(
-        f"{text!r} is not a positive duration with a unit (e.g. 10us, 0.5ms, 200ns)"
-    )
+    """A duration with a unit (``10us``, ``0.5ms``, ``200ns``) in seconds, > 0."""
+    try:
+        value = parse_quantity(text, "time")
+    except RadiosimError:
+        value = None
+    if value is None or not value > 0:
+        raise argparse.ArgumentTypeError(
+            f"{text!r} is not a positive duration with a unit (e.g. 10us, 0.5ms, 200ns)")
+    return value
 
 
 def demo_scene(emissivity: float = 1.0, dt: float = 0.2e-6):

@@ -1,11 +1,20 @@
 """
-Reading scenes from files: NumPy stacks, EXR frame sequences and FEA nodal exports.
+Files in and out: scenes from NumPy stacks, EXR frame sequences and FEA nodal exports;
+measurements to and from multi-channel EXR.
 
 Every reader states units explicitly (from the file's header or the caller) and rejects what it
 cannot read with an error naming the file, the line or frame, and the problem.
 """
 
+from radiosim.io.exr import read_exr, read_exr_sequence, write_exr, write_exr_sequence
 from radiosim.io.fea import read_fea_nodes
 from radiosim.io.frames import read_frames
 
-__all__ = ["read_frames", "read_fea_nodes"]
+__all__ = [
+    "read_frames",
+    "read_fea_nodes",
+    "write_exr",
+    "read_exr",
+    "write_exr_sequence",
+    "read_exr_sequence",
+]

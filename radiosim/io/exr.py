@@ -1,0 +1,203 @@
+"""
+Measurements as multi-channel float32 OpenEXR files, with typed metadata.
+
+Channels (all FLOAT, i.e. float32; masks hold 0 or 1; NaN where a pixel has no reading):
+
+=========================  ==========================================================
+channel                    content [unit]
+=========================  ==========================================================
+``apparent_temperature``   temperature the camera reports [K]
+``counts``                 digital numbers [DN]
+``electrons``              charge in the well [e-]
+``saturated``              1 where saturated [1]
+``under_range``            1 where under range [1]
+``peak_error``             tensor max − apparent temperature [K]
+``uncertainty``            tensor standard deviation [K]
+``tensor_max``             maximum scene temperature over footprint × window [K]
+``tensor_mean``            mean scene temperature over footprint × window [K]
+``signal_mean``            mean response signal [``radiosim:signal_unit``]
+=========================  ==========================================================
+
+Header attributes (typed: doubles as 1-element double arrays, which OpenEXR keeps at 64 bit;
+plain floats would be stored as 32-bit): ``radiosim:version``, ``radiosim:integration_time_s``,
+``radiosim:t_start_s``, ``radiosim:n_frames``, ``radiosim:pixel_pitch_m``,
+``radiosim:response``, ``radiosim:signal_unit``, ``radiosim:camera_name``, ``radiosim:camera``
+(the camera as a TOML preset, which rebuilds it exactly), ``radiosim:unit:<channel>`` and
+``scene:<key>`` for every item of the scene's description.
+"""
+
+from __future__ import annotations
+
+import os
+import tomllib
+from pathlib import Path
+
+import numpy as np
+
+from radiosim.errors import RadiosimError
+from radiosim.measurement import Measurement
+
+__all__ = ["CHANNELS", "write_exr", "read_exr", "write_exr_sequence", "read_exr_sequence"]
+
+#: Channel name → unit (``signal_mean``'s unit is the measurement's ``signal_unit``).
+CHANNELS = {
+    "apparent_temperature": "K",
+    "counts": "DN",
+    "electrons": "e-",
+    "saturated": "1",
+    "under_range": "1",
+    "peak_error": "K",
+    "uncertainty": "K",
+    "tensor_max": "K",
+    "tensor_mean": "K",
+    "signal_mean": None,
+}
+_PREFIX = "radiosim:"
+
+
+def _typed(value):
+    """A header value OpenEXR stores with its full precision."""
+    if isinstance(value, bool):
+        return int(value)
+    if isinstance(value, (int, np.integer)):
+        return int(value)
+    if isinstance(value, (float, np.floating)):
+        return np.array([float(value)], dtype=np.float64)
+    if isinstance(value, (list, tuple)):
+        return np.array([float(v) for v in value], dtype=np.float64)
+    return str(value)
+
+
+def _untyped(value):
+    if isinstance(value, np.ndarray):
+        return float(value[0]) if value.size == 1 else [float(v) for v in value]
+    return value
+
+
+def write_exr(path, measurement: Measurement) -> Path:
+    """
+    Write a measurement to one multi-channel float32 EXR file, atomically.
+
+    The file is written next to its destination under a temporary name and renamed into place,
+    so an error never leaves a half-written file (nor destroys an existing one).
+
+    Parameters
+    ----------
+    path
+        Destination ``.exr`` path; its folder must exist.
+    measurement
+        The :class:`~radiosim.Measurement`.
+
+    Returns
+    -------
+    pathlib.Path
+        The path written.
+    """
+    import OpenEXR
+
+    from radiosim import __version__
+
+    path = Path(path)
+    if not path.parent.is_dir():
+        raise RadiosimError(f"cannot write {path}: folder {path.parent} does not exist")
+    m = measurement
+    channels = {}
+    for name in CHANNELS:
+        values = getattr(m, name)
+        channels[name] = np.ascontiguousarray(values, dtype=np.float32)
+    header = {
+        "compression": OpenEXR.ZIP_COMPRESSION,
+        "type": OpenEXR.scanlineimage,
+        _PREFIX + "version": __version__,
+        _PREFIX + "integration_time_s": _typed(m.integration_time),
+        _PREFIX + "t_start_s": _typed(m.t_start),
+        _PREFIX + "n_frames": int(m.n_frames),
+        _PREFIX + "pixel_pitch_m": _typed(m.camera.fpa.pixel_pitch),
+        _PREFIX + "response": m.camera.response,
+        _PREFIX + "signal_unit": m.signal_unit,
+        _PREFIX + "camera_name": m.camera.name,
+        _PREFIX + "camera": m.camera.to_toml(),
+    }
+    for name, unit in CHANNELS.items():
+        header[f"{_PREFIX}unit:{name}"] = unit or m.signal_unit
+    for key, value in m.scene.items():
+        header[f"scene:{key}"] = _typed(value)
+    temporary = path.with_name(f".{path.name}.{os.getpid()}.partial")
+    try:
+        with OpenEXR.File(header, channels) as exr:
+            exr.write(str(temporary))
+        os.replace(temporary, path)
+    except Exception as exc:
+        temporary.unlink(missing_ok=True)
+        if isinstance(exc, RadiosimError):
+            raise
+        raise RadiosimError(f"cannot write {path}: {exc}") from exc
+    return path
+
+
+def read_exr(path) -> Measurement:
+    """
+    Read a measurement written by :func:`write_exr`.
+
+    Arrays come back as float64 holding the file's float32 values, masks as booleans, the
+    camera rebuilt from its TOML, the scene description from the ``scene:`` attributes.
+    """
+    import OpenEXR
+
+    from radiosim.camera import Camera
+
+    path = Path(path)
+    if not path.is_file():
+        raise RadiosimError(f"{path} does not exist")
+    try:
+        with OpenEXR.File(str(path)) as exr:
+            header = dict(exr.header())
+            pixels = {name: np.array(ch.pixels) for name, ch in exr.channels().items()}
+    except Exception as exc:
+        raise RadiosimError(f"cannot read EXR file {path}: {exc}") from None
+    missing = [c for c in CHANNELS if c not in pixels]
+    if missing or _PREFIX + "camera" not in header:
+        raise RadiosimError(f"{path} is not a radiosim measurement (missing "
+                            f"{', '.join(missing) or 'the radiosim:camera attribute'})")
+    camera = Camera.from_dict(tomllib.loads(header[_PREFIX + "camera"]))
+    scene = {k[len("scene:"):]: _untyped(v) for k, v in header.items() if k.startswith("scene:")}
+
+    def arr(name):
+        return pixels[name].astype(np.float64)
+
+    return Measurement(
+        apparent_temperature=arr("apparent_temperature"),
+        counts=arr("counts"),
+        electrons=arr("electrons"),
+        saturated=pixels["saturated"] > 0.5,
+        under_range=pixels["under_range"] > 0.5,
+        tensor_max=arr("tensor_max"),
+        tensor_mean=arr("tensor_mean"),
+        tensor_std=arr("uncertainty"),
+        signal_mean=arr("signal_mean"),
+        signal_unit=header[_PREFIX + "signal_unit"],
+        camera=camera,
+        integration_time=_untyped(header[_PREFIX + "integration_time_s"]),
+        t_start=_untyped(header[_PREFIX + "t_start_s"]),
+        n_frames=int(header[_PREFIX + "n_frames"]),
+        scene=scene,
+    )
+
+
+def write_exr_sequence(folder, measurements, stem: str = "frame") -> list[Path]:
+    """
+    Write a recording (measurements in time order) as numbered files ``stem_0000.exr`` … .
+    """
+    folder = Path(folder)
+    folder.mkdir(parents=True, exist_ok=True)
+    width = max(4, len(str(len(measurements) - 1)))
+    return [write_exr(folder / f"{stem}_{i:0{width}d}.exr", m)
+            for i, m in enumerate(measurements)]
+
+
+def read_exr_sequence(folder, stem: str = "frame") -> list[Measurement]:
+    """Read the numbered files written by :func:`write_exr_sequence`, in order."""
+    files = sorted(Path(folder).glob(f"{stem}_*.exr"))
+    if not files:
+        raise RadiosimError(f"no {stem}_*.exr files in {folder}")
+    return [read_exr(f) for f in files]
