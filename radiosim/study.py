@@ -1,0 +1,459 @@
+"""
+Studies: a scene, cameras and sweeps as data (TOML), run into a tidy table and EXR files.
+
+A study file names
+
+-   a ``[scene]``: ``type = "segmented-chip"`` (optional ``params`` TOML, ``dt_us``, ``dx_um``,
+    ``emissivity`` as a number, a curve name or a table per region), ``type = "frames"``
+    (``path``, ``dt_us``, ``dx_um``, ``units``) or ``type = "fea"`` (``path``, ``dx_um``,
+    ``units`` table, ``fill_K``);
+-   ``[cameras.NAME]`` tables: ``preset = "nist-ir"`` or ``"linear-ideal"``, or ``file =
+    "camera.toml"``, with optional overrides ``response``, ``pixel_pitch_um``,
+    ``assumed_emissivity``;
+-   ``[[sweeps]]``: ``name``, ``cameras`` (names), and lists whose product is measured:
+    ``response`` (override), ``pixel_pitch_um`` or ``pixel_samples`` (p × p scene samples, the
+    paper's "p × p movie pixels"), ``integration_time_us`` or ``integration_time_frames``,
+    ``alignment`` (``"centred"`` on the event — the paper's bracketing —, ``"starting"`` at the
+    event frame's start, ``"ending"`` at its end). ``kind = "pixel"`` measures only the Column I
+    pixel where the band peaks (the paper's Figure 8) and records its instantaneous history.
+
+Shipped studies live in ``radiosim/studies`` (:func:`available_studies`); ``msec2009`` is the
+paper's Table 2 with the linear and Planck responses.
+"""
+
+from __future__ import annotations
+
+import csv
+import itertools
+import math
+import tomllib
+import warnings
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from radiosim.camera import Camera, FocalPlaneArray
+from radiosim.errors import RadiosimError, RadiosimWarning
+from radiosim.measurement import Measurement
+from radiosim.scenes.base import Scene
+from radiosim.units import shift
+
+__all__ = ["Study", "Sweep", "StudyResult", "available_studies", "summarise", "STUDY_DIRECTORY",
+           "RESULT_COLUMNS"]
+
+#: Folder of the shipped studies.
+STUDY_DIRECTORY = Path(__file__).resolve().parent / "studies"
+
+#: Columns of the results table, with units in the names.
+RESULT_COLUMNS = [
+    "study", "sweep", "camera", "response", "integration_time_us", "n_frames", "pixel_pitch_um",
+    "pixel_samples", "sensor_area_um2", "alignment", "t_start_us", "peak_scene_C", "peak_C",
+    "peak_error_K", "peak_uncertainty_K", "column_I_scene_C", "column_I_C", "column_I_error_K",
+    "column_I_uncertainty_K", "saturated_fraction", "under_range_fraction", "exr",
+]
+_C = 273.15
+ALIGNMENTS = ("centred", "starting", "ending")
+
+
+def available_studies() -> tuple[str, ...]:
+    """Names of the shipped studies."""
+    return tuple(sorted(p.stem for p in STUDY_DIRECTORY.glob("*.toml")))
+
+
+@dataclass(frozen=True)
+class Sweep:
+    """One sweep of a study: the product of its lists is measured with each camera."""
+
+    name: str
+    cameras: tuple[str, ...]
+    responses: tuple[str | None, ...] = (None,)
+    pixel_pitches: tuple[float | None, ...] = (None,)  # [m]; None: the camera's own
+    pixel_samples: tuple[int, ...] = ()
+    integration_times: tuple[float, ...] = ()  # [s]
+    integration_frames: tuple[int, ...] = ()
+    alignments: tuple[str, ...] = ("centred",)
+    kind: str = "field"
+
+    @classmethod
+    def from_dict(cls, data: dict, cameras) -> Sweep:
+        data = dict(data)
+        name = str(data.pop("name", "sweep"))
+        names = tuple(data.pop("cameras", ()))
+        unknown = [c for c in names if c not in cameras]
+        if not names or unknown:
+            raise RadiosimError(f"sweep {name!r}: cameras must name [cameras.*] tables "
+                                f"({', '.join(cameras)}); got {list(names)}")
+
+        def numbers(key, exponent=0):
+            values = data.pop(key, None)
+            if values is None:
+                return ()
+            if not isinstance(values, list) or not values or not all(
+                    isinstance(v, (int, float)) and not isinstance(v, bool) and v > 0
+                    for v in values):
+                raise RadiosimError(f"sweep {name!r}: {key} must be a list of positive numbers")
+            return tuple(shift(v, exponent) for v in values)
+
+        times, frames = numbers("integration_time_us", -6), numbers("integration_time_frames")
+        if bool(times) == bool(frames):
+            raise RadiosimError(f"sweep {name!r}: give integration_time_us or "
+                                "integration_time_frames (one of them)")
+        pitches, samples = numbers("pixel_pitch_um", -6), numbers("pixel_samples")
+        if pitches and samples:
+            raise RadiosimError(f"sweep {name!r}: give pixel_pitch_um or pixel_samples, not both")
+        responses = tuple(data.pop("response", [None]))
+        if any(r not in (None, "linear", "planck") for r in responses):
+            raise RadiosimError(f"sweep {name!r}: response must be 'linear' or 'planck'")
+        alignments = tuple(data.pop("alignment", ["centred"]))
+        if any(a not in ALIGNMENTS for a in alignments):
+            raise RadiosimError(f"sweep {name!r}: alignment must be one of "
+                                f"{', '.join(ALIGNMENTS)}")
+        kind = data.pop("kind", "field")
+        if kind not in ("field", "pixel"):
+            raise RadiosimError(f"sweep {name!r}: kind must be 'field' or 'pixel'")
+        if data:
+            raise RadiosimError(f"sweep {name!r}: unknown key(s) {', '.join(data)}")
+        return cls(name=name, cameras=names, responses=responses,
+                   pixel_pitches=pitches or (None,), pixel_samples=tuple(int(s) for s in samples),
+                   integration_times=times, integration_frames=tuple(int(f) for f in frames),
+                   alignments=alignments, kind=kind)
+
+
+@dataclass
+class StudyResult:
+    """What a study run produced: the table rows and where the files are."""
+
+    rows: list[dict]
+    table: Path | None = None
+    exr_directory: Path | None = None
+    history: Path | None = None
+    measurements: dict[str, Measurement] = field(default_factory=dict)
+
+
+def summarise(m: Measurement, scene: Scene | None = None) -> dict:
+    """
+    The paper's per-measurement numbers: peak (with its error and uncertainty) and Column I.
+
+    The peak is the highest valid reading; its error is that reading minus the scene's peak
+    (the largest tensor maximum), its uncertainty the tensor standard deviation at that pixel.
+    Column I (scenes with ``column_x``) is the pixel column containing it, likewise.
+    """
+    apparent = m.apparent_temperature
+    out = {"peak_scene_C": float(m.tensor_max.max()) - _C}
+    if np.isfinite(apparent).any():
+        i, j = np.unravel_index(np.nanargmax(apparent), apparent.shape)
+        out.update(peak_C=float(apparent[i, j]) - _C,
+                   peak_error_K=float(apparent[i, j] - m.tensor_max.max()),
+                   peak_uncertainty_K=float(m.tensor_std[i, j]))
+    else:
+        out.update(peak_C=math.nan, peak_error_K=math.nan, peak_uncertainty_K=math.nan)
+    column = _column_index(m, scene)
+    if column is not None:
+        col = apparent[:, column]
+        scene_peak = float(m.tensor_max[:, column].max())
+        out["column_I_scene_C"] = scene_peak - _C
+        if np.isfinite(col).any():
+            i = int(np.nanargmax(col))
+            out.update(column_I_C=float(col[i]) - _C, column_I_error_K=float(col[i] - scene_peak),
+                       column_I_uncertainty_K=float(m.tensor_std[i, column]))
+    out["saturated_fraction"] = m.saturated_fraction
+    out["under_range_fraction"] = float(np.mean(m.under_range))
+    return out
+
+
+def _column_index(m: Measurement, scene) -> int | None:
+    if scene is None or not hasattr(scene, "column_x"):
+        return None
+    column = int(math.floor((scene.column_x("I") - m.camera.fpa.origin[1])
+                            / m.camera.fpa.pixel_pitch))
+    return column if 0 <= column < m.shape[1] else None
+
+
+class Study:
+    """
+    A study: scene, cameras and sweeps (see the module docstring for the TOML format).
+
+    Examples
+    --------
+    >>> study = Study.preset("msec2009")
+    >>> [s.name for s in study.sweeps]
+    ['integration-time', 'size-of-source', 'long-integration']
+    """
+
+    def __init__(self, name: str, scene: dict, cameras: dict[str, Camera], sweeps: list[Sweep],
+                 description: str = "", base: Path | None = None):
+        self.name, self.description = name, description
+        self.scene_spec, self.cameras, self.sweeps = dict(scene), cameras, sweeps
+        self.base = base or Path.cwd()
+        self._scene = None
+
+    # -- construction -------------------------------------------------------------------------
+
+    @classmethod
+    def preset(cls, name: str) -> Study:
+        """A shipped study (see :func:`available_studies`)."""
+        path = STUDY_DIRECTORY / f"{name}.toml"
+        if not path.is_file():
+            raise RadiosimError(f"unknown study {name!r}; available: "
+                                f"{', '.join(available_studies())}")
+        return cls.from_toml(path)
+
+    @classmethod
+    def from_toml(cls, path) -> Study:
+        """A study from a TOML file (relative paths in it are relative to the file)."""
+        path = Path(path)
+        try:
+            data = tomllib.loads(path.read_text(encoding="utf-8"))
+        except (OSError, UnicodeDecodeError) as exc:
+            raise RadiosimError(f"cannot read study {path}: {exc}") from exc
+        except tomllib.TOMLDecodeError as exc:
+            raise RadiosimError(f"{path} is not valid TOML: {exc}") from exc
+        try:
+            return cls.from_dict(data, base=path.parent)
+        except RadiosimError as exc:
+            raise RadiosimError(f"{path}: {exc}") from None
+
+    @classmethod
+    def from_dict(cls, data: dict, base: Path | None = None) -> Study:
+        data = dict(data)
+        base = base or Path.cwd()
+        name = str(data.pop("name", "study"))
+        description = str(data.pop("description", ""))
+        scene = data.pop("scene", None)
+        if not isinstance(scene, dict) or "type" not in scene:
+            raise RadiosimError("a study needs a [scene] table with a type")
+        camera_tables = data.pop("cameras", None)
+        if not isinstance(camera_tables, dict) or not camera_tables:
+            raise RadiosimError("a study needs at least one [cameras.NAME] table")
+        cameras = {n: _camera_from(t, n, base) for n, t in camera_tables.items()}
+        sweeps = [Sweep.from_dict(s, cameras) for s in data.pop("sweeps", [])]
+        if not sweeps:
+            raise RadiosimError("a study needs at least one [[sweeps]] table")
+        if data:
+            raise RadiosimError(f"unknown study key(s): {', '.join(data)}")
+        return cls(name, scene, cameras, sweeps, description, base)
+
+    # -- the scene ----------------------------------------------------------------------------
+
+    @property
+    def scene(self) -> Scene:
+        """The study's scene (built on first use)."""
+        if self._scene is None:
+            self._scene = _scene_from(self.scene_spec, self.base)
+        return self._scene
+
+    # -- the measurements ---------------------------------------------------------------------
+
+    def plan(self):
+        """Every (sweep, camera name, camera, integration time [s], alignment) to measure."""
+        scene = self.scene
+        for sweep in self.sweeps:
+            pitches = ([p * scene.dx for p in sweep.pixel_samples] if sweep.pixel_samples
+                       else list(sweep.pixel_pitches))
+            times = (list(sweep.integration_times) if sweep.integration_times
+                     else [n * scene.dt for n in sweep.integration_frames])
+            for name, response, pitch, t_int, alignment in itertools.product(
+                    sweep.cameras, sweep.responses, pitches, times, sweep.alignments):
+                camera = self.cameras[name]
+                if response is not None and response != camera.response:
+                    camera = camera.replace(response=response)
+                if pitch is not None:
+                    fpa = camera.fpa
+                    camera = camera.replace(fpa=FocalPlaneArray(
+                        pixel_pitch=pitch, shape=fpa.shape, fill_factor=fpa.fill_factor,
+                        detector_pitch=None if fpa.detector_pitch is None else
+                        fpa.detector_pitch * pitch / fpa.pixel_pitch,
+                        quantum_efficiency=fpa.quantum_efficiency, origin=fpa.origin))
+                yield sweep, name, camera, t_int, alignment
+
+    def _window_start(self, t_int: float, alignment: str) -> float | None:
+        scene = self.scene
+        if scene.event_time is None:
+            return None if alignment == "centred" else 0.0
+        if alignment == "centred":
+            return scene.event_time - 0.5 * t_int
+        if alignment == "starting":
+            return scene.event_time - 0.5 * scene.dt
+        return scene.event_time + 0.5 * scene.dt - t_int
+
+    def run(self, out=None, rng=0, write_exr: bool = True,
+            progress: Callable[[int, int, str], None] | None = None) -> StudyResult:
+        """
+        Run every measurement of the study.
+
+        Parameters
+        ----------
+        out
+            Folder for ``results.csv``, ``exr/`` and ``pixel_history.csv``; ``None``: keep
+            results in memory only.
+        rng
+            Seed or generator for the cameras' noise (one generator for the whole study).
+        write_exr
+            Write each field measurement as an EXR file.
+        progress
+            Called as ``progress(done, total, label)`` after each measurement.
+        """
+        from radiosim.io.exr import write_exr as write
+
+        rng = np.random.default_rng(rng)
+        plan = list(self.plan())
+        out = None if out is None else Path(out)
+        exr_dir = None
+        if out is not None:
+            out.mkdir(parents=True, exist_ok=True)
+            if write_exr:
+                exr_dir = out / "exr"
+                exr_dir.mkdir(exist_ok=True)
+        result = StudyResult(rows=[], exr_directory=exr_dir)
+        history = {}
+        for done, (sweep, name, camera, t_int, alignment) in enumerate(plan, start=1):
+            scene = self.scene
+            label = (f"{sweep.name}: {name} ({camera.response}), {t_int * 1e6:g} µs, "
+                     f"{camera.fpa.pixel_pitch * 1e6:.3g} µm")
+            if sweep.kind == "pixel":
+                scene = self._band_pixel(camera)
+            with warnings.catch_warnings():
+                warnings.simplefilter("ignore", RadiosimWarning)
+                m = camera.measure(scene, t_int, self._window_start(t_int, alignment), rng)
+            row = {
+                "study": self.name, "sweep": sweep.name, "camera": name,
+                "response": camera.response, "integration_time_us": shift(t_int, 6),
+                "n_frames": m.n_frames, "pixel_pitch_um": shift(camera.fpa.pixel_pitch, 6),
+                "pixel_samples": round(camera.fpa.pixel_pitch / scene.dx, 6),
+                "sensor_area_um2": camera.fpa.fill_factor * (camera.fpa.pixel_pitch * 1e6) ** 2,
+                "alignment": alignment, "t_start_us": m.t_start * 1e6,
+            }
+            row.update(summarise(m, scene if sweep.kind == "field" else None))
+            if sweep.kind == "pixel":
+                row.update(peak_C=float(m.tensor_mean[0, 0]) - _C,
+                           peak_uncertainty_K=float(m.tensor_std[0, 0]))
+                key = (name, camera.response)
+                if t_int > history.get(key, (0.0,))[0]:
+                    history[key] = (t_int, m.t_start, scene)
+            elif exr_dir is not None:
+                filename = (f"{sweep.name}_{name}_{camera.response}_{t_int * 1e6:g}us_"
+                            f"{camera.fpa.pixel_pitch * 1e6:.4g}um_{alignment}.exr")
+                write(exr_dir / filename, m)
+                row["exr"] = f"exr/{filename}"
+            result.rows.append({k: row.get(k, "") for k in RESULT_COLUMNS})
+            result.measurements[_key(row)] = m if sweep.kind == "field" else None
+            if progress is not None:
+                progress(done, len(plan), label)
+        if out is not None:
+            result.table = out / "results.csv"
+            with result.table.open("w", newline="") as handle:
+                writer = csv.DictWriter(handle, fieldnames=RESULT_COLUMNS)
+                writer.writeheader()
+                writer.writerows(result.rows)
+            if history:
+                result.history = out / "pixel_history.csv"
+                self._write_history(result.history, history)
+        return result
+
+    # -- the band pixel (Figure 8) ------------------------------------------------------------
+
+    def _band_pixel(self, camera: Camera) -> Scene:
+        """The scene cropped to the Column I pixel where the band peaks in the event frame."""
+        scene = self.scene
+        if not hasattr(scene, "column_x"):
+            raise RadiosimError("a 'pixel' sweep needs a scene with reference columns "
+                                "(the segmented chip)")
+        pitch = camera.fpa.pixel_pitch / scene.dx
+        if abs(pitch - round(pitch)) > 1e-6:
+            raise RadiosimError("a 'pixel' sweep needs a pixel of a whole number of samples")
+        p = round(pitch)
+        column = int(scene.column_x("I") / scene.dx) // p
+        strip = scene.crop((0, scene.shape[0] - scene.shape[0] % p), (column * p, column * p + p))
+        event = scene.frame(int(scene.event_time / scene.dt), (slice(0, strip.shape[0]),
+                                                              slice(column * p, column * p + p)))
+        means = event.reshape(-1, p, p).mean(axis=(1, 2))
+        row = int(np.argmax(means))
+        return scene.crop((row * p, row * p + p), (column * p, column * p + p))
+
+    def _write_history(self, path: Path, history: dict):
+        """Instantaneous footprint mean of the band pixel over the longest window."""
+        rows = []
+        for (name, response), (t_int, t_start, pixel) in history.items():
+            first = int(math.floor(t_start / pixel.dt + 1e-9))
+            last = int(math.ceil((t_start + t_int) / pixel.dt - 1e-9))
+            for k in range(first, last):
+                rows.append({"camera": name, "response": response,
+                             "time_us": ((k + 0.5) * pixel.dt - t_start) * 1e6,
+                             "mean_C": float(pixel.frame(k).mean()) - _C})
+        with path.open("w", newline="") as handle:
+            writer = csv.DictWriter(handle, fieldnames=["camera", "response", "time_us",
+                                                        "mean_C"])
+            writer.writeheader()
+            writer.writerows(rows)
+
+
+def _key(row: dict) -> str:
+    return (f"{row['sweep']}|{row['camera']}|{row['response']}|{row['integration_time_us']}|"
+            f"{row['pixel_pitch_um']}|{row['alignment']}")
+
+
+def _camera_from(table: dict, name: str, base: Path) -> Camera:
+    table = dict(table)
+    if "preset" in table and "file" in table:
+        raise RadiosimError(f"camera {name!r}: give preset or file, not both")
+    if "file" in table:
+        camera = Camera.from_toml(base / table.pop("file"))
+    else:
+        preset = table.pop("preset", None)
+        if preset is None:
+            raise RadiosimError(f"camera {name!r}: needs preset = … or file = …")
+        if preset == "linear-ideal":
+            pitch = table.pop("pixel_pitch_um", None)
+            if pitch is None:
+                raise RadiosimError(f"camera {name!r}: linear-ideal needs pixel_pitch_um")
+            camera = Camera.linear_ideal(shift(pitch, -6))
+        else:
+            camera = Camera.preset(preset)
+    changes = {}
+    if "response" in table:
+        changes["response"] = table.pop("response")
+    if "assumed_emissivity" in table:
+        changes["assumed_emissivity"] = float(table.pop("assumed_emissivity"))
+    if "pixel_pitch_um" in table:
+        fpa = camera.fpa
+        changes["fpa"] = FocalPlaneArray(
+            pixel_pitch=shift(table.pop("pixel_pitch_um"), -6), shape=fpa.shape,
+            fill_factor=fpa.fill_factor, detector_pitch=fpa.detector_pitch,
+            quantum_efficiency=fpa.quantum_efficiency, origin=fpa.origin)
+    if table:
+        raise RadiosimError(f"camera {name!r}: unknown key(s) {', '.join(table)}")
+    return camera.replace(name=name, **changes)
+
+
+def _scene_from(spec: dict, base: Path) -> Scene:
+    from radiosim.io import read_fea_nodes, read_frames
+    from radiosim.scenes import ChipParameters, SegmentedChip
+
+    spec = dict(spec)
+    kind = spec.pop("type")
+
+    def take_length(key, default=None):
+        value = spec.pop(key, default)
+        return None if value is None else shift(value, -6)
+
+    emissivity = spec.pop("emissivity", 1.0)
+    if kind == "segmented-chip":
+        params = spec.pop("params", None)
+        params = ChipParameters.from_toml(base / params) if params else None
+        scene = SegmentedChip(params, dx=take_length("dx_um", 960 / 1440),
+                              dt=take_length("dt_us", 0.2), emissivity=emissivity)
+    elif kind == "frames":
+        scene = read_frames(base / spec.pop("path"), dt=take_length("dt_us"),
+                            dx=take_length("dx_um"), units=spec.pop("units", None),
+                            emissivity=emissivity)
+    elif kind == "fea":
+        scene = read_fea_nodes(base / spec.pop("path"), dx=take_length("dx_um"),
+                               dt=take_length("dt_us"), units=spec.pop("units", None),
+                               fill=float(spec.pop("fill_K", 293.15)), emissivity=emissivity)
+    else:
+        raise RadiosimError(f"scene type {kind!r} is not segmented-chip, frames or fea")
+    if spec:
+        raise RadiosimError(f"[scene]: unknown key(s) {', '.join(spec)}")
+    return scene
