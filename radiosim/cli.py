@@ -1,9 +1,10 @@
 """
 The ``radiosim`` command.
 
-``radiosim run`` measures the built-in segmented-chip scene with the linear ideal camera and the
-``nist-ir`` preset over a sweep of integration times, and prints (and optionally writes) a
-table; ``radiosim scene preview`` draws the scene like the paper's Figure 4.
+``radiosim run [STUDY]`` runs a study (the paper's by default) into a folder of results.csv, EXR
+files and figures; ``radiosim measure`` measures one scene file with one camera;
+``radiosim presets`` lists cameras and studies; ``radiosim scene preview`` draws the built-in
+scene like the paper's Figure 4. Options take human units (``10us``, ``6um``, ``739C``).
 ``radiosim presets`` lists the camera presets. The command owns all console output; the library
 only logs and warns.
 """
@@ -11,20 +12,37 @@ only logs and warns.
 from __future__ import annotations
 
 import argparse
-import csv
 import logging
+import math
 import sys
+import time
 import warnings
 from pathlib import Path
 
-import numpy as np
-
 from radiosim import __version__
-from radiosim.camera import Camera, available_presets
+from radiosim.camera import Camera, FocalPlaneArray, available_presets
 from radiosim.errors import RadiosimError, RadiosimWarning
 from radiosim.units import parse_quantity
 
-__all__ = ["main", "demo_scene"]
+__all__ = ["main", "parse_time", "parse_length", "parse_temperature"]
+
+def _parser_of(kind: str, positive: bool = True):
+    def parse(text: str) -> float:
+        try:
+            value = parse_quantity(text, kind)
+        except RadiosimError as exc:
+            raise argparse.ArgumentTypeError(str(exc)) from None
+        if positive and not value > 0:
+            raise argparse.ArgumentTypeError(f"{text!r} must be > 0")
+        return value
+
+    return parse
+
+
+parse_length = _parser_of("length")
+parse_temperature = _parser_of("temperature")
+parse_time_or_zero = _parser_of("time", positive=False)
+
 
 def parse_time(text: str) -> float:
     """A duration with a unit (``10us``, ``0.5ms``, ``200ns``) in seconds, > 0."""
@@ -38,77 +56,127 @@ def parse_time(text: str) -> float:
     return value
 
 
-def demo_scene(emissivity: float = 1.0, dt: float = 0.2e-6):
-    """
-    The demonstration scene: the built-in segmented chip, with a grey ``emissivity`` for the
-    steel (chip and workpiece) and the tool, and the air seen as a blackbody background.
-    """
-    from radiosim.scenes import SegmentedChip
+class _Progress:
+    """A one-line progress bar on stderr (the library never prints; the command does)."""
 
-    grey = {"chip": emissivity, "workpiece": emissivity, "tool": emissivity, "air": 1.0}
-    return SegmentedChip(dt=dt, emissivity=grey)
+    def __init__(self, stream=None, width=30):
+        self.stream = stream or sys.stderr  # looked up now, not at import: redirections hold
+        self.width = width
+        self.start = time.perf_counter()
+
+    def __call__(self, done, total, label):
+        filled = int(self.width * done / total)
+        elapsed = time.perf_counter() - self.start
+        line = (f"\r[{'#' * filled}{'.' * (self.width - filled)}] {done}/{total} "
+                f"{elapsed:5.0f} s  {label[:60]:<60}")
+        self.stream.write(line)
+        if done == total:
+            self.stream.write("\n")
+        self.stream.flush()
 
 
 def _run(args) -> int:
-    scene = demo_scene(args.emissivity)
-    column = int(scene.column_x("I") // 6e-6)
-    cameras = [Camera.linear_ideal(6e-6), Camera.preset("nist-ir")]
-    rows = []
-    for camera in cameras:
-        for t_int in args.integration_times:
-            with warnings.catch_warnings(record=True):
-                warnings.simplefilter("always", RadiosimWarning)
-                m = camera.measure(scene, t_int, rng=args.seed)
-            col = m.apparent_temperature[:, column]
-            rows.append({
-                "camera": camera.name,
-                "response": camera.response,
-                "integration_time_us": t_int * 1e6,
-                "frames": m.n_frames,
-                "scene_peak_C": float(m.tensor_max.max()) - 273.15,
-                "apparent_peak_C": float(np.nanmax(m.apparent_temperature)) - 273.15
-                if m.valid.any() else float("nan"),
-                "column_I_scene_C": float(m.tensor_max[:, column].max()) - 273.15,
-                "column_I_apparent_C": float(np.nanmax(col)) - 273.15
-                if np.isfinite(col).any() else float("nan"),
-                "saturated_fraction": m.saturated_fraction,
-            })
+    from radiosim.plotting import make_figures
+    from radiosim.study import Study, available_studies
 
-    def cell(value):
-        return f"{'—':>10}" if np.isnan(value) else f"{value:>10.1f}"
-
-    print(f"radiosim {__version__}: segmented chip (250 m/min, AISI 1045-like), emissivity "
-          f"{args.emissivity}; event of the fully developed shear band")
-    print(f"{'camera':<13}{'t_int':>7}{'frames':>7}{'peak':>10}{'read':>10}"
-          f"{'col. I':>10}{'read':>10}{'saturated':>11}")
-    print(f"{'':<13}{'[µs]':>7}{'':>7}{'[°C]':>10}{'[°C]':>10}{'[°C]':>10}{'[°C]':>10}"
-          f"{'[%]':>11}")
-    for r in rows:
-        print(f"{r['camera']:<13}{r['integration_time_us']:>7.1f}{r['frames']:>7d}"
-              f"{cell(r['scene_peak_C'])}{cell(r['apparent_peak_C'])}"
-              f"{cell(r['column_I_scene_C'])}{cell(r['column_I_apparent_C'])}"
-              f"{100 * r['saturated_fraction']:>11.1f}")
-    print("peak / col. I: scene maxima over the window; read: the camera's highest valid "
-          "reading (— where all saturated)")
-    if args.out:
-        out = Path(args.out)
-        out.mkdir(parents=True, exist_ok=True)
-        path = out / "demo.csv"
-        with path.open("w", newline="") as handle:
-            writer = csv.DictWriter(handle, fieldnames=list(rows[0]))
-            writer.writeheader()
-            writer.writerows(rows)
+    target = args.study
+    if Path(target).suffix == ".toml" or Path(target).is_file():
+        study = Study.from_toml(target)
+    elif target in available_studies():
+        study = Study.preset(target)
+    else:
+        raise RadiosimError(f"{target!r} is neither a study file nor a shipped study "
+                            f"({', '.join(available_studies())})")
+    out = Path(args.out or f"radiosim-{study.name}")
+    print(f"radiosim {__version__}: study {study.name} → {out}/")
+    if study.description:
+        print(f"  {study.description}")
+    result = study.run(out, rng=args.seed, write_exr=not args.no_exr,
+                       progress=None if args.quiet else _Progress())
+    figures = [] if args.no_figures or args.no_exr else make_figures(out, study.scene)
+    _print_table(result.rows)
+    print(f"wrote {result.table}" + (f", {len(result.rows)} rows" if result.rows else ""))
+    if result.exr_directory:
+        print(f"wrote {sum(1 for r in result.rows if r['exr'])} EXR files in "
+              f"{result.exr_directory}")
+    for path in figures:
         print(f"wrote {path}")
     return 0
 
 
+def _print_table(rows):
+    def cell(value, width=9):
+        if value == "" or (isinstance(value, float) and math.isnan(value)):
+            return f"{'—':>{width}}"
+        return f"{value:>{width}.1f}"
+
+    print(f"{'sweep':<18}{'camera':<9}{'t_int':>8}{'pixel':>7}{'peak':>9}{'error':>9}"
+          f"{'col. I':>9}{'error':>9}{'sat.':>7}")
+    print(f"{'':<27}{'[µs]':>8}{'[µm]':>7}{'[°C]':>9}{'[K]':>9}{'[°C]':>9}{'[K]':>9}{'[%]':>7}")
+    for r in rows:
+        print(f"{r['sweep'][:17]:<18}{r['camera'][:8]:<9}{r['integration_time_us']:>8.3g}"
+              f"{r['pixel_pitch_um']:>7.3g}{cell(r['peak_C'])}{cell(r['peak_error_K'])}"
+              f"{cell(r['column_I_C'])}{cell(r['column_I_error_K'])}"
+              f"{100 * r['saturated_fraction']:>7.1f}")
+
+
+def _measure(args) -> int:
+    from radiosim.io import read_fea_nodes, read_frames, write_exr
+    from radiosim.study import summarise
+
+    if args.camera == "linear-ideal":
+        if args.pixel_pitch is None:
+            raise RadiosimError("the linear-ideal camera needs --pixel-pitch (e.g. 6um)")
+        camera = Camera.linear_ideal(args.pixel_pitch)
+    elif args.camera.endswith(".toml"):
+        camera = Camera.from_toml(args.camera)
+    else:
+        camera = Camera.preset(args.camera)
+    if args.pixel_pitch is not None and args.camera != "linear-ideal":
+        camera = camera.replace(fpa=FocalPlaneArray(
+            pixel_pitch=args.pixel_pitch, shape=camera.fpa.shape,
+            fill_factor=camera.fpa.fill_factor, detector_pitch=camera.fpa.detector_pitch,
+            quantum_efficiency=camera.fpa.quantum_efficiency))
+    path = Path(args.scene)
+    if path.suffix.lower() == ".csv":
+        units = {"time": args.time_unit, "length": args.length_unit,
+                 "temperature": args.units} if args.units else None
+        if units is not None:
+            units = {k: v for k, v in units.items() if v}
+        scene = read_fea_nodes(path, dx=args.dx, dt=args.dt, units=units, fill=args.fill)
+    else:
+        scene = read_frames(path, dt=args.dt, dx=args.dx, units=args.units)
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always", RadiosimWarning)
+        m = camera.measure(scene, args.integration_time, t_start=args.start, rng=args.seed)
+    for w in caught:
+        print(f"warning: {w.message}", file=sys.stderr)
+    summary = summarise(m)
+    print(f"{camera.name}: {m.shape[1]} × {m.shape[0]} pixels, {m.integration_time * 1e6:g} µs "
+          f"from {m.t_start * 1e6:g} µs ({m.n_frames} frames)")
+    print(f"  scene peak {summary['peak_scene_C']:.1f} °C; highest reading "
+          f"{summary['peak_C']:.1f} °C (error {summary['peak_error_K']:.1f} K, ±1σ "
+          f"{summary['peak_uncertainty_K']:.1f} K); saturated {100 * m.saturated_fraction:.1f} %,"
+          f" under range {100 * summary['under_range_fraction']:.1f} %")
+    if args.out:
+        print(f"wrote {write_exr(args.out, m)}")
+    return 0
+
+
 def _presets(args) -> int:
+    from radiosim.study import Study, available_studies
+
+    print("cameras (radiosim measure --camera NAME):")
+    print(f"  {'linear-ideal':<14} linear  the paper's ideal camera (any pixel pitch)")
     for name in available_presets():
         camera = Camera.preset(name)
         rows, cols = camera.fpa.shape or ("-", "-")
-        print(f"{name:<12} {camera.response:<7} {cols} x {rows} px, "
+        print(f"  {name:<14} {camera.response:<7} {cols} x {rows} px, "
               f"{camera.fpa.pixel_pitch * 1e6:g} µm object pixel, "
               f"{camera.optics.band[0] * 1e6:g}-{camera.optics.band[1] * 1e6:g} µm")
+    print("studies (radiosim run NAME):")
+    for name in available_studies():
+        print(f"  {name:<14} {Study.preset(name).description}")
     return 0
 
 
@@ -130,17 +198,42 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument("--version", action="version", version=f"radiosim {__version__}")
     parser.add_argument("-v", "--verbose", action="store_true", help="log progress")
     sub = parser.add_subparsers(dest="command", required=True)
-    run = sub.add_parser("run", help="measure the built-in segmented-chip scene")
-    run.add_argument("--integration-times", type=parse_time, nargs="+",
-                     default=[1e-6, 10e-6, 45e-6, 90e-6], metavar="T",
-                     help="integration times with units (default: 1us 10us 45us 90us)")
-    run.add_argument("--emissivity", type=float, default=1.0,
-                     help="grey emissivity of chip, workpiece and tool (default 1, the "
-                     "paper's blackbody; clean steel is about 0.2 in 3-5 µm)")
+    run = sub.add_parser("run", help="run a study (default: the paper's, msec2009)",
+                         description="Run a study: every measurement of its sweeps, then "
+                         "results.csv, EXR files and the paper's figures in --out.")
+    run.add_argument("study", nargs="?", default="msec2009",
+                     help="a study TOML file or a shipped study name (default msec2009)")
+    run.add_argument("--out", help="output folder (default radiosim-STUDY)")
     run.add_argument("--seed", type=int, default=0, help="noise seed (default 0)")
-    run.add_argument("--out", help="folder to write demo.csv into")
+    run.add_argument("--no-exr", action="store_true", help="write no EXR files (nor maps)")
+    run.add_argument("--no-figures", action="store_true", help="write no figures")
+    run.add_argument("-q", "--quiet", action="store_true", help="no progress bar")
     run.set_defaults(func=_run)
-    presets = sub.add_parser("presets", help="list the camera presets")
+    measure = sub.add_parser("measure", help="measure one scene file with one camera",
+                             description="Measure a scene file (.npy, .npz, a folder or glob "
+                             "of .exr frames, or an FEA nodal .csv) with one camera.")
+    measure.add_argument("scene", help="scene file, EXR folder or pattern")
+    measure.add_argument("--camera", default="nist-ir",
+                         help="preset name, linear-ideal, or a camera TOML (default nist-ir)")
+    measure.add_argument("--integration-time", type=parse_time, required=True, metavar="T",
+                         help="integration time with a unit, e.g. 10us")
+    measure.add_argument("--start", type=parse_time_or_zero, default=None,
+                         help="window start, e.g. 45us (default: from 0 or centred on the "
+                         "scene's event)")
+    measure.add_argument("--dt", type=parse_time, help="frame interval, e.g. 0.2us")
+    measure.add_argument("--dx", type=parse_length, help="sample pitch, e.g. 0.5um")
+    measure.add_argument("--pixel-pitch", type=parse_length,
+                         help="object-space pixel pitch, e.g. 6um (linear-ideal needs it)")
+    measure.add_argument("--units", choices=["K", "C"], help="temperature unit of the file")
+    measure.add_argument("--time-unit", choices=["s", "ms", "us", "ns"],
+                         help="FEA CSV time unit")
+    measure.add_argument("--length-unit", choices=["m", "mm", "um"], help="FEA CSV length unit")
+    measure.add_argument("--fill", type=parse_temperature, default=293.15,
+                         help="FEA: temperature outside the mesh, e.g. 20C (default 20C)")
+    measure.add_argument("--seed", type=int, default=0, help="noise seed (default 0)")
+    measure.add_argument("--out", help="write the measurement to this EXR file")
+    measure.set_defaults(func=_measure)
+    presets = sub.add_parser("presets", help="list the cameras and studies")
     presets.set_defaults(func=_presets)
     scene = sub.add_parser("scene", help="the built-in segmented-chip scene")
     scene_sub = scene.add_subparsers(dest="scene_command", required=True)

@@ -3,24 +3,96 @@
 import argparse
 import csv
 
+import numpy as np
 import pytest
 
-from radiosim.cli import main, parse_time
+from radiosim.cli import main, parse_length, parse_temperature, parse_time
+from radiosim.io import read_exr
+
+SMALL_STUDY = """
+name = "small"
+description = "a quick study on a coarse chip"
+[scene]
+type = "segmented-chip"
+dx_um = 2.0
+dt_us = 1.0
+[cameras.linear]
+preset = "linear-ideal"
+pixel_pitch_um = 6.0
+[cameras.camera]
+preset = "nist-ir"
+[[sweeps]]
+name = "integration-time"
+cameras = ["linear", "camera"]
+integration_time_us = [1, 10]
+[[sweeps]]
+name = "size-of-source"
+cameras = ["linear"]
+pixel_samples = [3, 6]
+integration_time_frames = [1]
+"""
 
 
-def test_run_prints_and_writes_the_demo_table(capsys, tmp_path):
-    args = ["run", "--integration-times", "1us", "10us", "--emissivity", "0.3",
-            "--out", str(tmp_path)]
+def test_run_a_study_file_writes_table_exr_and_figures(tmp_path, capsys):
+    study = tmp_path / "small.toml"
+    study.write_text(SMALL_STUDY)
+    out = tmp_path / "out"
+    assert main(["run", str(study), "--out", str(out), "--quiet"]) == 0
+    printed = capsys.readouterr().out
+    assert "study small" in printed and "wrote" in printed
+    rows = list(csv.DictReader((out / "results.csv").open()))
+    assert len(rows) == 6
+    assert {r["camera"] for r in rows} == {"linear", "camera"}
+    first = rows[0]
+    assert first["integration_time_us"] == "1.0" and first["n_frames"] == "1"
+    m = read_exr(out / first["exr"])
+    assert m.integration_time == pytest.approx(1e-6)
+    # Motion blur: 10 µs reads the shear band colder than 1 µs.
+    lin = [r for r in rows if r["camera"] == "linear" and r["sweep"] == "integration-time"]
+    assert float(lin[1]["column_I_C"]) < float(lin[0]["column_I_C"])
+    assert (out / "figures" / "fig05_peak.png").is_file()
+    assert (out / "figures" / "fig09-11_maps.png").is_file()  # the 10 µs case
+
+
+def test_progress_bar_goes_to_stderr(tmp_path, capsys):
+    study = tmp_path / "small.toml"
+    study.write_text(SMALL_STUDY)
+    assert main(["run", str(study), "--out", str(tmp_path / "o"), "--no-exr"]) == 0
+    captured = capsys.readouterr()
+    assert "6/6" in captured.err and "6/6" not in captured.out
+
+
+def test_measure_a_numpy_file(tmp_path, capsys):
+    frames = np.full((10, 30, 30), 500.0)
+    np.save(tmp_path / "s.npy", frames)
+    out = tmp_path / "m.exr"
+    args = ["measure", str(tmp_path / "s.npy"), "--camera", "linear-ideal", "--pixel-pitch",
+            "6um", "--dx", "1um", "--dt", "0.2us", "--units", "C", "--integration-time", "1us",
+            "--out", str(out)]
     assert main(args) == 0
+    assert "highest reading 500.0 °C" in capsys.readouterr().out
+    assert read_exr(out).shape == (5, 5)
+
+
+def test_measure_errors_are_reported_not_raised(tmp_path, capsys):
+    np.save(tmp_path / "s.npy", np.full((4, 30, 30), 500.0))
+    args = ["measure", str(tmp_path / "s.npy"), "--camera", "linear-ideal",
+            "--integration-time", "1us", "--dx", "1um", "--dt", "1us", "--units", "K"]
+    assert main(args) == 2
+    assert "needs --pixel-pitch" in capsys.readouterr().err
+    assert main(args[:-6] + ["--pixel-pitch", "6um", "--dx", "1um", "--dt", "1us"]) == 2
+    assert "carry no unit" in capsys.readouterr().err
+
+
+def test_presets_lists_cameras_and_studies(capsys):
+    assert main(["presets"]) == 0
     out = capsys.readouterr().out
-    assert "linear-ideal" in out and "nist-ir" in out
-    rows = list(csv.DictReader((tmp_path / "demo.csv").open()))
-    assert [r["camera"] for r in rows] == ["linear-ideal"] * 2 + ["nist-ir"] * 2
-    # Motion blur: the longer window reads the shear band colder.
-    assert float(rows[1]["column_I_apparent_C"]) < float(rows[0]["column_I_apparent_C"])
-    assert rows[0]["frames"] == "5"  # 1 µs centred on the event frame: exactly 5 frames
-    # The camera set to ε = 1 reads a grey body of ε = 0.3 far colder than the ideal camera.
-    assert float(rows[2]["apparent_peak_C"]) < float(rows[0]["apparent_peak_C"]) - 100
+    assert "nist-ir" in out and "msec2009" in out and "linear-ideal" in out
+
+
+def test_unknown_study(capsys):
+    assert main(["run", "nonesuch"]) == 2
+    assert "neither a study file nor a shipped study" in capsys.readouterr().err
 
 
 def test_scene_preview_writes_a_png(tmp_path, capsys):
@@ -29,25 +101,27 @@ def test_scene_preview_writes_a_png(tmp_path, capsys):
     assert out.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
 
 
-def test_presets_lists_nist(capsys):
-    assert main(["presets"]) == 0
-    assert "nist-ir" in capsys.readouterr().out
-
-
 @pytest.mark.parametrize("text, seconds", [("10us", 1e-5), ("0.5ms", 5e-4), ("200ns", 2e-7),
-                                           ("2µs", 2e-6), ("1s", 1.0)])
+                                           ("2µs", 2e-6), ("1s", 1.0), ("2.5 us", 2.5e-6)])
 def test_human_durations(text, seconds):
     assert parse_time(text) == pytest.approx(seconds)
 
 
-@pytest.mark.parametrize("text", ["10", "us", "10xs", "0us", "ten us"])
-def test_malformed_durations_are_refused(text, capsys):
+def test_human_lengths_and_temperatures():
+    assert parse_length("6um") == 6e-6
+    assert parse_length("0.5 mm") == 5e-4
+    assert parse_temperature("739C") == pytest.approx(1012.15)
+    assert parse_temperature("300K") == 300.0
+
+
+@pytest.mark.parametrize("text", ["10", "us", "10xs", "0us", "ten us", "-3us"])
+def test_malformed_durations_are_refused(text):
+    with pytest.raises(argparse.ArgumentTypeError):
+        parse_time(text)
+
+
+def test_malformed_option_exits_with_a_message(capsys):
     with pytest.raises(SystemExit) as info:
-        main(["run", "--integration-times", text])
+        main(["measure", "x.npy", "--integration-time", "10xs"])
     assert info.value.code == 2
-    assert "not a positive duration with a unit" in capsys.readouterr().err
-
-
-def test_negative_duration_is_refused():
-    with pytest.raises(argparse.ArgumentTypeError, match="positive duration"):
-        parse_time("-3us")
+    assert "10xs" in capsys.readouterr().err

@@ -1,0 +1,85 @@
+"""Studies as data."""
+
+import tomllib
+
+import numpy as np
+import pytest
+
+from radiosim.errors import RadiosimError
+from radiosim.study import STUDY_DIRECTORY, RESULT_COLUMNS, Study, available_studies
+
+
+def test_the_papers_study_plans_table_2():
+    study = Study.preset("msec2009")
+    plan = list(study.plan())
+    time_sweep = [p for p in plan if p[0].name == "integration-time"]
+    assert [t for *_, t, _ in time_sweep[:7]] == pytest.approx(
+        [1e-6, 10e-6, 25e-6, 45e-6, 60e-6, 75e-6, 90e-6])
+    assert {c.response for _, _, c, _, _ in time_sweep} == {"linear", "planck"}
+    size = [p for p in plan if p[0].name == "size-of-source"]
+    samples = [c.fpa.pixel_pitch / study.scene.dx for _, _, c, _, _ in size[:7]]
+    assert samples == pytest.approx([3, 6, 9, 12, 15, 18, 21])
+    assert all(t == pytest.approx(0.2e-6) for *_, t, _ in size)
+    assert time_sweep[0][2].fpa.pixel_pitch == 6e-6
+    assert "msec2009" in available_studies()
+
+
+def coarse_paper_study():
+    data = tomllib.loads((STUDY_DIRECTORY / "msec2009.toml").read_text())
+    data["scene"].update(dx_um=2.0, dt_us=1.0)  # a coarse version of the paper's study
+    data["sweeps"][0]["integration_time_us"] = [1, 10, 90]
+    data["sweeps"][1]["pixel_samples"] = [3, 6]
+    data["sweeps"][2]["integration_time_us"] = [1, 90, 180]
+    return Study.from_dict(data)
+
+
+def test_a_coarse_run_of_the_papers_study(tmp_path):
+    study = coarse_paper_study()
+    result = study.run(tmp_path, write_exr=False)
+    assert list(result.rows[0]) == RESULT_COLUMNS
+    rows = {(r["sweep"], r["camera"], r["integration_time_us"], r["pixel_pitch_um"]): r
+            for r in result.rows}
+    lin_1, lin_90 = rows[("integration-time", "linear", 1.0, 6.0)], rows[
+        ("integration-time", "linear", 90.0, 6.0)]
+    planck_90 = rows[("integration-time", "planck", 90.0, 6.0)]
+    # Motion blur, and the radiance non-linearity: the Planck camera reads the band hotter.
+    assert lin_90["column_I_C"] < lin_1["column_I_C"] - 100
+    assert planck_90["column_I_C"] > lin_90["column_I_C"] + 10
+    # Long integration settles on the period's mean: 90 and 180 µs agree.
+    long = {r["integration_time_us"]: r for r in result.rows if r["sweep"] == "long-integration"}
+    assert long[180.0]["peak_C"] == pytest.approx(long[90.0]["peak_C"], abs=0.5)
+    assert (tmp_path / "results.csv").is_file() and (tmp_path / "pixel_history.csv").is_file()
+
+
+def test_window_alignments(tmp_path):
+    stack = tmp_path / "s.npy"
+    np.save(stack, np.full((20, 12, 12), 400.0))
+    study = Study.from_dict({
+        "name": "frames",
+        "scene": {"type": "frames", "path": str(stack), "dt_us": 1.0, "dx_um": 1.0,
+                  "units": "K"},
+        "cameras": {"c": {"preset": "linear-ideal", "pixel_pitch_um": 3.0}},
+        "sweeps": [{"name": "s", "cameras": ["c"], "integration_time_us": [2, 4],
+                    "alignment": ["starting", "ending"]}],
+    })
+    rows = study.run(write_exr=False).rows
+    assert [r["t_start_us"] for r in rows] == [0.0, 0.0, 0.0, 0.0]  # no event: from t = 0
+    assert all(r["peak_C"] == pytest.approx(400 - 273.15) for r in rows)
+    assert all(r["peak_error_K"] == pytest.approx(0.0) for r in rows)
+
+
+@pytest.mark.parametrize("change, message", [
+    (lambda d: d.pop("scene"), "needs a \\[scene\\]"),
+    (lambda d: d.update(colour="red"), "unknown study key"),
+    (lambda d: d["sweeps"][0].update(cameras=["nope"]), "cameras must name"),
+    (lambda d: d["sweeps"][0].update(integration_time_frames=[1]), "one of them"),
+    (lambda d: d["sweeps"][0].update(alignment=["sideways"]), "alignment must be"),
+    (lambda d: d["sweeps"][0].update(integration_time_us=[-1]), "positive numbers"),
+    (lambda d: d["cameras"]["linear"].update(preset="hubble"), "unknown camera preset"),
+    (lambda d: d["scene"].update(type="movie"), "scene type 'movie'"),
+])
+def test_bad_studies_are_named(change, message):
+    data = tomllib.loads((STUDY_DIRECTORY / "msec2009.toml").read_text())
+    change(data)
+    with pytest.raises(RadiosimError, match=message):
+        Study.from_dict(data).scene
