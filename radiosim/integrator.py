@@ -333,6 +333,9 @@ def integrate(
     """
     Stream the window's frames through the integrator and accumulate tensor statistics.
 
+    Frames are read one ahead on a worker thread, so producing a frame (scene evaluation,
+    disk reads) overlaps with integrating the previous one.
+
     Parameters
     ----------
     scene
@@ -344,9 +347,6 @@ def integrate(
     signal
         Response per piece: maps T on the piece grid [K] and the frame index to the signal
         [response unit]; ``None`` for the linear response (the signal is T itself).
-
-    Frames are read one ahead on a worker thread, so producing a frame (scene evaluation,
-    disk reads) overlaps with integrating the previous one.
 
     Returns
     -------
