@@ -19,7 +19,6 @@ from __future__ import annotations
 
 import dataclasses
 import math
-import tomllib
 import warnings
 from dataclasses import dataclass, field
 from functools import cached_property
@@ -36,6 +35,7 @@ from radiosim.measurement import Measurement
 from radiosim.response import LinearResponse, PlanckResponse
 from radiosim.scenes.base import Scene, check_positive
 from radiosim.spectral import as_spectrum, available_spectra, read_spectrum, spectral_distribution
+from radiosim.tomlio import dumps_toml, load_toml
 from radiosim.units import shift
 
 __all__ = ["Optics", "FocalPlaneArray", "Camera", "available_presets", "PRESET_DIRECTORY"]
@@ -253,12 +253,7 @@ class Camera:
         Spectral curves are given as shipped names, CSV paths (relative to the file) or numbers.
         """
         path = Path(path)
-        try:
-            data = tomllib.loads(path.read_text(encoding="utf-8"))
-        except (OSError, UnicodeDecodeError) as exc:
-            raise RadiosimError(f"cannot read camera file {path}: {exc}") from exc
-        except tomllib.TOMLDecodeError as exc:
-            raise RadiosimError(f"{path} is not valid TOML: {exc}") from exc
+        data = load_toml(path, "camera file")
         try:
             return cls.from_dict(data, base=path.parent)
         except RadiosimError as exc:
@@ -384,7 +379,7 @@ class Camera:
 
     def to_toml(self) -> str:
         """The camera as a TOML preset (see :meth:`to_dict`)."""
-        return dumps_toml(self.to_dict())
+        return dumps_toml(self.to_dict(), tables=("optics", "fpa", "electronics"))
 
     def replace(self, **changes) -> Camera:
         """A copy with some fields changed (``dataclasses.replace``)."""
@@ -580,33 +575,6 @@ def _curve_entry(value):
             return name
     return {"name": name, "wavelength_um": (np.asarray(value.domain) * 1e6).tolist(),
             "value": np.asarray(value.values).tolist()}
-
-
-def _toml_scalar(value) -> str:
-    if isinstance(value, bool):
-        return "true" if value else "false"
-    if isinstance(value, (int, np.integer)):
-        return str(int(value))
-    if isinstance(value, (float, np.floating)):
-        return repr(float(value))
-    if isinstance(value, str):
-        return '"' + value.replace("\\", "\\\\").replace('"', '\\"') + '"'
-    if isinstance(value, (list, tuple)):
-        return "[" + ", ".join(_toml_scalar(v) for v in value) + "]"
-    if isinstance(value, dict):
-        return "{ " + ", ".join(f"{k} = {_toml_scalar(v)}" for k, v in value.items()) + " }"
-    raise TypeError(f"cannot write {type(value).__name__} to TOML")
-
-
-def dumps_toml(data: dict) -> str:
-    """A small TOML writer for radiosim's own structures: top-level keys and one level of
-    tables whose values are numbers, strings, booleans, lists and inline tables."""
-    lines = [f"{k} = {_toml_scalar(v)}" for k, v in data.items() if not isinstance(v, dict)
-             or k not in ("optics", "fpa", "electronics")]
-    for key, table in data.items():
-        if isinstance(table, dict) and key in ("optics", "fpa", "electronics"):
-            lines += ["", f"[{key}]"] + [f"{k} = {_toml_scalar(v)}" for k, v in table.items()]
-    return "\n".join(lines) + "\n"
 
 
 def available_presets() -> tuple[str, ...]:

@@ -169,30 +169,25 @@ def _versus(fig, rows, x_key, y_key, err_key, scene_key, xlabel, title):
     return ax
 
 
-def plot_peak(rows, sweep_time="integration-time", sweep_size="size-of-source"):
+def _two_panels(rows, sweeps, y_key, err_key, scene_key, subject):
+    fig = _figure(11, 4.2)
+    left, right = fig.subfigures(1, 2)
+    _versus(left, _select(rows, sweeps[0]), "integration_time_us", y_key, err_key, scene_key,
+            "integration time [µs]", f"A) {subject} vs integration time (9 × 9 × n)")
+    _versus(right, _select(rows, sweeps[1]), "sensor_area_um2", y_key, err_key, scene_key,
+            "sensor element area [µm²]", f"B) {subject} vs sensor area (p × p × 1)")
+    return fig
+
+
+def plot_peak(rows, sweeps=("integration-time", "size-of-source")):
     """Figure 5: peak temperature against integration time and sensor area, ±1σ bars."""
-    fig = _figure(11, 4.2)
-    left, right = fig.subfigures(1, 2)
-    _versus(left, _select(rows, sweep_time), "integration_time_us", "peak_C",
-            "peak_uncertainty_K", "peak_scene_C", "integration time [µs]",
-            "A) peak vs integration time (9 × 9 × n)")
-    _versus(right, _select(rows, sweep_size), "sensor_area_um2", "peak_C",
-            "peak_uncertainty_K", "peak_scene_C", "sensor element area [µm²]",
-            "B) peak vs sensor area (p × p × 1)")
-    return fig
+    return _two_panels(rows, sweeps, "peak_C", "peak_uncertainty_K", "peak_scene_C", "peak")
 
 
-def plot_column_i(rows, sweep_time="integration-time", sweep_size="size-of-source"):
+def plot_column_i(rows, sweeps=("integration-time", "size-of-source")):
     """Figure 7: the shear band's peak in Column I against integration time and sensor area."""
-    fig = _figure(11, 4.2)
-    left, right = fig.subfigures(1, 2)
-    _versus(left, _select(rows, sweep_time), "integration_time_us", "column_I_C",
-            "column_I_uncertainty_K", "column_I_scene_C", "integration time [µs]",
-            "A) Column I peak vs integration time")
-    _versus(right, _select(rows, sweep_size), "sensor_area_um2", "column_I_C",
-            "column_I_uncertainty_K", "column_I_scene_C", "sensor element area [µm²]",
-            "B) Column I peak vs sensor area")
-    return fig
+    return _two_panels(rows, sweeps, "column_I_C", "column_I_uncertainty_K", "column_I_scene_C",
+                       "Column I peak")
 
 
 def plot_column_profiles(rows, folder, scene, sweep="integration-time", camera="linear"):

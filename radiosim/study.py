@@ -26,7 +26,6 @@ from __future__ import annotations
 import csv
 import itertools
 import math
-import tomllib
 import warnings
 from collections.abc import Callable
 from dataclasses import dataclass, field
@@ -38,6 +37,7 @@ from radiosim.camera import Camera, FocalPlaneArray
 from radiosim.errors import RadiosimError, RadiosimWarning
 from radiosim.measurement import Measurement
 from radiosim.scenes.base import Scene
+from radiosim.tomlio import load_toml
 from radiosim.units import shift
 
 __all__ = ["Study", "Sweep", "StudyResult", "available_studies", "summarise", "STUDY_DIRECTORY",
@@ -204,12 +204,7 @@ class Study:
     def from_toml(cls, path) -> Study:
         """A study from a TOML file (relative paths in it are relative to the file)."""
         path = Path(path)
-        try:
-            data = tomllib.loads(path.read_text(encoding="utf-8"))
-        except (OSError, UnicodeDecodeError) as exc:
-            raise RadiosimError(f"cannot read study {path}: {exc}") from exc
-        except tomllib.TOMLDecodeError as exc:
-            raise RadiosimError(f"{path} is not valid TOML: {exc}") from exc
+        data = load_toml(path, "study")
         try:
             return cls.from_dict(data, base=path.parent)
         except RadiosimError as exc:

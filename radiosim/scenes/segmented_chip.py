@@ -37,8 +37,8 @@ from __future__ import annotations
 
 import dataclasses
 import math
+import re
 import threading
-import tomllib
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -48,6 +48,8 @@ from scipy.signal import fftconvolve
 from scipy.special import erfc
 
 from radiosim.errors import RadiosimError
+from radiosim.tomlio import dumps_toml, load_toml
+from radiosim.units import shift
 from radiosim.scenes.base import Region, Scene, check_emissivity, check_positive
 
 __all__ = ["ChipParameters", "SegmentedChip", "REGIONS", "COLUMNS"]
@@ -63,6 +65,27 @@ _REACH = 6.0  # Gaussian band terms are evaluated within 6 σ: exp(−18) ≈ 1.
 _NEGLIGIBLE = 1e-3  # K: static fields of moving terms below this are not evaluated
 _FADE_REACH = 10.0  # the rake-face fade is 1 − O(e^{−20}) beyond 10 fade lengths
 _UM, _US = 1e-6, 1e-6
+
+
+def _power_of_ten(scale: float) -> int | None:
+    exponent = round(math.log10(scale))
+    return exponent if math.isclose(10.0**exponent, scale, rel_tol=1e-15) else None
+
+
+def _to_si(value: float, scale: float, offset: float) -> float:
+    """Edge unit → SI: exact on the decimal representation for powers of ten."""
+    exponent = _power_of_ten(scale)
+    scaled = shift(value, exponent) if exponent is not None else value * scale
+    return scaled + offset if offset else scaled
+
+
+def _to_edge(value: float, scale: float, offset: float) -> float:
+    """SI → edge unit (the inverse of :func:`_to_si`)."""
+    value = value - offset if offset else value
+    exponent = _power_of_ten(scale)
+    if exponent is not None:
+        return shift(value, -exponent)
+    return float(repr(round(value / scale, 12)))
 
 
 def _param(default, toml_key, scale=1.0, offset=0.0, doc=""):
@@ -96,10 +119,10 @@ class ChipParameters:
     clearance_angle: float = _param(math.radians(7), "clearance_angle_deg", math.pi / 180,
                                     doc="γ [rad]")
     edge_radius: float = _param(20e-6, "edge_radius_um", _UM, doc="r_e [m]")
-    field_width: float = _param(960e-6, "field_width_um", _UM, doc="[m]")
-    field_height: float = _param(742e-6, "field_height_um", _UM, doc="[m]")
-    tool_tip_x: float = _param(700e-6, "tool_tip_x_um", _UM, doc="[m]")
-    tool_tip_y: float = _param(250e-6, "tool_tip_y_um", _UM, doc="[m]")
+    field_width: float = _param(960e-6, "field_width_um", _UM, doc="width of the field of view [m]")
+    field_height: float = _param(742e-6, "field_height_um", _UM, doc="height of the field of view [m]")
+    tool_tip_x: float = _param(700e-6, "tool_tip_x_um", _UM, doc="tool tip x [m]")
+    tool_tip_y: float = _param(250e-6, "tool_tip_y_um", _UM, doc="tool tip y [m]")
     # Segmentation
     period: float = _param(90e-6, "period_us", _US, doc="segmentation period P [s]")
     chip_ratio: float = _param(0.55, "chip_ratio", doc="r = h/h_c")
@@ -218,8 +241,8 @@ class ChipParameters:
         out = {}
         for f in dataclasses.fields(self):
             m = f.metadata
-            value = (getattr(self, f.name) - m["offset"]) / m["scale"]
-            out[m["toml"]] = int(value) if f.type == "int" else float(value)
+            value = _to_edge(getattr(self, f.name), m["scale"], m["offset"])
+            out[m["toml"]] = int(round(value)) if f.type == "int" else float(value)
         return out
 
     @classmethod
@@ -235,7 +258,7 @@ class ChipParameters:
             f = by_key[key]
             if isinstance(value, bool) or not isinstance(value, (int, float)):
                 raise RadiosimError(f"chip parameter {key} must be a number, got {value!r}")
-            kwargs[f.name] = value * f.metadata["scale"] + f.metadata["offset"]
+            kwargs[f.name] = _to_si(value, f.metadata["scale"], f.metadata["offset"])
             if f.type == "int":
                 kwargs[f.name] = int(round(kwargs[f.name]))
         return cls(**kwargs)
@@ -244,12 +267,7 @@ class ChipParameters:
     def from_toml(cls, path) -> ChipParameters:
         """Parameters from a TOML file (a ``[chip]`` table or top-level keys)."""
         path = Path(path)
-        try:
-            data = tomllib.loads(path.read_text(encoding="utf-8"))
-        except (OSError, UnicodeDecodeError) as exc:
-            raise RadiosimError(f"cannot read chip parameters {path}: {exc}") from exc
-        except tomllib.TOMLDecodeError as exc:
-            raise RadiosimError(f"{path} is not valid TOML: {exc}") from exc
+        data = load_toml(path, "chip parameters")
         try:
             return cls.from_dict(data.get("chip", data))
         except RadiosimError as exc:
@@ -257,13 +275,10 @@ class ChipParameters:
 
     def to_toml(self, path=None) -> str:
         """The parameters as TOML text (written to ``path`` if given)."""
-        lines = ["# radiosim segmented-chip scene parameters (units in the keys)", "[chip]"]
-        for f in dataclasses.fields(self):
-            key = f.metadata["toml"]
-            value = self.to_dict()[key]
-            text = str(value) if f.type == "int" else repr(float(value))
-            lines.append(f"{key} = {text}  # {f.metadata['doc']}")
-        text = "\n".join(lines) + "\n"
+        comments = {f.metadata["toml"]: re.sub(r"\s*\[.*?\]", "", f.metadata["doc"])
+                    for f in dataclasses.fields(self)}
+        text = "# radiosim segmented-chip scene parameters (units in the keys)\n" + dumps_toml(
+            {"chip": self.to_dict()}, tables=("chip",), comments=comments).lstrip("\n")
         if path is not None:
             Path(path).write_text(text, encoding="utf-8")
         return text
