@@ -35,7 +35,7 @@ from radiosim.measurement import Measurement
 from radiosim.response import LinearResponse, PlanckResponse
 from radiosim.scenes.base import Scene, check_positive
 from radiosim.spectral import as_spectrum, available_spectra, read_spectrum, spectral_distribution
-from radiosim.tomlio import dumps_toml, load_toml
+from radiosim.tomlio import build_from_toml, dumps_toml
 from radiosim.units import shift
 
 __all__ = ["Optics", "FocalPlaneArray", "Camera", "available_presets", "PRESET_DIRECTORY"]
@@ -252,12 +252,7 @@ class Camera:
 
         Spectral curves are given as shipped names, CSV paths (relative to the file) or numbers.
         """
-        path = Path(path)
-        data = load_toml(path, "camera file")
-        try:
-            return cls.from_dict(data, base=path.parent)
-        except RadiosimError as exc:
-            raise RadiosimError(f"{path}: {exc}") from None
+        return build_from_toml(path, "camera file", lambda data, base: cls.from_dict(data, base=base))
 
     @classmethod
     def from_dict(cls, data: dict, base: Path | None = None) -> Camera:

@@ -37,7 +37,7 @@ from radiosim.camera import Camera, FocalPlaneArray
 from radiosim.errors import RadiosimError, RadiosimWarning
 from radiosim.measurement import Measurement
 from radiosim.scenes.base import Scene
-from radiosim.tomlio import load_toml
+from radiosim.tomlio import build_from_toml
 from radiosim.units import shift
 
 __all__ = ["Study", "Sweep", "StudyResult", "available_studies", "summarise", "STUDY_DIRECTORY",
@@ -203,12 +203,7 @@ class Study:
     @classmethod
     def from_toml(cls, path) -> Study:
         """A study from a TOML file (relative paths in it are relative to the file)."""
-        path = Path(path)
-        data = load_toml(path, "study")
-        try:
-            return cls.from_dict(data, base=path.parent)
-        except RadiosimError as exc:
-            raise RadiosimError(f"{path}: {exc}") from None
+        return build_from_toml(path, "study", lambda data, base: cls.from_dict(data, base=base))
 
     @classmethod
     def from_dict(cls, data: dict, base: Path | None = None) -> Study:

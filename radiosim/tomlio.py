@@ -11,7 +11,7 @@ import numpy as np
 
 from radiosim.errors import RadiosimError
 
-__all__ = ["load_toml", "dumps_toml"]
+__all__ = ["load_toml", "build_from_toml", "dumps_toml"]
 
 
 def load_toml(path, what: str) -> dict:
@@ -26,6 +26,16 @@ def load_toml(path, what: str) -> dict:
         raise RadiosimError(f"cannot read {what} {path}: {exc}") from exc
     except tomllib.TOMLDecodeError as exc:
         raise RadiosimError(f"{path} is not valid TOML: {exc}") from exc
+
+
+def build_from_toml(path, what: str, build):
+    """``build(data, folder)`` on a parsed TOML file; its errors are prefixed with the path."""
+    path = Path(path)
+    data = load_toml(path, what)
+    try:
+        return build(data, path.parent)
+    except RadiosimError as exc:
+        raise RadiosimError(f"{path}: {exc}") from None
 
 
 def _value(value) -> str:

@@ -48,7 +48,7 @@ from scipy.signal import fftconvolve
 from scipy.special import erfc
 
 from radiosim.errors import RadiosimError
-from radiosim.tomlio import dumps_toml, load_toml
+from radiosim.tomlio import build_from_toml, dumps_toml
 from radiosim.units import shift
 from radiosim.scenes.base import Region, Scene, check_emissivity, check_positive
 
@@ -266,12 +266,8 @@ class ChipParameters:
     @classmethod
     def from_toml(cls, path) -> ChipParameters:
         """Parameters from a TOML file (a ``[chip]`` table or top-level keys)."""
-        path = Path(path)
-        data = load_toml(path, "chip parameters")
-        try:
-            return cls.from_dict(data.get("chip", data))
-        except RadiosimError as exc:
-            raise RadiosimError(f"{path}: {exc}") from None
+        return build_from_toml(path, "chip parameters",
+                               lambda data, base: cls.from_dict(data.get("chip", data)))
 
     def to_toml(self, path=None) -> str:
         """The parameters as TOML text (written to ``path`` if given)."""
