@@ -83,6 +83,41 @@ class Calibration:
         """
         return self.invert(counts)[0]
 
+    def noise(self, temperature) -> np.ndarray:
+        """
+        Temporal noise of a grey body's reading, in electrons [e⁻ rms]: shot noise of signal
+        and dark charge, read noise, and the ADC's 1/12 DN² quantisation noise.
+        """
+        el = self.electronics
+        total = self.electrons(temperature)
+        quantisation = 1 / 12 / el.gain**2 if el.adc_bits is not None else 0.0
+        shot = total if el.shot_noise else 0.0
+        return np.sqrt(shot + el.read_noise**2 + quantisation)
+
+    def lowest_measurable_temperature(self, snr: float = 1.0) -> float:
+        """
+        Lowest grey-body temperature [K] whose signal above the dark level is ``snr`` times its
+        temporal noise (the noise floor at ``snr`` = 1); NaN if none below saturation.
+        """
+        from scipy.optimize import brentq
+
+        dark = self.electronics.dark_current * self.integration_time
+
+        def margin(t):
+            return (self.electrons(t) - dark) - snr * self.noise(t)
+
+        low = self.response.temperature_range[0] if hasattr(
+            self.response, "temperature_range") else 1.0
+        high = min(self.saturation_temperature, getattr(self.response, "temperature_range",
+                                                        (0, 1e4))[1])
+        if not np.isfinite(high):
+            high = 1e4
+        if margin(low) >= 0:
+            return float(low)
+        if margin(high) < 0:
+            return float("nan")
+        return float(brentq(margin, low, high, xtol=1e-6))
+
     @property
     def saturation_temperature(self) -> float:
         """Lowest grey-body temperature [K] that fills the well or the converter (∞ if none)."""

@@ -43,9 +43,8 @@ def _tool_outline(p, width, height):
 
 
 def _figure(width, height):
-    import matplotlib
-
-    matplotlib.use("Agg", force=False)
+    """A figure independent of pyplot and of the active backend (it saves with Agg and
+    displays inline in notebooks)."""
     from matplotlib.figure import Figure
 
     return Figure(figsize=(width, height), layout="constrained")

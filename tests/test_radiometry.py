@@ -148,3 +148,16 @@ def test_bad_band_and_quantity():
         band_radiance(300.0, band=(3.8e-6, 5.1))
     with pytest.raises(RadiosimError, match="quantity"):
         band_radiance(300.0, quantity="lumens")
+
+
+def test_blackbody_fractions_match_the_published_table():
+    from radiosim.radiometry import BLACKBODY_FRACTION_TABLE
+
+    lt_um = np.array(list(BLACKBODY_FRACTION_TABLE), dtype=float)
+    published = np.array(list(BLACKBODY_FRACTION_TABLE.values()))
+    fraction = blackbody_fraction(lt_um * 1e-6)
+    # Table rounding (5e-6) plus its c₂ = 14388 µm K: |dF/d ln λT|·Δc₂/c₂ ≤ 0.66 × 1.6e-5.
+    x = PLANCK_C2 / (lt_um * 1e-6)
+    slope = 15 / np.pi**4 * x**4 / np.expm1(x)
+    tolerance = 5e-6 + slope * (14388e-6 - PLANCK_C2) / PLANCK_C2 + 1e-7
+    assert np.all(np.abs(fraction - published) <= tolerance)
