@@ -106,12 +106,9 @@ class Calibration:
         def margin(t):
             return (self.electrons(t) - dark) - snr * self.noise(t)
 
-        low = self.response.temperature_range[0] if hasattr(
-            self.response, "temperature_range") else 1.0
-        high = min(self.saturation_temperature, getattr(self.response, "temperature_range",
-                                                        (0, 1e4))[1])
-        if not np.isfinite(high):
-            high = 1e4
+        low, top = getattr(self.response, "temperature_range", (1.0, 1e4))
+        saturation = self.saturation_temperature
+        high = top if not np.isfinite(saturation) else min(saturation, top)
         if margin(low) >= 0:
             return float(low)
         if margin(high) < 0:
@@ -120,7 +117,10 @@ class Calibration:
 
     @property
     def saturation_temperature(self) -> float:
-        """Lowest grey-body temperature [K] that fills the well or the converter (∞ if none)."""
+        """
+        Lowest grey-body temperature [K] that fills the well or the converter: ∞ if nothing
+        saturates, NaN if it lies beyond the calibration's temperature range.
+        """
         el = self.electronics
         limits = []
         if el.full_well is not None:

@@ -14,6 +14,8 @@ import numpy as np
 from radiosim.errors import RadiosimError
 
 __all__ = [
+    "figure",
+    "markdown_table",
     "preview_scene",
     "load_results",
     "plot_peak",
@@ -42,12 +44,41 @@ def _tool_outline(p, width, height):
     return np.array(points) * 1e6
 
 
-def _figure(width, height):
-    """A figure independent of pyplot and of the active backend (it saves with Agg and
-    displays inline in notebooks)."""
+def figure(width, height):
+    """A figure of ``width`` × ``height`` inches, independent of pyplot and of the active
+    backend (it saves with Agg and displays inline in notebooks)."""
     from matplotlib.figure import Figure
 
     return Figure(figsize=(width, height), layout="constrained")
+
+
+def markdown_table(rows: list[dict], formats: dict | None = None) -> str:
+    """
+    A Markdown table of ``rows`` (dicts with the same keys), numbers formatted by ``formats``
+    (key → format spec); NaN and empty values show as a dash.
+
+    Examples
+    --------
+    >>> print(markdown_table([{"t [µs]": 1.0, "T [°C]": 739.04}], {"T [°C]": ".1f"}))
+    | t [µs] | T [°C] |
+    | --- | --- |
+    | 1.0 | 739.0 |
+    """
+    if not rows:
+        return ""
+    formats = formats or {}
+    keys = list(rows[0])
+
+    def cell(key, value):
+        if value is None or value == "" or (isinstance(value, float) and math.isnan(value)):
+            return "—"
+        if isinstance(value, (int, float, np.floating, np.integer)) and key in formats:
+            return format(value, formats[key])
+        return str(value)
+
+    lines = ["| " + " | ".join(keys) + " |", "| " + " | ".join("---" for _ in keys) + " |"]
+    lines += ["| " + " | ".join(cell(k, r.get(k)) for k in keys) + " |" for r in rows]
+    return "\n".join(lines)
 
 
 def preview_scene(scene, t=None, path=None, columns=True, pixel_pitch=6e-6):
@@ -78,7 +109,7 @@ def preview_scene(scene, t=None, path=None, columns=True, pixel_pitch=6e-6):
     frame = scene.temperature(t) if hasattr(scene, "temperature") and callable(
         getattr(scene, "temperature")) and hasattr(scene, "params") else scene.frame(k)
     height, width = scene.shape[0] * scene.dx, scene.shape[1] * scene.dx
-    fig = _figure(8.0, 8.0 * height / width + 0.6)
+    fig = figure(8.0, 8.0 * height / width + 0.6)
     ax = fig.add_subplot()
     image = ax.imshow(frame - _C, extent=(0, width * 1e6, 0, height * 1e6), cmap="inferno",
                       origin="upper", interpolation="nearest")
@@ -169,7 +200,7 @@ def _versus(fig, rows, x_key, y_key, err_key, scene_key, xlabel, title):
 
 
 def _two_panels(rows, sweeps, y_key, err_key, scene_key, subject):
-    fig = _figure(11, 4.2)
+    fig = figure(11, 4.2)
     left, right = fig.subfigures(1, 2)
     _versus(left, _select(rows, sweeps[0]), "integration_time_us", y_key, err_key, scene_key,
             "integration time [µs]", f"A) {subject} vs integration time (9 × 9 × n)")
@@ -195,7 +226,7 @@ def plot_column_profiles(rows, folder, scene, sweep="integration-time", camera="
     from radiosim.io.exr import read_exr
 
     mine = sorted(_select(rows, sweep, camera=camera), key=lambda r: r["integration_time_us"])
-    fig = _figure(12, 4.5)
+    fig = figure(12, 4.5)
     axes = fig.subplots(1, 3, sharey=True)
     event = scene.temperature(scene.event_time) if hasattr(scene, "temperature") else None
     for ax, name in zip(axes, ("I", "II", "III")):
@@ -219,7 +250,7 @@ def plot_column_profiles(rows, folder, scene, sweep="integration-time", camera="
 def plot_long_integration(rows, history, sweep="long-integration"):
     """Figure 8: one pixel's instantaneous mean over time, and the reading and standard
     deviation at an integration time equal to the position on the axis."""
-    fig = _figure(8, 4.5)
+    fig = figure(8, 4.5)
     ax = fig.add_subplot()
     if history:
         ax.plot([h["time_us"] for h in history], [h["mean_C"] for h in history], lw=0.8,
@@ -240,7 +271,7 @@ def plot_maps(folder, rows, cases):
     case (rows of the results table)."""
     from radiosim.io.exr import read_exr
 
-    fig = _figure(3.2 * len(cases) + 1, 8.5)
+    fig = figure(3.2 * len(cases) + 1, 8.5)
     axes = fig.subplots(3, len(cases), squeeze=False)
     titles = ("apparent temperature [°C]", "peak error [K]", "uncertainty [K]")
     for c, row in enumerate(cases):

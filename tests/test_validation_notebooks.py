@@ -1,0 +1,34 @@
+"""The validation notebooks run top to bottom (reduced settings) and state a conclusion."""
+
+import sys
+from pathlib import Path
+
+import nbformat
+import pytest
+
+VALIDATION = Path(__file__).resolve().parent.parent / "validation"
+sys.path.insert(0, str(VALIDATION))
+from run_notebooks import NOTEBOOKS, execute  # noqa: E402
+
+
+def test_there_are_three_notebooks():
+    assert [p.name for p in NOTEBOOKS] == ["01_paper_reproduction.ipynb",
+                                           "02_linear_vs_planck.ipynb",
+                                           "03_radiometry_checks.ipynb"]
+
+
+@pytest.mark.parametrize("path", NOTEBOOKS, ids=lambda p: p.stem)
+def test_notebook_runs_and_states_its_conclusion(path, tmp_path):
+    committed = nbformat.read(path, as_version=4)
+    first = committed.cells[0]
+    assert first.cell_type == "markdown" and "**Conclusion.**" in first.source
+    assert "CONCLUSION_" not in first.source
+    # Committed with outputs, so they read without running.
+    assert any(cell.get("outputs") for cell in committed.cells if cell.cell_type == "code")
+    executed = nbformat.read(execute(path, reduced=True, out=tmp_path), as_version=4)
+    errors = [o for cell in executed.cells if cell.cell_type == "code"
+              for o in cell.outputs if o.output_type == "error"]
+    assert not errors
+    images = sum("image/png" in o.get("data", {}) for cell in executed.cells
+                 if cell.cell_type == "code" for o in cell.outputs)
+    assert images >= 2

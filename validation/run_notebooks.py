@@ -1,0 +1,57 @@
+"""
+Execute the validation notebooks and save them with their outputs.
+
+    python validation/run_notebooks.py              # full resolution, in place (a few minutes)
+    python validation/run_notebooks.py --reduced    # the test suite's coarse settings, into --out
+
+The notebooks read RADIOSIM_VALIDATION=reduced for the coarse settings.
+"""
+
+import argparse
+import os
+import sys
+import time
+from pathlib import Path
+
+import nbformat
+from nbclient import NotebookClient
+
+HERE = Path(__file__).resolve().parent
+NOTEBOOKS = sorted(HERE.glob("[0-9][0-9]_*.ipynb"))
+
+
+def execute(path: Path, reduced: bool, out: Path | None = None, timeout: int = 1800) -> Path:
+    """Run one notebook top to bottom; write it (with outputs) to ``out`` or in place."""
+    notebook = nbformat.read(path, as_version=4)
+    previous = os.environ.get("RADIOSIM_VALIDATION")
+    os.environ["RADIOSIM_VALIDATION"] = "reduced" if reduced else "full"
+    try:
+        NotebookClient(notebook, timeout=timeout, kernel_name="python3",
+                       resources={"metadata": {"path": str(HERE)}}).execute()
+    finally:
+        if previous is None:
+            os.environ.pop("RADIOSIM_VALIDATION", None)
+        else:
+            os.environ["RADIOSIM_VALIDATION"] = previous
+    target = (out / path.name) if out else path
+    nbformat.write(notebook, target)
+    return target
+
+
+def main(argv=None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("--reduced", action="store_true", help="coarse settings (fast)")
+    parser.add_argument("--out", type=Path, help="write executed notebooks here, not in place")
+    parser.add_argument("notebooks", nargs="*", type=Path, help="default: all of them")
+    args = parser.parse_args(argv)
+    if args.out:
+        args.out.mkdir(parents=True, exist_ok=True)
+    for path in args.notebooks or NOTEBOOKS:
+        start = time.perf_counter()
+        target = execute(Path(path).resolve(), args.reduced, args.out)
+        print(f"{target}: {time.perf_counter() - start:.0f} s")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
