@@ -93,7 +93,7 @@ def _run(args) -> int:
         print(f"  {study.description}")
     result = study.run(out, rng=args.seed, write_exr=not args.no_exr,
                        progress=None if args.quiet else _Progress())
-    figures = [] if args.no_figures or args.no_exr else make_figures(out, study.scene)
+    figures = [] if args.no_figures else make_figures(out, study.scene)
     _print_table(result.rows)
     print(f"wrote {result.table}" + (f", {len(result.rows)} rows" if result.rows else ""))
     if result.exr_directory:
@@ -205,7 +205,8 @@ def build_parser() -> argparse.ArgumentParser:
                      help="a study TOML file or a shipped study name (default msec2009)")
     run.add_argument("--out", help="output folder (default radiosim-STUDY)")
     run.add_argument("--seed", type=int, default=0, help="noise seed (default 0)")
-    run.add_argument("--no-exr", action="store_true", help="write no EXR files (nor maps)")
+    run.add_argument("--no-exr", action="store_true",
+                     help="write no EXR files (then no maps nor profiles either)")
     run.add_argument("--no-figures", action="store_true", help="write no figures")
     run.add_argument("-q", "--quiet", action="store_true", help="no progress bar")
     run.set_defaults(func=_run)

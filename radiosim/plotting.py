@@ -105,9 +105,11 @@ def preview_scene(scene, t=None, path=None, columns=True, pixel_pitch=6e-6):
     """
     if t is None:
         t = scene.event_time if scene.event_time is not None else 0.0
-    k = int(math.floor(t / scene.dt))
-    frame = scene.temperature(t) if hasattr(scene, "temperature") and callable(
-        getattr(scene, "temperature")) and hasattr(scene, "params") else scene.frame(k)
+    from radiosim.scenes import SegmentedChip
+
+    chip = isinstance(scene, SegmentedChip)
+    # The chip is defined at any time; other scenes show the frame that holds t.
+    frame = scene.temperature(t) if chip else scene.frame(int(math.floor(t / scene.dt)))
     height, width = scene.shape[0] * scene.dx, scene.shape[1] * scene.dx
     fig = figure(8.0, 8.0 * height / width + 0.6)
     ax = fig.add_subplot()
@@ -117,7 +119,7 @@ def preview_scene(scene, t=None, path=None, columns=True, pixel_pitch=6e-6):
     ax.set_xlabel("x [µm]")
     ax.set_ylabel("y [µm]")
     ax.set_title(f"t = {t * 1e6:.2f} µs, peak {frame.max() - _C:.0f} °C")
-    if hasattr(scene, "params"):
+    if chip:
         p = scene.params
         outline = _tool_outline(p, width, height)
         ax.fill(outline[:, 0], outline[:, 1], facecolor="none", edgecolor="white", lw=1.2)
@@ -295,7 +297,8 @@ def make_figures(folder, scene=None, camera="linear") -> list[Path]:
     """
     Write the paper's figures for a study's results folder into ``folder/figures``.
 
-    Returns the PNG paths written (figures whose sweeps the study lacks are skipped).
+    Returns the PNG paths written: figures whose sweeps the study lacks, or whose EXR files
+    were not written (profiles, maps), are skipped.
     """
     folder = Path(folder)
     rows, history = load_results(folder)
@@ -313,7 +316,9 @@ def make_figures(folder, scene=None, camera="linear") -> list[Path]:
         save(plot_peak(rows), "fig05_peak.png")
         if any(np.isfinite(r["column_I_C"]) for r in rows):
             save(plot_column_i(rows), "fig07_column_I.png")
-    if scene is not None and "integration-time" in sweeps and hasattr(scene, "column_x"):
+    timed = [r for r in rows if r["sweep"] == "integration-time" and r["camera"] == camera]
+    if scene is not None and hasattr(scene, "column_x") and timed and all(
+            r.get("exr") for r in timed):
         save(plot_column_profiles(rows, folder, scene, camera=camera), "fig06_profiles.png")
     if "long-integration" in sweeps:
         save(plot_long_integration(rows, history), "fig08_long_integration.png")

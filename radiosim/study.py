@@ -28,7 +28,7 @@ import itertools
 import math
 import warnings
 from collections.abc import Callable
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
@@ -129,7 +129,6 @@ class StudyResult:
     table: Path | None = None
     exr_directory: Path | None = None
     history: Path | None = None
-    measurements: dict[str, Measurement] = field(default_factory=dict)
 
 
 def summarise(m: Measurement, scene: Scene | None = None) -> dict:
@@ -328,7 +327,6 @@ class Study:
                 write(exr_dir / filename, m)
                 row["exr"] = f"exr/{filename}"
             result.rows.append({k: row.get(k, "") for k in RESULT_COLUMNS})
-            result.measurements[_key(row)] = m if sweep.kind == "field" else None
             if progress is not None:
                 progress(done, len(plan), label)
         if out is not None:
@@ -377,11 +375,6 @@ class Study:
                                                         "mean_C"])
             writer.writeheader()
             writer.writerows(rows)
-
-
-def _key(row: dict) -> str:
-    return (f"{row['sweep']}|{row['camera']}|{row['response']}|{row['integration_time_us']}|"
-            f"{row['pixel_pitch_um']}|{row['alignment']}")
 
 
 def _camera_from(table: dict, name: str, base: Path) -> Camera:

@@ -60,6 +60,8 @@ def test_progress_bar_goes_to_stderr(tmp_path, capsys):
     assert main(["run", str(study), "--out", str(tmp_path / "o"), "--no-exr"]) == 0
     captured = capsys.readouterr()
     assert "6/6" in captured.err and "6/6" not in captured.out
+    figures = sorted(p.name for p in (tmp_path / "o" / "figures").iterdir())
+    assert figures == ["fig05_peak.png", "fig07_column_I.png"]  # the others need EXR files
 
 
 def test_measure_a_numpy_file(tmp_path, capsys):
