@@ -143,7 +143,14 @@ def _measure(args) -> int:
                  "temperature": args.units} if args.units else None
         if units is not None:
             units = {k: v for k, v in units.items() if v}
-        scene = read_fea_nodes(path, dx=args.dx, dt=args.dt, units=units, fill=args.fill)
+        try:
+            scene = read_fea_nodes(path, dx=args.dx, dt=args.dt, units=units, fill=args.fill)
+        except RadiosimError as exc:
+            if "stated nowhere" not in str(exc):
+                raise
+            raise RadiosimError(f"{path}: give the units on the command line with --time-unit, "
+                                "--length-unit and --units (or a header line '# units: time=…, "
+                                "length=…, temperature=…')") from None
     else:
         scene = read_frames(path, dt=args.dt, dx=args.dx, units=args.units)
     with warnings.catch_warnings(record=True) as caught:

@@ -127,3 +127,15 @@ def test_malformed_option_exits_with_a_message(capsys):
         main(["measure", "x.npy", "--integration-time", "10xs"])
     assert info.value.code == 2
     assert "10xs" in capsys.readouterr().err
+
+
+def test_measure_fea_names_the_unit_flags(tmp_path, capsys):
+    path = tmp_path / "nodes.csv"
+    path.write_text("x,y,time,temperature\n0,0,0,300\n10,0,0,300\n0,10,0,300\n10,10,0,300\n"
+                    "0,0,1,300\n10,0,1,300\n0,10,1,300\n10,10,1,300\n")
+    args = ["measure", str(path), "--camera", "linear-ideal", "--pixel-pitch", "2um",
+            "--dx", "1um", "--integration-time", "1us"]
+    assert main(args) == 2
+    assert "--time-unit" in capsys.readouterr().err
+    assert main(args + ["--units", "K", "--time-unit", "us", "--length-unit", "um"]) == 0
+    assert "highest reading 26.9 °C" in capsys.readouterr().out
