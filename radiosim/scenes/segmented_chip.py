@@ -61,8 +61,12 @@ REGIONS = {"air": 0, "workpiece": 1, "chip": 2, "tool": 3}
 COLUMNS = {"I": 440e-6, "II": 300e-6, "III": 160e-6}
 
 _CELSIUS = 273.15
-_REACH = 6.0  # Gaussian band terms are evaluated within 6 σ: exp(−18) ≈ 1.5e-8 of the peak
-_NEGLIGIBLE = 1e-3  # K: static fields of moving terms below this are not evaluated
+_NEGLIGIBLE = 1e-3  # K: moving terms below this are not evaluated
+
+
+def _reach(amplitude: float) -> float:
+    """Distance in σ beyond which a Gaussian of peak ``amplitude`` [K] is below 1 mK."""
+    return math.sqrt(2.0 * math.log(max(abs(amplitude), 2 * _NEGLIGIBLE) / _NEGLIGIBLE))
 _FADE_REACH = 10.0  # the rake-face fade is 1 − O(e^{−20}) beyond 10 fade lengths
 _UM, _US = 1e-6, 1e-6
 
@@ -418,7 +422,7 @@ class _Geometry:
         self.cos_field, self.sin_field = cos_field, sin_field
         self.s, self.n, self.zeta, self.xi = s, n, zeta, xi
         # Band terms reach the chip and, for the forming band, the workpiece near L0.
-        reach = _REACH * max(p.band_initial_width, p.band_width)
+        reach = _reach(p.band_amplitude) * max(p.band_initial_width, p.band_width)
         self.forming_zone = (chip_max | (workpiece & left)) & (np.abs(xi) < reach)
         self.rake_fade = smooth_step(n / p.rake_fade)
         reach_n = p.band_exponent_reach * p.chip_thickness
@@ -591,7 +595,7 @@ class SegmentedChip(Scene):
                 sigma2 = p.band_width**2 + 2 * p.chip_diffusivity * (tau + k * p.period)
                 amplitude = (p.band_amplitude + r.background(0.0)
                              - r.background(zk * sin_b)) * math.sqrt(p.band_width**2 / sigma2)
-                reach = _REACH * math.sqrt(sigma2) / sin_b
+                reach = _reach(amplitude) * math.sqrt(sigma2) / sin_b
                 lo, hi = np.searchsorted(r.zeta_grid, (zk - reach, zk + reach))
                 dz = (r.zeta_grid[lo:hi] - zk) * sin_b
                 profile[lo:hi] += amplitude * np.exp(-dz * dz / (2 * sigma2))
@@ -605,7 +609,8 @@ class SegmentedChip(Scene):
                    1.0)
         if base > 0 and r.forming.size:
             widest = p.band_width + (p.band_initial_width - p.band_width) * (1 - base) ** 2
-            n = np.searchsorted(r.forming_abs_xi, _REACH * max(widest, p.band_width))
+            reach = _reach(p.band_amplitude * base) * max(widest, p.band_width)
+            n = np.searchsorted(r.forming_abs_xi, reach)
             f = np.exp(r.forming_exponent[:n] * math.log(base))
             sigma = (1 - f) ** 2
             sigma *= p.band_initial_width - p.band_width
