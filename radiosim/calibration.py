@@ -84,15 +84,9 @@ class Calibration:
         return self.invert(counts)[0]
 
     def noise(self, temperature) -> np.ndarray:
-        """
-        Temporal noise of a grey body's reading, in electrons [e⁻ rms]: shot noise of signal
-        and dark charge, read noise, and the ADC's 1/12 DN² quantisation noise.
-        """
-        el = self.electronics
-        total = self.electrons(temperature)
-        quantisation = 1 / 12 / el.gain**2 if el.adc_bits is not None else 0.0
-        shot = total if el.shot_noise else 0.0
-        return np.sqrt(shot + el.read_noise**2 + quantisation)
+        """Temporal noise of a grey body's reading [e⁻ rms] (see
+        :meth:`~radiosim.electronics.Electronics.temporal_noise`)."""
+        return self.electronics.temporal_noise(self.electrons(temperature))
 
     def lowest_measurable_temperature(self, snr: float = 1.0) -> float:
         """

@@ -200,6 +200,16 @@ class Electronics:
     def is_noise_free(self) -> bool:
         return not self.shot_noise and self.read_noise == 0
 
+    def temporal_noise(self, electrons) -> np.ndarray:
+        """
+        Temporal noise of a reading [e⁻ rms] for a mean charge ``electrons`` [e⁻] (signal and
+        dark): √(μ_e + σ_read² + 1/(12 K²)) — shot noise (if on), read noise and the
+        converter's 1/12 DN² quantisation noise referred to the input.
+        """
+        quantisation = 1 / 12 / self.gain**2 if self.adc_bits is not None else 0.0
+        shot = np.asarray(electrons, dtype=float) if self.shot_noise else 0.0
+        return np.sqrt(shot + self.read_noise**2 + quantisation)
+
     @property
     def max_count(self) -> float:
         """Top code of the converter [DN] (∞ without quantisation)."""
