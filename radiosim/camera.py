@@ -50,10 +50,6 @@ def _curve(value, what):
     return as_spectrum(value, what)
 
 
-def _describe_curve(value):
-    return value.name if isinstance(value, SpectralDistribution) else float(value)
-
-
 @dataclass(frozen=True, eq=False)
 class Optics:
     """
@@ -380,6 +376,17 @@ class Camera:
         """A copy with some fields changed (``dataclasses.replace``)."""
         return dataclasses.replace(self, **changes)
 
+    def with_pixel_pitch(self, pixel_pitch: float) -> Camera:
+        """
+        The same camera with object-space pixels of ``pixel_pitch`` [m] and the same
+        magnification: its detector pixels scale with them, as in the paper's sensor-area sweep.
+        """
+        fpa = self.fpa
+        detector = None if fpa.detector_pitch is None else (
+            fpa.detector_pitch * pixel_pitch / fpa.pixel_pitch)
+        return self.replace(fpa=dataclasses.replace(fpa, pixel_pitch=pixel_pitch,
+                                                    detector_pitch=detector))
+
     # -- the chain ----------------------------------------------------------------------------
 
     @property
@@ -529,33 +536,6 @@ class Camera:
         period = 1.0 / self.frame_rate
         return [self.measure(scene, integration_time, t_start + i * period, rng)
                 for i in range(int(n_frames))]
-
-    def describe(self) -> dict:
-        """Plain metadata (str, int, float) describing the camera, with units in the keys."""
-        el = self.electronics
-        return {
-            "name": self.name,
-            "response": self.response,
-            "pixel_pitch_m": self.fpa.pixel_pitch,
-            "rows": -1 if self.fpa.shape is None else self.fpa.shape[0],
-            "columns": -1 if self.fpa.shape is None else self.fpa.shape[1],
-            "fill_factor": self.fpa.fill_factor,
-            "magnification": self.fpa.magnification,
-            "band_m": list(self.optics.band),
-            "f_number": self.optics.f_number,
-            "spectral_filter": _describe_curve(self.optics.spectral_filter),
-            "optics_transmission": _describe_curve(self.optics.transmission),
-            "quantum_efficiency": _describe_curve(self.fpa.quantum_efficiency),
-            "full_well_e": -1.0 if el.full_well is None else el.full_well,
-            "dark_current_e_per_s": el.dark_current,
-            "read_noise_e": el.read_noise,
-            "shot_noise": int(el.shot_noise),
-            "gain_dn_per_e": el.gain,
-            "offset_dn": el.offset,
-            "adc_bits": -1 if el.adc_bits is None else el.adc_bits,
-            "frame_rate_hz": -1.0 if self.frame_rate is None else self.frame_rate,
-            "assumed_emissivity": self.assumed_emissivity,
-        }
 
 
 def _curve_entry(value):

@@ -15,6 +15,7 @@ References
 
 from __future__ import annotations
 
+import dataclasses
 import warnings
 from dataclasses import dataclass
 
@@ -62,10 +63,7 @@ def photon_transfer(camera, integration_time: float, temperatures, pixels=(64, 6
     temperatures = np.asarray(temperatures, dtype=float)
     pitch = camera.fpa.pixel_pitch
     shape = (pixels[0], pixels[1])
-    camera = camera.replace(fpa=camera.fpa.__class__(
-        pixel_pitch=pitch, shape=shape, fill_factor=camera.fpa.fill_factor,
-        detector_pitch=camera.fpa.detector_pitch,
-        quantum_efficiency=camera.fpa.quantum_efficiency))
+    camera = camera.replace(fpa=dataclasses.replace(camera.fpa, shape=shape))
     dark_pair = [camera.electronics.expose(np.zeros(shape), integration_time, rng).counts
                  for _ in range(2)]
     means, variances = [], []

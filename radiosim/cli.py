@@ -20,7 +20,7 @@ import warnings
 from pathlib import Path
 
 from radiosim import __version__
-from radiosim.camera import Camera, FocalPlaneArray, available_presets
+from radiosim.camera import Camera, available_presets
 from radiosim.errors import RadiosimError, RadiosimWarning
 from radiosim.units import parse_quantity
 
@@ -133,10 +133,7 @@ def _measure(args) -> int:
     else:
         camera = Camera.preset(args.camera)
     if args.pixel_pitch is not None and args.camera != "linear-ideal":
-        camera = camera.replace(fpa=FocalPlaneArray(
-            pixel_pitch=args.pixel_pitch, shape=camera.fpa.shape,
-            fill_factor=camera.fpa.fill_factor, detector_pitch=camera.fpa.detector_pitch,
-            quantum_efficiency=camera.fpa.quantum_efficiency))
+        camera = camera.with_pixel_pitch(args.pixel_pitch)
     path = Path(args.scene)
     if path.suffix.lower() == ".csv":
         units = {"time": args.time_unit, "length": args.length_unit,

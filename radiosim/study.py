@@ -8,8 +8,8 @@ A study file names
     (``path``, ``dt_us``, ``dx_um``, ``units``) or ``type = "fea"`` (``path``, ``dx_um``,
     ``units`` table, ``fill_K``);
 -   ``[cameras.NAME]`` tables: ``preset = "nist-ir"`` or ``"linear-ideal"``, or ``file =
-    "camera.toml"``, with optional overrides ``response``, ``pixel_pitch_um``,
-    ``assumed_emissivity``;
+    "camera.toml"``, with optional overrides ``response``, ``pixel_pitch_um`` (same
+    magnification: the detector pixels scale) and ``assumed_emissivity``;
 -   ``[[sweeps]]``: ``name``, ``cameras`` (names), and lists whose product is measured:
     ``response`` (override), ``pixel_pitch_um`` or ``pixel_samples`` (p × p scene samples, the
     paper's "p × p movie pixels"), ``integration_time_us`` or ``integration_time_frames``,
@@ -33,7 +33,7 @@ from pathlib import Path
 
 import numpy as np
 
-from radiosim.camera import Camera, FocalPlaneArray
+from radiosim.camera import Camera
 from radiosim.errors import RadiosimError, RadiosimWarning
 from radiosim.measurement import Measurement
 from radiosim.scenes.base import Scene
@@ -249,20 +249,13 @@ class Study:
                 if response is not None and response != camera.response:
                     camera = camera.replace(response=response)
                 if pitch is not None:
-                    fpa = camera.fpa
-                    camera = camera.replace(fpa=FocalPlaneArray(
-                        pixel_pitch=pitch, shape=fpa.shape, fill_factor=fpa.fill_factor,
-                        detector_pitch=None if fpa.detector_pitch is None else
-                        fpa.detector_pitch * pitch / fpa.pixel_pitch,
-                        quantum_efficiency=fpa.quantum_efficiency, origin=fpa.origin))
+                    camera = camera.with_pixel_pitch(pitch)
                 yield sweep, name, camera, t_int, alignment
 
     def _window_start(self, t_int: float, alignment: str) -> float | None:
         scene = self.scene
-        if scene.event_time is None:
-            return None if alignment == "centred" else 0.0
-        if alignment == "centred":
-            return scene.event_time - 0.5 * t_int
+        if alignment == "centred" or scene.event_time is None:
+            return None if alignment == "centred" else 0.0  # the camera centres the window
         if alignment == "starting":
             return scene.event_time - 0.5 * scene.dt
         return scene.event_time + 0.5 * scene.dt - t_int
@@ -400,11 +393,7 @@ def _camera_from(table: dict, name: str, base: Path) -> Camera:
     if "assumed_emissivity" in table:
         changes["assumed_emissivity"] = float(table.pop("assumed_emissivity"))
     if "pixel_pitch_um" in table:
-        fpa = camera.fpa
-        changes["fpa"] = FocalPlaneArray(
-            pixel_pitch=shift(table.pop("pixel_pitch_um"), -6), shape=fpa.shape,
-            fill_factor=fpa.fill_factor, detector_pitch=fpa.detector_pitch,
-            quantum_efficiency=fpa.quantum_efficiency, origin=fpa.origin)
+        camera = camera.with_pixel_pitch(shift(table.pop("pixel_pitch_um"), -6))
     if table:
         raise RadiosimError(f"camera {name!r}: unknown key(s) {', '.join(table)}")
     return camera.replace(name=name, **changes)

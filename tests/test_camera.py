@@ -1,5 +1,7 @@
 """The camera end to end: presets, calibration round trip, flags, emissivity."""
 
+import dataclasses
+
 import numpy as np
 import pytest
 
@@ -171,4 +173,16 @@ def test_toml_camera_with_a_relative_csv_curve(tmp_path):
         '[optics]\nband_um = [3.8, 5.1]\nf_number = 2.0\n')
     cam = Camera.from_toml(tmp_path / "cam.toml")
     assert cam.name == "mine" and cam.fpa.quantum_efficiency[4e-6] == pytest.approx(0.5)
-    assert cam.describe()["quantum_efficiency"] == "qe"
+    assert cam.to_dict()["fpa"]["quantum_efficiency"]["name"] == "qe"
+
+
+def test_with_pixel_pitch_keeps_magnification_origin_and_curves():
+    cam = Camera.preset("nist-ir").replace(
+        fpa=dataclasses.replace(Camera.preset("nist-ir").fpa, origin=(1e-6, 2e-6)))
+    bigger = cam.with_pixel_pitch(14e-6)
+    assert bigger.fpa.pixel_pitch == 14e-6
+    assert bigger.fpa.magnification == pytest.approx(cam.fpa.magnification, rel=1e-15)
+    assert bigger.fpa.origin == cam.fpa.origin and bigger.fpa.shape == cam.fpa.shape
+    assert bigger.fpa.quantum_efficiency is cam.fpa.quantum_efficiency
+    # Étendue scales with the active area: (14/6)².
+    assert bigger.etendue / cam.etendue == pytest.approx((14 / 6) ** 2, rel=1e-12)

@@ -38,7 +38,7 @@ def test_round_trip_gives_an_equal_measurement(tmp_path, measurement):
     assert back.integration_time == m.integration_time  # doubles, exactly
     assert back.t_start == m.t_start and back.n_frames == m.n_frames
     assert back.signal_unit == m.signal_unit
-    assert back.camera.describe() == m.camera.describe()
+    assert back.camera.to_dict() == m.camera.to_dict()
     assert back.scene == m.scene
 
 
