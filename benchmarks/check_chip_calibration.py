@@ -12,7 +12,7 @@ scene's defaults:
 import sys
 import time
 
-from radiosim.scenes.chip_calibration import evaluate_targets, report, residuals
+from radiosim.paper.chip_calibration import evaluate_targets, report, residuals
 
 if __name__ == "__main__":
     start = time.perf_counter()

@@ -9,6 +9,7 @@ import numpy as np
 
 import radiosim as rs
 from radiosim.scenes import SegmentedChip
+from radiosim.paper import column_summary
 from radiosim.study import summarise
 
 
@@ -23,7 +24,7 @@ def main(rng=0):
         with warnings.catch_warnings():
             warnings.simplefilter("ignore", rs.RadiosimWarning)
             m = camera.measure(scene, t_int, rng=rng)
-        rows.append({"integration_time_us": t_int * 1e6, **summarise(m, scene)})
+        rows.append({"integration_time_us": t_int * 1e6, **summarise(m), **column_summary(m, scene)})
     return rows
 
 

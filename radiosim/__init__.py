@@ -6,21 +6,34 @@ integration time → noise, full well and ADC counts → the camera's calibratio
 temperature. With :meth:`Camera.linear_ideal` it reproduces the box averages of Whitenton,
 Heigel & Ivester, MSEC2009-84319, exactly.
 
-The chain, one module per stage: :mod:`radiosim.scenes` → :mod:`radiosim.response`
-(:mod:`radiosim.radiometry`, :mod:`radiosim.spectral`) → :mod:`radiosim.integrator` →
+The chain, one module per stage, imports flowing one way (:data:`CHAIN`):
+:mod:`radiosim.scenes` → :mod:`radiosim.response` (:mod:`radiosim.radiometry`,
+:mod:`radiosim.spectral`) → :mod:`radiosim.integrator` → :mod:`radiosim.optics` →
 :mod:`radiosim.electronics` → :mod:`radiosim.calibration` → :mod:`radiosim.measurement`,
-orchestrated by :class:`radiosim.camera.Camera`.
+orchestrated by :class:`radiosim.camera.Camera`. Files in and out are in :mod:`radiosim.io`,
+studies in :mod:`radiosim.study`, and everything specific to the paper in
+:mod:`radiosim.paper`.
 """
 
 import logging
 
+from radiosim import errors, units  # noqa: F401  (reachable as attributes)
 from radiosim.camera import Camera, FocalPlaneArray, Optics, available_presets
 from radiosim.electronics import Electronics
 from radiosim.errors import RadiosimError, RadiosimWarning
 from radiosim.measurement import Measurement
 from radiosim.scenes import FrameStack, MovingGaussianBand, UniformBlackbody
+from radiosim import io, paper, scenes, study  # noqa: E402,F401  (public subpackages)
 
 __version__ = "0.1.0"
+
+#: The package's modules in the order of the chain: a module imports only modules before it
+#: (tests/test_architecture.py checks this with ``ast``).
+CHAIN = (
+    "errors", "units", "checks", "config", "spectral", "radiometry", "scenes", "response",
+    "fpa", "integrator", "optics", "electronics", "calibration", "measurement", "presets",
+    "camera", "characterization", "io", "study", "plotting", "paper", "cli",
+)
 
 __all__ = [
     "Camera",
@@ -34,6 +47,11 @@ __all__ = [
     "RadiosimError",
     "RadiosimWarning",
     "available_presets",
+    "io",
+    "scenes",
+    "study",
+    "paper",
+    "CHAIN",
     "__version__",
 ]
 

@@ -1,63 +1,137 @@
 """
-Calibration: the camera's own inversion of digital numbers to apparent temperature.
+Calibration: the camera's own inversion of digital numbers to apparent temperature, and the
+flags of what it cannot invert.
 
 Like a real radiometric camera, the calibration is built for one camera and one integration
-time from its noise-free response to a blackbody (or a grey body of an *assumed* emissivity,
-the camera's emissivity setting, which may differ from the scene's true one):
+time from its noise-free response to a grey body of the *assumed* emissivity (the camera's
+emissivity setting, which may differ from the scene's true one). Its forward model is the
+electronics' own mean-count function applied to the response's grey-body signal:
 
-    DN(T) = K · (ε_a · conversion · S(T) · t_int + I_dark · t_int) + offset
+    DN(T) = Electronics.mean_counts(S(T; ε_a) · rate_per_signal · t_int, t_int)
+          = K · (ε_a-signal · G · t_int + I_dark · t_int) + offset
 
 with S the response signal (in-band photon radiance for the Planck response, T for the linear
-one). The inversion solves this for T on the response's tabulated, monotonic curve. Counts with
-no temperature in the measurable range return NaN, and the camera flags them.
+one) and G the optics' electron rate per unit of signal (the étendue). The inversion solves it
+for T on the response's monotonic curve.
+
+Flags (a flagged pixel has no apparent temperature, NaN):
+
+-   *saturated*: the well is full or the converter is at its top code, or the reading lies
+    above the calibration range;
+-   *under range*: the converter is at code 0, or the reading lies below the calibration range,
+    or below the noise floor — the lowest temperature whose signal above the dark level equals
+    its temporal noise (:meth:`Calibration.lowest_measurable_temperature`, SNR = 1). A reading
+    there is dominated by noise and would read high, so it is not reported.
 """
 
 from __future__ import annotations
 
+import math
+import warnings
+from dataclasses import dataclass
+from functools import cached_property
+
 import numpy as np
 
-from radiosim.errors import RadiosimError
+from radiosim.checks import check_fraction, check_positive
+from radiosim.electronics import Electronics, Exposure
+from radiosim.errors import RadiosimError, RadiosimWarning
+from radiosim.response import Response
 
-__all__ = ["Calibration"]
+__all__ = ["Calibration", "Reading", "MIN_CALIBRATION_SPAN_DN"]
+
+#: A quantising camera whose calibration spans fewer counts than this over its temperature
+#: range reads in steps of more than 1/this of the range: the calibration warns.
+MIN_CALIBRATION_SPAN_DN = 100.0
+
+
+@dataclass(frozen=True)
+class Reading:
+    """
+    What the calibration makes of one read-out.
+
+    Attributes
+    ----------
+    apparent_temperature : numpy.ndarray
+        Temperature [K]; NaN where flagged.
+    saturated : numpy.ndarray of bool
+        Full well, converter top code, or above the calibration range.
+    under_range : numpy.ndarray of bool
+        Converter code 0, below the calibration range, or below the noise floor.
+    """
+
+    apparent_temperature: np.ndarray
+    saturated: np.ndarray
+    under_range: np.ndarray
 
 
 class Calibration:
     """
-    DN ↔ apparent temperature for one camera and integration time.
+    DN ↔ apparent temperature for one response, electronics and integration time.
 
     Parameters
     ----------
-    camera
-        A :class:`~radiosim.camera.Camera`.
+    response
+        The camera's :class:`~radiosim.response.Response`.
+    electronics
+        The camera's :class:`~radiosim.electronics.Electronics`.
+    rate_per_signal
+        Electron rate per unit of signal [e⁻ s⁻¹ per signal unit] (the étendue for the Planck
+        response, see :meth:`~radiosim.response.Response.rate_per_signal`).
     integration_time
         Integration time [s].
+    assumed_emissivity
+        The camera's emissivity setting (dimensionless).
+    temperature_range
+        Temperatures the calibration covers [K].
 
     Examples
     --------
-    >>> from radiosim import Camera
-    >>> cal = Calibration(Camera.linear_ideal(6e-6), 10e-6)
+    >>> from radiosim.response import LinearResponse
+    >>> cal = Calibration(LinearResponse(1e6), Electronics.ideal(), 1e6, 10e-6)
     >>> float(cal.temperature(cal.counts(1012.15)))
     1012.15
     """
 
-    def __init__(self, camera, integration_time: float):
-        if not integration_time > 0:
-            raise RadiosimError(f"integration time must be > 0 [s], got {integration_time!r}")
-        self.camera = camera
-        self.integration_time = float(integration_time)
-        self.response = camera.response_model
-        self.electronics = camera.electronics
-        self.emissivity = camera.assumed_emissivity
+    def __init__(self, response: Response, electronics: Electronics, rate_per_signal: float,
+                 integration_time: float, assumed_emissivity: float = 1.0,
+                 temperature_range=(150.0, 3000.0)):
+        self.integration_time = check_positive(integration_time, "integration time", "s")
+        self.response = response
+        self.electronics = electronics
+        self.rate_per_signal = check_positive(rate_per_signal, "rate per signal",
+                                              "e⁻ s⁻¹ per signal unit")
+        self.emissivity = check_fraction(assumed_emissivity, "assumed_emissivity")
+        low, high = (float(t) for t in temperature_range)
+        if not 0 < low < high:
+            raise RadiosimError(f"calibration range must be (T_min, T_max) with 0 < T_min < "
+                                f"T_max [K], got {temperature_range!r}")
+        self.temperature_range = (low, high)
+
+    # -- forward model ---------------------------------------------------------------------
+
+    def photoelectrons(self, temperature) -> np.ndarray:
+        """Noise-free photo-charge [e⁻] from a grey body at ``temperature`` [K]."""
+        signal = self.response.grey_signal(np.asarray(temperature, dtype=float),
+                                           self.emissivity)
+        return signal * self.rate_per_signal * self.integration_time
 
     def electrons(self, temperature) -> np.ndarray:
-        """Noise-free charge [e⁻] from a grey body at ``temperature`` [K] (no full-well clip)."""
-        t = self.integration_time
-        signal = self.response.signal(np.asarray(temperature, dtype=float), self.emissivity)
-        return self.response.conversion * signal * t + self.electronics.dark_current * t
+        """Noise-free charge [e⁻] (photo and dark) from a grey body at ``temperature`` [K]
+        (no full-well clip)."""
+        return self.photoelectrons(temperature) + (self.electronics.dark_current
+                                                   * self.integration_time)
 
     def counts(self, temperature) -> np.ndarray:
         """Noise-free, unrounded, unclipped digital numbers [DN] at ``temperature`` [K]."""
-        return self.electronics.gain * self.electrons(temperature) + self.electronics.offset
+        return self.electronics.mean_counts(self.photoelectrons(temperature),
+                                            self.integration_time)
+
+    # -- inverse ---------------------------------------------------------------------------
+
+    def _signal(self, counts) -> np.ndarray:
+        photo = self.electronics.photoelectrons(counts, self.integration_time)  # [e⁻]
+        return photo / (self.rate_per_signal * self.integration_time)  # [signal unit]
 
     def invert(self, counts):
         """
@@ -66,22 +140,36 @@ class Calibration:
         Returns
         -------
         temperature : numpy.ndarray
-            Apparent temperature [K]; NaN below or above the measurable range.
+            Apparent temperature [K]; NaN below or above the calibration range.
         below, above : numpy.ndarray of bool
             Counts under the lowest or over the highest temperature of the range.
         """
-        t = self.integration_time
-        e = (np.asarray(counts, dtype=float) - self.electronics.offset) / self.electronics.gain
-        signal = (e - self.electronics.dark_current * t) / (self.response.conversion * t)
-        low, high = self.response.signal_range(self.emissivity)
-        return self.response.temperature(signal, self.emissivity), signal < low, signal > high
+        signal = self._signal(counts)
+        low, high = (self.response.grey_signal(t, self.emissivity)
+                     for t in self.temperature_range)
+        below, above = signal < low, signal > high
+        temperature = self.response.temperature(np.clip(signal, low, high), self.emissivity)
+        return np.where(below | above, np.nan, temperature), below, above
 
     def temperature(self, counts) -> np.ndarray:
         """
         Apparent temperature [K] of ``counts`` [DN]; NaN where no temperature of the
-        measurable range gives them.
+        calibration range gives them.
         """
         return self.invert(counts)[0]
+
+    def read(self, exposure: Exposure) -> Reading:
+        """
+        Apparent temperature [K] and flags of a read-out (see the module docstring).
+        """
+        apparent, below, above = self.invert(exposure.counts)
+        saturated = exposure.saturated | above
+        floor = self.noise_floor_counts
+        under = ~saturated & (exposure.adc_floor | below | (exposure.counts < floor))
+        apparent = np.where(saturated | under, np.nan, apparent)
+        return Reading(apparent, saturated, under)
+
+    # -- limits ----------------------------------------------------------------------------
 
     def noise(self, temperature) -> np.ndarray:
         """Temporal noise of a grey body's reading [e⁻ rms] (see
@@ -90,24 +178,32 @@ class Calibration:
 
     def lowest_measurable_temperature(self, snr: float = 1.0) -> float:
         """
-        Lowest grey-body temperature [K] whose signal above the dark level is ``snr`` times its
-        temporal noise (the noise floor at ``snr`` = 1); NaN if none below saturation.
+        Lowest grey-body temperature [K] of the calibration range whose photo-signal is ``snr``
+        times its temporal noise (the noise floor at ``snr`` = 1); NaN if none below
+        saturation.
         """
         from scipy.optimize import brentq
 
-        dark = self.electronics.dark_current * self.integration_time
-
         def margin(t):
-            return (self.electrons(t) - dark) - snr * self.noise(t)
+            return float(self.photoelectrons(t) - snr * self.noise(t))
 
-        low, top = getattr(self.response, "temperature_range", (1.0, 1e4))
+        low, top = self.temperature_range
         saturation = self.saturation_temperature
         high = top if not np.isfinite(saturation) else min(saturation, top)
         if margin(low) >= 0:
             return float(low)
-        if margin(high) < 0:
+        if not high > low or margin(high) < 0:
             return float("nan")
         return float(brentq(margin, low, high, xtol=1e-6))
+
+    @cached_property
+    def noise_floor_counts(self) -> float:
+        """Counts [DN] of the noise floor (:meth:`lowest_measurable_temperature`); readings
+        below it are flagged under range (∞ if the whole range is below it)."""
+        if self.electronics.is_noise_free and self.electronics.adc_bits is None:
+            return -math.inf
+        floor = self.lowest_measurable_temperature()
+        return math.inf if math.isnan(floor) else float(self.counts(floor))
 
     @property
     def saturation_temperature(self) -> float:
@@ -115,12 +211,31 @@ class Calibration:
         Lowest grey-body temperature [K] that fills the well or the converter: ∞ if nothing
         saturates, NaN if it lies beyond the calibration's temperature range.
         """
+        charge = self.electronics.saturation_charge
+        if not math.isfinite(charge):
+            return math.inf
         el = self.electronics
-        limits = []
-        if el.full_well is not None:
-            limits.append(el.full_well)
-        if el.adc_bits is not None:
-            limits.append((el.max_count - 0.5 - el.offset) / el.gain)
-        if not limits:
-            return np.inf
-        return float(self.temperature(el.gain * min(limits) + el.offset))
+        return float(self.temperature(el.gain * charge + el.offset))
+
+    @property
+    def counts_span(self) -> float:
+        """Counts [DN] between the calibration range's ends, within the converter's codes."""
+        low, high = (float(self.counts(t)) for t in self.temperature_range)
+        top = self.electronics.max_count
+        return min(high, top) - max(low, 0.0)
+
+    def check_resolution(self, stacklevel: int = 2):
+        """Warn if a quantising converter resolves the calibration range into fewer than
+        :data:`MIN_CALIBRATION_SPAN_DN` codes (e.g. a linear response with real
+        electronics: a few DN across thousands of kelvin)."""
+        if self.electronics.adc_bits is None:
+            return
+        span = self.counts_span
+        if span < MIN_CALIBRATION_SPAN_DN:
+            low, high = self.temperature_range
+            step = (high - low) / max(span, 1e-300)
+            warnings.warn(
+                f"the {self.response.name} response with these electronics spans only "
+                f"{span:.3g} DN over {low:g}–{high:g} K at {self.integration_time:g} s: one DN is "
+                f"about {step:.3g} K, so readings are coarse (raise the responsivity, gain or "
+                "integration time)", RadiosimWarning, stacklevel=stacklevel + 1)

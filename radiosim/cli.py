@@ -76,7 +76,6 @@ class _Progress:
 
 
 def _run(args) -> int:
-    from radiosim.plotting import make_figures
     from radiosim.study import Study, available_studies
 
     target = args.study
@@ -93,7 +92,8 @@ def _run(args) -> int:
         print(f"  {study.description}")
     result = study.run(out, rng=args.seed, write_exr=not args.no_exr,
                        progress=None if args.quiet else _Progress())
-    figures = [] if args.no_figures else make_figures(out, study.scene)
+    draw = study.hook("figures")
+    figures = [] if args.no_figures or draw is None else draw(out, study.scene)
     _print_table(result.rows)
     print(f"wrote {result.table}" + (f", {len(result.rows)} rows" if result.rows else ""))
     if result.exr_directory:
@@ -110,13 +110,14 @@ def _print_table(rows):
             return f"{'—':>{width}}"
         return f"{value:>{width}.1f}"
 
-    print(f"{'sweep':<18}{'camera':<9}{'t_int':>8}{'pixel':>7}{'peak':>9}{'error':>9}"
-          f"{'col. I':>9}{'error':>9}{'sat.':>7}")
+    print(f"{'sweep':<18}{'camera':<9}{'t_int':>8}{'pixel':>7}{'peak':>9}{'bias':>9}"
+          f"{'col. I':>9}{'bias':>9}{'sat.':>7}")
     print(f"{'':<27}{'[µs]':>8}{'[µm]':>7}{'[°C]':>9}{'[K]':>9}{'[°C]':>9}{'[K]':>9}{'[%]':>7}")
+    print("  (bias = reading − scene peak: negative when the camera reads low)")
     for r in rows:
         print(f"{r['sweep'][:17]:<18}{r['camera'][:8]:<9}{r['integration_time_us']:>8.3g}"
-              f"{r['pixel_pitch_um']:>7.3g}{cell(r['peak_C'])}{cell(r['peak_error_K'])}"
-              f"{cell(r['column_I_C'])}{cell(r['column_I_error_K'])}"
+              f"{r['pixel_pitch_um']:>7.3g}{cell(r['peak_C'])}{cell(r['peak_bias_K'])}"
+              f"{cell(r.get('column_I_C', ''))}{cell(r.get('column_I_bias_K', ''))}"
               f"{100 * r['saturated_fraction']:>7.1f}")
 
 
@@ -159,7 +160,7 @@ def _measure(args) -> int:
     print(f"{camera.name}: {m.shape[1]} × {m.shape[0]} pixels, {m.integration_time * 1e6:g} µs "
           f"from {m.t_start * 1e6:g} µs ({m.n_frames} frames)")
     print(f"  scene peak {summary['peak_scene_C']:.1f} °C; highest reading "
-          f"{summary['peak_C']:.1f} °C (error {summary['peak_error_K']:.1f} K, ±1σ "
+          f"{summary['peak_C']:.1f} °C (bias {summary['peak_bias_K']:+.1f} K, ±1σ "
           f"{summary['peak_uncertainty_K']:.1f} K); saturated {100 * m.saturated_fraction:.1f} %,"
           f" under range {100 * summary['under_range_fraction']:.1f} %")
     if args.out:
@@ -185,7 +186,7 @@ def _presets(args) -> int:
 
 
 def _preview(args) -> int:
-    from radiosim.plotting import preview_scene
+    from radiosim.paper import preview_scene
     from radiosim.scenes import SegmentedChip
 
     scene = SegmentedChip(args.params) if args.params else SegmentedChip()

@@ -24,47 +24,19 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from radiosim.config import edge_field
 from radiosim.errors import RadiosimError
 
 __all__ = [
-    "etendue",
     "add_dark_charge",
     "apply_shot_noise",
     "clip_full_well",
     "apply_read_noise",
+    "analogue_counts",
     "quantise",
     "Electronics",
     "Exposure",
 ]
-
-
-def etendue(active_area: float, f_number: float) -> float:
-    """
-    Étendue of a detector pixel behind a lens of image-space f-number N.
-
-    G = A · π / (4 N² + 1): the solid angle of the exit-pupil cone of half-angle θ with
-    sin θ = 1 / √(4N² + 1), times the area.
-
-    Parameters
-    ----------
-    active_area
-        Active (photosensitive) area of the pixel in the image plane [m²].
-    f_number
-        Image-space f-number N (dimensionless).
-
-    Returns
-    -------
-    float
-        Étendue [m² sr].
-
-    Examples
-    --------
-    >>> round(etendue(1.0, 0.5), 6)  # N = 0.5: the full hemisphere, π sr
-    1.570796
-    """
-    if not (active_area > 0 and f_number > 0):
-        raise RadiosimError(f"need area > 0 [m²] and f-number > 0, got {active_area}, {f_number}")
-    return active_area * math.pi / (4.0 * f_number**2 + 1.0)
 
 
 def add_dark_charge(electrons: np.ndarray, dark_current: float, integration_time: float):
@@ -96,6 +68,11 @@ def apply_read_noise(electrons: np.ndarray, read_noise: float, rng: np.random.Ge
     return electrons + rng.normal(0.0, read_noise, np.shape(electrons))
 
 
+def analogue_counts(electrons, gain: float, offset: float):
+    """The converter's input in digital numbers [DN]: K·e⁻ + offset (no rounding, no clip)."""
+    return gain * electrons + offset
+
+
 def quantise(electrons: np.ndarray, gain: float, offset: float, bits: int | None):
     """
     Digital numbers: DN = round(K·e⁻ + offset), clipped to [0, 2^bits − 1].
@@ -109,7 +86,7 @@ def quantise(electrons: np.ndarray, gain: float, offset: float, bits: int | None
     low, high : numpy.ndarray of bool
         Pixels clipped at 0 and at 2^bits − 1.
     """
-    analogue = gain * electrons + offset  # [DN]
+    analogue = analogue_counts(electrons, gain, offset)  # [DN]
     if bits is None:
         none = np.zeros(np.shape(analogue), dtype=bool)
         return analogue, none, none
@@ -164,13 +141,13 @@ class Electronics:
         Converter resolution [bit]; ``None``: no quantisation and no clipping.
     """
 
-    full_well: float | None = None
-    dark_current: float = 0.0
-    read_noise: float = 0.0
-    shot_noise: bool = True
-    gain: float = 1.0
-    offset: float = 0.0
-    adc_bits: int | None = None
+    full_well: float | None = edge_field(None, "full_well_e", doc="well capacity [e⁻]")
+    dark_current: float = edge_field(0.0, "dark_current_e_per_s", doc="dark current [e⁻/s]")
+    read_noise: float = edge_field(0.0, "read_noise_e", doc="read noise [e⁻ rms]")
+    shot_noise: bool = edge_field(True, "shot_noise", kind="bool", doc="Poisson shot noise")
+    gain: float = edge_field(1.0, "gain_dn_per_e", doc="system gain K [DN/e⁻]")
+    offset: float = edge_field(0.0, "offset_dn", doc="dark offset [DN]")
+    adc_bits: int | None = edge_field(None, "adc_bits", kind="int", doc="ADC resolution [bit]")
 
     def __post_init__(self):
         checks = [
@@ -209,6 +186,34 @@ class Electronics:
         quantisation = 1 / 12 / self.gain**2 if self.adc_bits is not None else 0.0
         shot = np.asarray(electrons, dtype=float) if self.shot_noise else 0.0
         return np.sqrt(shot + self.read_noise**2 + quantisation)
+
+    def mean_counts(self, photoelectrons, integration_time: float) -> np.ndarray:
+        """
+        Noise-free, unrounded, unclipped digital numbers [DN] of a mean photo-charge [e⁻]:
+        the same dark charge and conversion that :meth:`expose` applies, without noise,
+        well or converter limits (the calibration's forward model).
+        """
+        electrons = add_dark_charge(np.asarray(photoelectrons, dtype=float), self.dark_current,
+                                    integration_time)  # [e⁻]
+        return analogue_counts(electrons, self.gain, self.offset)  # [DN]
+
+    def photoelectrons(self, counts, integration_time: float) -> np.ndarray:
+        """The inverse of :meth:`mean_counts`: mean photo-charge [e⁻] of ``counts`` [DN]."""
+        electrons = (np.asarray(counts, dtype=float) - self.offset) / self.gain  # [e⁻]
+        return electrons - self.dark_current * integration_time
+
+    @property
+    def saturation_charge(self) -> float:
+        """
+        Charge [e⁻] (photo plus dark) at which a pixel saturates: the full well or the
+        converter's top code, whichever comes first (∞ if neither).
+        """
+        limits = [math.inf]
+        if self.full_well is not None:
+            limits.append(self.full_well)
+        if self.adc_bits is not None:
+            limits.append((self.max_count - 0.5 - self.offset) / self.gain)
+        return min(limits)
 
     @property
     def max_count(self) -> float:

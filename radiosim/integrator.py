@@ -30,25 +30,104 @@ References
 from __future__ import annotations
 
 import math
-from collections.abc import Callable
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
 
 import numpy as np
 
 from radiosim.errors import RadiosimError
+from radiosim.response import Response
 from radiosim.scenes.base import Region, Scene
 
 __all__ = [
+    "Window",
+    "integration_window",
     "AxisFootprints",
     "axis_footprints",
     "frame_weights",
     "FootprintIntegrator",
     "TensorStatistics",
     "integrate",
+    "check_scale",
 ]
 
 _SNAP = 1e-9  # positions within this many samples of an integer are that integer
+_UNBOUNDED = 2**31 - 1  # pixels along an axis of an array without a stated size
+#: A pixel narrower than this fraction of a scene sample, or a window shorter than this fraction
+#: of a frame, is a unit slip (µm given as metres, µs as seconds), not a measurement.
+IMPLAUSIBLE_RATIO = 1e-3
+
+
+def check_scale(scene: Scene, pixel_pitch: float, duration: float | None = None):
+    """
+    Refuse a pixel far smaller than a scene sample, or a window far shorter than a frame
+    (ratio below :data:`IMPLAUSIBLE_RATIO`), naming the likely unit slip.
+    """
+    if pixel_pitch / scene.dx < IMPLAUSIBLE_RATIO:
+        raise RadiosimError(
+            f"the scene's samples are {scene.dx:g} m and the camera's pixels {pixel_pitch:g} m: a "
+            f"pixel would see {pixel_pitch / scene.dx:.2g} of one sample. Was dx given in µm as "
+            f"metres? (dx = {scene.dx:g} µm is {scene.dx * 1e-6:g} m)")
+    if duration is not None and duration / scene.dt < IMPLAUSIBLE_RATIO:
+        raise RadiosimError(
+            f"the scene's frames last {scene.dt:g} s and the integration {duration:g} s: the "
+            f"window would see {duration / scene.dt:.2g} of one frame. Was dt given in µs as "
+            f"seconds? (dt = {scene.dt:g} µs is {scene.dt * 1e-6:g} s)")
+
+
+@dataclass(frozen=True)
+class Window:
+    """
+    The integration window [start, start + duration].
+
+    Attributes
+    ----------
+    start : float
+        Start [s].
+    duration : float
+        Integration time [s].
+    alignment : str
+        How the start was chosen: ``"given"``, ``"centred"`` on the scene's event, or
+        ``"scene start"`` (no start given and the scene has no event).
+    """
+
+    start: float
+    duration: float
+    alignment: str = "given"
+
+    @property
+    def stop(self) -> float:
+        """End of the window [s]."""
+        return self.start + self.duration
+
+
+def integration_window(scene: Scene, duration: float, t_start: float | None = None) -> Window:
+    """
+    The window of one integration: from ``t_start`` [s] if given, else centred on the scene's
+    ``event_time``, else from t = 0.
+
+    Examples
+    --------
+    >>> from radiosim.scenes import UniformBlackbody
+    >>> integration_window(UniformBlackbody(300.0), 1e-6)
+    Window(start=0.0, duration=1e-06, alignment='scene start')
+    """
+    if not (math.isfinite(duration) and duration > 0):
+        raise RadiosimError(f"integration time must be finite and > 0 [s], got {duration!r}")
+    if t_start is not None:
+        start = float(t_start)
+        if math.isnan(start):
+            raise RadiosimError("t_start is NaN; expected a window start ≥ 0 [s]")
+        return Window(start, duration, "given")
+    if scene.event_time is None:
+        return Window(0.0, duration, "scene start")
+    start = scene.event_time - 0.5 * duration
+    if start < 0:
+        raise RadiosimError(
+            f"a {duration:g} s window centred on the scene's event at {scene.event_time:g} s "
+            "would start before the first frame; give t_start"
+        )
+    return Window(start, duration, "centred")
 
 
 def _snap(value: float) -> float:
@@ -260,6 +339,8 @@ class FootprintIntegrator:
     def __init__(self, rows: AxisFootprints, cols: AxisFootprints):
         self.rows, self.cols = rows, cols
         self.shape = (rows.n_pixels, cols.n_pixels)
+        #: Pixel pitch in object space [m], when built for a scene (:meth:`for_scene`).
+        self.pixel_pitch = math.inf
         #: The region of the scene the pieces touch; frames are read over it only.
         self.region: Region = (rows.span, cols.span)
         self._row_index = None if rows.is_identity else rows.source - rows.span.start
@@ -273,13 +354,18 @@ class FootprintIntegrator:
 
     @classmethod
     def for_scene(cls, scene: Scene, pixel_pitch: float, fill_factor: float,
-                  array_shape: tuple[int, int], origin=(0.0, 0.0)) -> FootprintIntegrator:
-        """The integrator of a pixel array [m] laid on ``scene``, anchored at its top-left."""
+                  array_shape: tuple[int, int] | None, origin=(0.0, 0.0)) -> FootprintIntegrator:
+        """The integrator of a pixel array [m] laid on ``scene``, anchored at its top-left
+        (``array_shape`` ``None``: as many pixels as the scene holds)."""
+        array_shape = array_shape or (_UNBOUNDED, _UNBOUNDED)
+        check_scale(scene, pixel_pitch)
         rows = axis_footprints(scene.shape[0], scene.dx, pixel_pitch, fill_factor,
                                array_shape[0], origin[0], axis="y (rows)")
         cols = axis_footprints(scene.shape[1], scene.dx, pixel_pitch, fill_factor,
                                array_shape[1], origin[1], axis="x (columns)")
-        return cls(rows, cols)
+        integrator = cls(rows, cols)
+        integrator.pixel_pitch = pixel_pitch
+        return integrator
 
     def expand(self, field: np.ndarray) -> np.ndarray:
         """Values of a field over :attr:`region` on the piece grid (a view when possible)."""
@@ -311,11 +397,11 @@ class FootprintIntegrator:
 
 
 def _prefetched(scene: Scene, indices: range, region: Region):
-    """Frames of ``indices`` in order, each read while the previous one is being used."""
+    """Scene frames of ``indices`` in order, each read while the previous one is being used."""
     with ThreadPoolExecutor(max_workers=1) as pool:
         pending = None
         for k in indices:
-            following = pool.submit(scene.frame, k, region)
+            following = pool.submit(scene.sample, k, region)
             if pending is not None:
                 yield pending.result()
             pending = following
@@ -326,12 +412,12 @@ def _prefetched(scene: Scene, indices: range, region: Region):
 def integrate(
     scene: Scene,
     integrator: FootprintIntegrator,
-    t_start: float,
-    duration: float,
-    signal: Callable[[np.ndarray, int], np.ndarray] | None = None,
+    window: Window,
+    response: Response,
 ) -> TensorStatistics:
     """
-    Stream the window's frames through the integrator and accumulate tensor statistics.
+    Stream the window's frames through the response and the integrator, and accumulate tensor
+    statistics.
 
     Frames are read one ahead on a worker thread, so producing a frame (scene evaluation,
     disk reads) overlaps with integrating the previous one.
@@ -342,22 +428,24 @@ def integrate(
         The scene.
     integrator
         The pixel array's footprints on the scene.
-    t_start, duration
+    window
         Integration window [s].
-    signal
-        Response per piece: maps T on the piece grid [K] and the frame index to the signal
-        [response unit]; ``None`` for the linear response (the signal is T itself).
+    response
+        Signal per sample (:class:`~radiosim.response.Response`).
 
     Returns
     -------
     TensorStatistics
     """
-    first, weights = frame_weights(t_start, duration, scene.dt, scene.n_frames)
+    check_scale(scene, integrator.pixel_pitch, window.duration)
+    first, weights = frame_weights(window.start, window.duration, scene.dt, scene.n_frames)
     region = integrator.region
     reference = mean_dev = mean_sq = signal_mean = t_max = None
+    signal_is_temperature = True
     frames = _prefetched(scene, range(first, first + weights.size), region)
-    for k, weight, frame in zip(range(first, first + weights.size), weights, frames):
-        t = integrator.expand(frame)  # [K], on the piece grid
+    for weight, frame in zip(weights, frames):
+        signal = response.signal(frame)  # [response unit] per sample
+        t = integrator.expand(frame.temperature)  # [K], on the piece grid
         if reference is None:
             reference = integrator.pixel_mean(t)
             reference_pieces = integrator.broadcast(reference)
@@ -369,12 +457,13 @@ def integrate(
         mean_dev += weight * integrator.pixel_mean(deviation)
         mean_sq += weight * integrator.pixel_mean(deviation * deviation)
         np.maximum(t_max, integrator.pixel_max(t), out=t_max)
-        if signal is not None:
-            signal_mean += weight * integrator.pixel_mean(signal(t, k))
+        if signal is not frame.temperature:  # the linear response's signal is T: mean below
+            signal_is_temperature = False
+            signal_mean += weight * integrator.pixel_mean(integrator.expand(signal))
     mean = reference + mean_dev
     variance = np.clip(mean_sq - mean_dev * mean_dev, 0.0, None)
     return TensorStatistics(
-        signal_mean=mean if signal is None else signal_mean,
+        signal_mean=mean if signal_is_temperature else signal_mean,
         mean=mean,
         std=np.sqrt(variance),
         max=t_max,

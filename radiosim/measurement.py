@@ -1,5 +1,12 @@
 """
 The result of one camera measurement, with the units of every field.
+
+Two differences from the truth carry different names and signs:
+
+-   :attr:`Measurement.peak_error` = tensor maximum − apparent temperature [K], per pixel: the
+    paper's "measurement error", *positive* when the camera reads low;
+-   a *bias* (the study tables' ``peak_bias_K``, ``column_I_bias_K``) = reading − scene truth
+    [K]: *negative* when the camera reads low.
 """
 
 from __future__ import annotations
@@ -53,6 +60,9 @@ class Measurement:
         Scene frames the window touched.
     scene : dict
         Description of the scene (units in the keys).
+    alignment : str
+        How the window start was chosen: ``"given"``, ``"centred"`` on the scene's event, or
+        ``"scene start"``.
     """
 
     #: Units of the array fields and derived properties.
@@ -86,10 +96,21 @@ class Measurement:
     t_start: float
     n_frames: int
     scene: dict = field(default_factory=dict)
+    alignment: str = "given"
+
+    def __repr__(self) -> str:
+        name = getattr(self.camera, "name", type(self.camera).__name__)
+        valid = self.apparent_temperature[self.valid]
+        reading = (f"{valid.min():.1f}–{valid.max():.1f} K" if valid.size else "no valid pixel")
+        return (f"<Measurement {self.shape[0]} × {self.shape[1]} px by {name}: "
+                f"{self.integration_time:g} s from {self.t_start:g} s ({self.n_frames} frames, "
+                f"{self.alignment}); reads {reading}; {int(self.saturated.sum())} saturated, "
+                f"{int(self.under_range.sum())} under range>")
 
     @property
     def peak_error(self) -> np.ndarray:
-        """Tensor maximum minus apparent temperature [K] (the paper's local peak error)."""
+        """Tensor maximum minus apparent temperature [K] (the paper's local peak error):
+        positive when the camera reads low."""
         return self.tensor_max - self.apparent_temperature
 
     @property

@@ -1,31 +1,79 @@
 """
 Response models: what one scene sample contributes to a pixel, per unit area, time and solid
-angle.
+angle — the first stage after the scene.
+
+Both models take a :class:`~radiosim.scenes.SceneFrame` (temperature and emissivity of every
+sample) and return a signal per sample; the integrator averages it over footprint × window, the
+optics turn the mean into an electron rate (:meth:`Response.rate_per_signal`), and the
+calibration inverts a grey body's signal (:meth:`Response.grey_signal`,
+:meth:`Response.temperature`).
 
 -   :class:`LinearResponse`: the signal is the temperature itself [K]; with ideal electronics
     this is the paper's "linear camera response", and a pixel reads the mean of its tensor.
-    Emissivity plays no part.
+    Emissivity plays no part, and neither does the optics' étendue: the electron rate is the
+    camera's linear responsivity × T.
 -   :class:`PlanckResponse`: the signal is the in-band photon radiance
     ε·L_q(T) [photons s⁻¹ m⁻² sr⁻¹] through the camera's spectral responsivity (filter ×
     optics × quantum efficiency), so the photo-electron rate of a pixel is signal × étendue.
-
-Both expose ``signal(T, emissivity)`` per sample and ``conversion`` (electron rate per unit of
-signal), so the camera's orchestrator can swap them.
+    Radiance comes from a table (:class:`~radiosim.radiometry.BandRadianceTable`) over the
+    response's own temperature range, which is wider than any calibration's; samples colder
+    than the table (a cryogenic background) get the exact quadrature, so they are measured and
+    the calibration flags them, instead of raising.
 """
 
 from __future__ import annotations
 
-from colour import SpectralDistribution
+from abc import ABC, abstractmethod
 
 import numpy as np
+from colour import SpectralDistribution
 
+from radiosim.checks import check_positive
 from radiosim.errors import RadiosimError
-from radiosim.radiometry import QUANTITIES, BandRadianceTable
+from radiosim.radiometry import QUANTITIES, BandRadianceTable, band_radiance
+from radiosim.scenes.base import SceneFrame
 
-__all__ = ["LinearResponse", "PlanckResponse", "RESPONSES"]
+__all__ = ["Response", "LinearResponse", "PlanckResponse", "RESPONSES",
+           "PLANCK_TABLE_RANGE"]
+
+#: Temperatures the Planck response tabulates [K]: colder samples are integrated exactly,
+#: hotter ones are refused. Its relative error stays below 1e-7 from 100 K up.
+PLANCK_TABLE_RANGE = (100.0, 4000.0)
 
 
-class LinearResponse:
+class Response(ABC):
+    """The interface of a response model (see the module docstring)."""
+
+    #: Name (``"linear"`` or ``"planck"``) and unit of the signal.
+    name: str
+    unit: str
+
+    @abstractmethod
+    def signal(self, frame: SceneFrame) -> np.ndarray:
+        """The signal of each sample of ``frame`` [:attr:`unit`]."""
+
+    @abstractmethod
+    def grey_signal(self, temperature, emissivity: float = 1.0) -> np.ndarray:
+        """The signal of a grey body of ``emissivity`` at ``temperature`` [K]."""
+
+    @abstractmethod
+    def temperature(self, signal, emissivity: float = 1.0) -> np.ndarray:
+        """The temperature [K] of a grey body with this signal (NaN where there is none)."""
+
+    @abstractmethod
+    def rate_per_signal(self, etendue: float) -> float:
+        """Electron rate per unit of signal [e⁻ s⁻¹ per :attr:`unit`] for a pixel of
+        ``etendue`` [m² sr]."""
+
+    def slope(self, temperature, emissivity: float = 1.0) -> np.ndarray:
+        """d(signal)/dT of a grey body [:attr:`unit` K⁻¹] (central difference of 1 mK)."""
+        t = np.asarray(temperature, dtype=float)
+        h = 1e-3
+        return (self.grey_signal(t + h, emissivity) - self.grey_signal(t - h, emissivity)) / (
+            2 * h)
+
+
+class LinearResponse(Response):
     """
     Signal = temperature [K]; electron rate = ``responsivity`` × T [e⁻/s].
 
@@ -33,31 +81,38 @@ class LinearResponse:
     ----------
     responsivity
         Electron rate per kelvin [e⁻ s⁻¹ K⁻¹].
+
+    Examples
+    --------
+    >>> r = LinearResponse(1e6)
+    >>> r.signal(SceneFrame(np.array([[300.0, 900.0]]))).tolist(), r.rate_per_signal(1e-12)
+    ([[300.0, 900.0]], 1000000.0)
     """
 
     name = "linear"
     unit = "K"
 
     def __init__(self, responsivity: float = 1e6):
-        if not responsivity > 0:
-            raise RadiosimError(f"linear responsivity must be > 0 [e⁻ s⁻¹ K⁻¹], got {responsivity}")
-        self.conversion = float(responsivity)  # [e⁻ s⁻¹ per K]
+        self.responsivity = check_positive(responsivity, "linear responsivity", "e⁻ s⁻¹ K⁻¹")
 
-    def signal(self, temperature: np.ndarray, emissivity=None) -> np.ndarray:
+    def signal(self, frame: SceneFrame) -> np.ndarray:
         """The signal of each sample [K]: its temperature."""
-        return temperature
+        return frame.temperature
 
-    def signal_range(self, emissivity: float = 1.0) -> tuple[float, float]:
-        """Signals [K] that have a temperature: any positive one."""
-        return (np.nextafter(0.0, 1.0), np.inf)
+    def grey_signal(self, temperature, emissivity: float = 1.0) -> np.ndarray:
+        return np.asarray(temperature, dtype=float)
 
-    def temperature(self, signal: np.ndarray, emissivity: float = 1.0) -> np.ndarray:
-        """Invert :meth:`signal` [K]; a signal ≤ 0 has no temperature (NaN)."""
+    def temperature(self, signal, emissivity: float = 1.0) -> np.ndarray:
+        """Invert :meth:`grey_signal` [K]; a signal ≤ 0 has no temperature (NaN)."""
         signal = np.asarray(signal, dtype=float)
         return np.where(signal > 0, signal, np.nan)
 
+    def rate_per_signal(self, etendue: float) -> float:
+        """The responsivity [e⁻ s⁻¹ K⁻¹]: the paper's ideal camera has no geometry."""
+        return self.responsivity
 
-class PlanckResponse:
+
+class PlanckResponse(Response):
     """
     Signal = ε·L_q(T), in-band photon radiance [photons s⁻¹ m⁻² sr⁻¹].
 
@@ -68,20 +123,17 @@ class PlanckResponse:
     responsivity
         Spectral curves that multiply (filter, optics transmission, quantum efficiency), as for
         :func:`~radiosim.radiometry.band_radiance`.
-    etendue
-        Étendue of the pixel [m² sr]: electron rate = signal × étendue.
     temperature_range
-        Range of the radiance tables [K].
+        Range of the radiance tables [K] (default :data:`PLANCK_TABLE_RANGE`).
     """
 
     name = "planck"
     unit = QUANTITIES["photon"]
 
-    def __init__(self, band, responsivity, etendue: float, temperature_range=(150.0, 3000.0)):
+    def __init__(self, band, responsivity, temperature_range=PLANCK_TABLE_RANGE):
         self.band = tuple(band)
         self.responsivity = responsivity
-        self.conversion = float(etendue)  # [e⁻ s⁻¹ per photons s⁻¹ m⁻² sr⁻¹] = [m² sr]
-        self.temperature_range = tuple(temperature_range)
+        self.temperature_range = tuple(float(t) for t in temperature_range)
         self._tables: dict[int, tuple[SpectralDistribution | None, BandRadianceTable]] = {}
 
     def table(self, emissivity=1.0) -> BandRadianceTable:
@@ -98,25 +150,53 @@ class PlanckResponse:
             ))
         return self._tables[key][1]
 
-    def signal(self, temperature: np.ndarray, emissivity=1.0) -> np.ndarray:
-        """ε·L_q(T) of each sample [photons s⁻¹ m⁻² sr⁻¹]."""
-        radiance = self.table(emissivity)(temperature)
-        if isinstance(emissivity, SpectralDistribution) or (
-            np.isscalar(emissivity) and emissivity == 1.0
-        ):
+    def _radiance(self, temperature: np.ndarray, curve) -> np.ndarray:
+        """L_q(T) [photons s⁻¹ m⁻² sr⁻¹] through the table, or by quadrature below it."""
+        table = self.table(curve if curve is not None else 1.0)
+        t = np.asarray(temperature, dtype=float)
+        low, high = self.temperature_range
+        if t.size == 0 or t.min() >= low:
+            return table(t)
+        cold = t < low
+        out = np.empty(t.shape)
+        out[~cold] = table(t[~cold])
+        out[cold] = band_radiance(t[cold], self.band, "photon", self.responsivity,
+                                  1.0 if curve is None else curve)
+        return out
+
+    def _grey_or_curve(self, temperature, emissivity):
+        if isinstance(emissivity, SpectralDistribution):
+            return self._radiance(temperature, emissivity)
+        radiance = self._radiance(temperature, None)
+        if np.isscalar(emissivity) and emissivity == 1.0:
             return radiance
         return radiance * emissivity
 
-    def signal_range(self, emissivity: float = 1.0) -> tuple[float, float]:
-        """Signals [photons s⁻¹ m⁻² sr⁻¹] of a grey emitter over the tabulated temperatures."""
-        low, high = self.table().radiance_range
-        return (low * emissivity, high * emissivity)
+    def signal(self, frame: SceneFrame) -> np.ndarray:
+        """ε·L_q(T) of each sample [photons s⁻¹ m⁻² sr⁻¹]."""
+        if frame.regions is None:
+            return self._grey_or_curve(frame.temperature, frame.emissivity)
+        out = np.zeros(frame.temperature.shape)
+        for code, value in frame.region_emissivity.items():
+            here = frame.regions == code
+            if here.any():
+                out[here] = self._grey_or_curve(frame.temperature[here], value)
+        return out
 
-    def temperature(self, signal: np.ndarray, emissivity: float = 1.0) -> np.ndarray:
-        """Temperature [K] of a grey emitter of ``emissivity`` with this signal (NaN outside)."""
+    def grey_signal(self, temperature, emissivity: float = 1.0) -> np.ndarray:
+        return self._grey_or_curve(np.asarray(temperature, dtype=float), emissivity)
+
+    def temperature(self, signal, emissivity: float = 1.0) -> np.ndarray:
+        """Temperature [K] of a grey emitter of ``emissivity`` with this signal (NaN outside
+        the table)."""
         if not 0 < emissivity <= 1:
             raise RadiosimError(f"assumed emissivity must be in (0, 1], got {emissivity!r}")
         return self.table().temperature(np.asarray(signal, dtype=float) / emissivity)
+
+    def rate_per_signal(self, etendue: float) -> float:
+        """The étendue [m² sr]: radiance × étendue is the photon rate, and the quantum
+        efficiency is part of the spectral responsivity."""
+        return float(etendue)
 
 
 #: Response models by name.

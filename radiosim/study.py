@@ -5,7 +5,7 @@ A study file names
 
 -   a ``[scene]``: ``type = "segmented-chip"`` (optional ``params`` TOML, ``dt_us``, ``dx_um``,
     ``emissivity`` as a number, a curve name or a table per region), ``type = "frames"``
-    (``path``, ``dt_us``, ``dx_um``, ``units``) or ``type = "fea"`` (``path``, ``dx_um``,
+    (``path``, ``dt_us``, ``dx_um``, ``units``, optional ``event_time_us``) or ``type = "fea"`` (``path``, ``dx_um``,
     ``units`` table, ``fill_K``);
 -   ``[cameras.NAME]`` tables: ``preset = "nist-ir"`` or ``"linear-ideal"``, or ``file =
     "camera.toml"``, with optional overrides ``response``, ``pixel_pitch_um`` (same
@@ -14,47 +14,82 @@ A study file names
     ``response`` (override), ``pixel_pitch_um`` or ``pixel_samples`` (p × p scene samples, the
     paper's "p × p movie pixels"), ``integration_time_us`` or ``integration_time_frames``,
     ``alignment`` (``"centred"`` on the event — the paper's bracketing —, ``"starting"`` at the
-    event frame's start, ``"ending"`` at its end). ``kind = "pixel"`` measures only the Column I
-    pixel where the band peaks (the paper's Figure 8) and records its instantaneous history.
+    event frame's start, ``"ending"`` at its end). ``kind = "pixel"`` measures only the pixel
+    that the study's ``pixel`` hook picks and records its instantaneous history;
+-   an optional ``[hooks]`` table of case-specific functions, as ``"module:function"``:
+    ``summary(measurement, scene) → dict`` adds columns to each row, ``pixel(scene,
+    pixel_pitch) → scene`` picks the pixel of ``kind = "pixel"`` sweeps, and
+    ``figures(folder, scene) → [paths]`` draws the study's figures.
 
-Shipped studies live in ``radiosim/studies`` (:func:`available_studies`); ``msec2009`` is the
-paper's Table 2 with the linear and Planck responses.
+A study is generic: it runs sweeps and writes tidy rows (:data:`RESULT_COLUMNS`, then the hook's
+columns). Shipped studies live in ``radiosim/studies`` (:func:`available_studies`); ``msec2009``
+is the paper's Table 2 with the linear and Planck responses, whose hooks are in
+:mod:`radiosim.paper`.
 """
 
 from __future__ import annotations
 
 import csv
+import importlib
 import itertools
 import math
 import warnings
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
 
 from radiosim.camera import Camera
+from radiosim.config import build_from_toml, reject_unknown
 from radiosim.errors import RadiosimError, RadiosimWarning
 from radiosim.measurement import Measurement
 from radiosim.scenes.base import Scene
-from radiosim.tomlio import build_from_toml
-from radiosim.units import shift
+from radiosim.units import shift, to_celsius
 
 __all__ = ["Study", "Sweep", "StudyResult", "available_studies", "summarise", "STUDY_DIRECTORY",
-           "RESULT_COLUMNS"]
+           "RESULT_COLUMNS", "HOOKS", "load_hook", "format_value"]
 
 #: Folder of the shipped studies.
 STUDY_DIRECTORY = Path(__file__).resolve().parent / "studies"
 
-#: Columns of the results table, with units in the names.
+#: Columns of the results table, with units in the names. ``peak_bias_K`` is reading − scene
+#: peak (negative when the camera reads low); a summary hook's columns follow ``exr``.
 RESULT_COLUMNS = [
     "study", "sweep", "camera", "response", "integration_time_us", "n_frames", "pixel_pitch_um",
     "pixel_samples", "sensor_area_um2", "alignment", "t_start_us", "peak_scene_C", "peak_C",
-    "peak_error_K", "peak_uncertainty_K", "column_I_scene_C", "column_I_C", "column_I_error_K",
-    "column_I_uncertainty_K", "saturated_fraction", "under_range_fraction", "exr",
+    "peak_bias_K", "peak_uncertainty_K", "saturated_fraction", "under_range_fraction", "exr",
 ]
-_C = 273.15
 ALIGNMENTS = ("centred", "starting", "ending")
+#: The hooks a study file may name, and what each is called with.
+HOOKS = {"summary": "summary(measurement, scene) -> dict of extra columns",
+         "pixel": "pixel(scene, pixel_pitch) -> the scene cropped to one pixel",
+         "figures": "figures(folder, scene) -> list of PNG paths written"}
+
+
+def load_hook(spec: str, what: str = "hook") -> Callable:
+    """The function named ``"package.module:function"``."""
+    module, _, name = str(spec).partition(":")
+    if not module or not name:
+        raise RadiosimError(f"{what} {spec!r} must be 'module:function'")
+    try:
+        return getattr(importlib.import_module(module), name)
+    except (ImportError, AttributeError) as exc:
+        raise RadiosimError(f"{what} {spec!r} cannot be loaded: {exc}") from None
+
+
+def format_value(value):
+    """A table cell: floats to 10 significant digits (no float noise such as
+    899.4000000000002), others unchanged.
+
+    Examples
+    --------
+    >>> format_value(1172.55 - 273.15), format_value(8.995502248875562), format_value(1.0)
+    ('899.4', '8.995502249', '1.0')
+    """
+    if isinstance(value, (float, np.floating)):
+        return repr(float(f"{float(value):.10g}"))
+    return value
 
 
 def available_studies() -> tuple[str, ...]:
@@ -129,45 +164,31 @@ class StudyResult:
     table: Path | None = None
     exr_directory: Path | None = None
     history: Path | None = None
+    columns: list[str] = field(default_factory=lambda: list(RESULT_COLUMNS))
 
 
-def summarise(m: Measurement, scene: Scene | None = None) -> dict:
+def summarise(m: Measurement) -> dict:
     """
-    The paper's per-measurement numbers: peak (with its error and uncertainty) and Column I.
+    The generic per-measurement numbers: the scene's peak and the highest valid reading.
 
-    The peak is the highest valid reading; its error is that reading minus the scene's peak
-    (the largest tensor maximum), its uncertainty the tensor standard deviation at that pixel.
-    Column I (scenes with ``column_x``) is the pixel column containing it, likewise.
+    ``peak_scene_C`` is the largest tensor maximum [°C]; ``peak_C`` the highest valid reading
+    [°C], ``peak_bias_K`` that reading minus the scene's peak [K] (negative when the camera
+    reads low), ``peak_uncertainty_K`` the tensor standard deviation at that pixel [K]; then the
+    saturated and under-range fractions.
     """
     apparent = m.apparent_temperature
-    out = {"peak_scene_C": float(m.tensor_max.max()) - _C}
+    scene_peak = float(m.tensor_max.max())
+    out = {"peak_scene_C": to_celsius(scene_peak)}
     if np.isfinite(apparent).any():
         i, j = np.unravel_index(np.nanargmax(apparent), apparent.shape)
-        out.update(peak_C=float(apparent[i, j]) - _C,
-                   peak_error_K=float(apparent[i, j] - m.tensor_max.max()),
+        out.update(peak_C=to_celsius(float(apparent[i, j])),
+                   peak_bias_K=float(apparent[i, j]) - scene_peak,
                    peak_uncertainty_K=float(m.tensor_std[i, j]))
     else:
-        out.update(peak_C=math.nan, peak_error_K=math.nan, peak_uncertainty_K=math.nan)
-    column = _column_index(m, scene)
-    if column is not None:
-        col = apparent[:, column]
-        scene_peak = float(m.tensor_max[:, column].max())
-        out["column_I_scene_C"] = scene_peak - _C
-        if np.isfinite(col).any():
-            i = int(np.nanargmax(col))
-            out.update(column_I_C=float(col[i]) - _C, column_I_error_K=float(col[i] - scene_peak),
-                       column_I_uncertainty_K=float(m.tensor_std[i, column]))
+        out.update(peak_C=math.nan, peak_bias_K=math.nan, peak_uncertainty_K=math.nan)
     out["saturated_fraction"] = m.saturated_fraction
     out["under_range_fraction"] = float(np.mean(m.under_range))
     return out
-
-
-def _column_index(m: Measurement, scene) -> int | None:
-    if scene is None or not hasattr(scene, "column_x"):
-        return None
-    column = int(math.floor((scene.column_x("I") - m.camera.fpa.origin[1])
-                            / m.camera.fpa.pixel_pitch))
-    return column if 0 <= column < m.shape[1] else None
 
 
 class Study:
@@ -182,11 +203,18 @@ class Study:
     """
 
     def __init__(self, name: str, scene: dict, cameras: dict[str, Camera], sweeps: list[Sweep],
-                 description: str = "", base: Path | None = None):
+                 description: str = "", base: Path | None = None, hooks: dict | None = None):
         self.name, self.description = name, description
         self.scene_spec, self.cameras, self.sweeps = dict(scene), cameras, sweeps
         self.base = base or Path.cwd()
+        self.hooks = dict(hooks or {})
+        reject_unknown([k for k in self.hooks if k not in HOOKS], HOOKS, "[hooks]")
         self._scene = None
+
+    def hook(self, name: str) -> Callable | None:
+        """The study's ``name`` hook (see :data:`HOOKS`), or ``None``."""
+        spec = self.hooks.get(name)
+        return None if spec is None else load_hook(spec, f"{name} hook")
 
     # -- construction -------------------------------------------------------------------------
 
@@ -220,9 +248,15 @@ class Study:
         sweeps = [Sweep.from_dict(s, cameras) for s in data.pop("sweeps", [])]
         if not sweeps:
             raise RadiosimError("a study needs at least one [[sweeps]] table")
-        if data:
-            raise RadiosimError(f"unknown study key(s): {', '.join(data)}")
-        return cls(name, scene, cameras, sweeps, description, base)
+        hooks = data.pop("hooks", {})
+        if not isinstance(hooks, dict):
+            raise RadiosimError(f"[hooks] must be a table, got {hooks!r}")
+        reject_unknown(list(data), ["name", "description", "scene", "cameras", "sweeps",
+                                    "hooks"], "study")
+        study = cls(name, scene, cameras, sweeps, description, base, hooks)
+        for name in study.hooks:
+            study.hook(name)  # fail now, not after the first measurements
+        return study
 
     # -- the scene ----------------------------------------------------------------------------
 
@@ -255,10 +289,14 @@ class Study:
     def _window_start(self, t_int: float, alignment: str) -> float | None:
         scene = self.scene
         if alignment == "centred" or scene.event_time is None:
-            return None if alignment == "centred" else 0.0  # the camera centres the window
+            return None  # the camera centres the window on the event, or starts at t = 0
         if alignment == "starting":
             return scene.event_time - 0.5 * scene.dt
         return scene.event_time + 0.5 * scene.dt - t_int
+
+    def columns(self) -> list[str]:
+        """Columns of the results table: :data:`RESULT_COLUMNS` and the summary hook's."""
+        return list(RESULT_COLUMNS) + list(getattr(self.hook("summary"), "columns", []))
 
     def run(self, out=None, rng=0, write_exr: bool = True,
             progress: Callable[[int, int, str], None] | None = None) -> StudyResult:
@@ -281,6 +319,8 @@ class Study:
 
         rng = np.random.default_rng(rng)
         plan = list(self.plan())
+        summary, pick_pixel = self.hook("summary"), self.hook("pixel")
+        columns = self.columns()
         out = None if out is None else Path(out)
         exr_dir = None
         if out is not None:
@@ -288,14 +328,17 @@ class Study:
             if write_exr:
                 exr_dir = out / "exr"
                 exr_dir.mkdir(exist_ok=True)
-        result = StudyResult(rows=[], exr_directory=exr_dir)
+        result = StudyResult(rows=[], exr_directory=exr_dir, columns=columns)
         history = {}
         for done, (sweep, name, camera, t_int, alignment) in enumerate(plan, start=1):
             scene = self.scene
             label = (f"{sweep.name}: {name} ({camera.response}), {t_int * 1e6:g} µs, "
                      f"{camera.fpa.pixel_pitch * 1e6:.3g} µm")
             if sweep.kind == "pixel":
-                scene = self._band_pixel(camera)
+                if pick_pixel is None:
+                    raise RadiosimError(f"sweep {sweep.name!r} is of kind 'pixel': the study "
+                                        "needs a pixel hook ([hooks] pixel = 'module:function')")
+                scene = pick_pixel(scene, camera.fpa.pixel_pitch)
             with warnings.catch_warnings():
                 warnings.simplefilter("ignore", RadiosimWarning)
                 m = camera.measure(scene, t_int, self._window_start(t_int, alignment), rng)
@@ -303,58 +346,39 @@ class Study:
                 "study": self.name, "sweep": sweep.name, "camera": name,
                 "response": camera.response, "integration_time_us": shift(t_int, 6),
                 "n_frames": m.n_frames, "pixel_pitch_um": shift(camera.fpa.pixel_pitch, 6),
-                "pixel_samples": round(camera.fpa.pixel_pitch / scene.dx, 6),
+                "pixel_samples": camera.fpa.pixel_pitch / scene.dx,
                 "sensor_area_um2": camera.fpa.fill_factor * (camera.fpa.pixel_pitch * 1e6) ** 2,
-                "alignment": alignment, "t_start_us": m.t_start * 1e6,
+                "alignment": alignment if scene.event_time is not None else m.alignment,
+                "t_start_us": shift(m.t_start, 6),
             }
-            row.update(summarise(m, scene if sweep.kind == "field" else None))
+            row.update(summarise(m))
             if sweep.kind == "pixel":
-                row.update(peak_C=float(m.tensor_mean[0, 0]) - _C,
+                row.update(peak_C=to_celsius(float(m.tensor_mean[0, 0])),
                            peak_uncertainty_K=float(m.tensor_std[0, 0]))
                 key = (name, camera.response)
                 if t_int > history.get(key, (0.0,))[0]:
                     history[key] = (t_int, m.t_start, scene)
-            elif exr_dir is not None:
-                filename = (f"{sweep.name}_{name}_{camera.response}_{t_int * 1e6:g}us_"
-                            f"{camera.fpa.pixel_pitch * 1e6:.4g}um_{alignment}.exr")
-                write(exr_dir / filename, m)
-                row["exr"] = f"exr/{filename}"
-            result.rows.append({k: row.get(k, "") for k in RESULT_COLUMNS})
+            else:
+                if summary is not None:
+                    row.update(summary(m, scene))
+                if exr_dir is not None:
+                    filename = (f"{sweep.name}_{name}_{camera.response}_{t_int * 1e6:g}us_"
+                                f"{camera.fpa.pixel_pitch * 1e6:.4g}um_{alignment}.exr")
+                    write(exr_dir / filename, m)
+                    row["exr"] = f"exr/{filename}"
+            result.rows.append({k: row.get(k, "") for k in columns})
             if progress is not None:
                 progress(done, len(plan), label)
         if out is not None:
             result.table = out / "results.csv"
-            with result.table.open("w", newline="") as handle:
-                writer = csv.DictWriter(handle, fieldnames=RESULT_COLUMNS)
-                writer.writeheader()
-                writer.writerows(result.rows)
+            _write_csv(result.table, columns, result.rows)
             if history:
                 result.history = out / "pixel_history.csv"
                 self._write_history(result.history, history)
         return result
 
-    # -- the band pixel (Figure 8) ------------------------------------------------------------
-
-    def _band_pixel(self, camera: Camera) -> Scene:
-        """The scene cropped to the Column I pixel where the band peaks in the event frame."""
-        scene = self.scene
-        if not hasattr(scene, "column_x"):
-            raise RadiosimError("a 'pixel' sweep needs a scene with reference columns "
-                                "(the segmented chip)")
-        pitch = camera.fpa.pixel_pitch / scene.dx
-        if abs(pitch - round(pitch)) > 1e-6:
-            raise RadiosimError("a 'pixel' sweep needs a pixel of a whole number of samples")
-        p = round(pitch)
-        column = int(scene.column_x("I") / scene.dx) // p
-        strip = scene.crop((0, scene.shape[0] - scene.shape[0] % p), (column * p, column * p + p))
-        event = scene.frame(int(scene.event_time / scene.dt), (slice(0, strip.shape[0]),
-                                                              slice(column * p, column * p + p)))
-        means = event.reshape(-1, p, p).mean(axis=(1, 2))
-        row = int(np.argmax(means))
-        return scene.crop((row * p, row * p + p), (column * p, column * p + p))
-
     def _write_history(self, path: Path, history: dict):
-        """Instantaneous footprint mean of the band pixel over the longest window."""
+        """Instantaneous footprint mean of the chosen pixel over the longest window."""
         rows = []
         for (name, response), (t_int, t_start, pixel) in history.items():
             first = int(math.floor(t_start / pixel.dt + 1e-9))
@@ -362,12 +386,15 @@ class Study:
             for k in range(first, last):
                 rows.append({"camera": name, "response": response,
                              "time_us": ((k + 0.5) * pixel.dt - t_start) * 1e6,
-                             "mean_C": float(pixel.frame(k).mean()) - _C})
-        with path.open("w", newline="") as handle:
-            writer = csv.DictWriter(handle, fieldnames=["camera", "response", "time_us",
-                                                        "mean_C"])
-            writer.writeheader()
-            writer.writerows(rows)
+                             "mean_C": to_celsius(float(pixel.frame(k).mean()))})
+        _write_csv(path, ["camera", "response", "time_us", "mean_C"], rows)
+
+
+def _write_csv(path: Path, columns: list[str], rows: list[dict]):
+    with path.open("w", newline="") as handle:
+        writer = csv.DictWriter(handle, fieldnames=columns)
+        writer.writeheader()
+        writer.writerows({k: format_value(v) for k, v in row.items()} for row in rows)
 
 
 def _camera_from(table: dict, name: str, base: Path) -> Camera:
@@ -417,9 +444,10 @@ def _scene_from(spec: dict, base: Path) -> Scene:
         scene = SegmentedChip(params, dx=take_length("dx_um", 960 / 1440),
                               dt=take_length("dt_us", 0.2), emissivity=emissivity)
     elif kind == "frames":
+        event = take_length("event_time_us")
         scene = read_frames(base / spec.pop("path"), dt=take_length("dt_us"),
                             dx=take_length("dx_um"), units=spec.pop("units", None),
-                            emissivity=emissivity)
+                            emissivity=emissivity, event_time=event)
     elif kind == "fea":
         scene = read_fea_nodes(base / spec.pop("path"), dx=take_length("dx_um"),
                                dt=take_length("dt_us"), units=spec.pop("units", None),

@@ -6,7 +6,7 @@ The full-resolution check (0.2 µs frames, whole field) is benchmarks/check_chip
 import numpy as np
 import pytest
 
-from radiosim.scenes.chip_calibration import TARGETS, evaluate_targets, report
+from radiosim.paper.chip_calibration import TARGETS, evaluate_targets, report
 
 
 @pytest.fixture(scope="module")

@@ -30,6 +30,9 @@ name = "size-of-source"
 cameras = ["linear"]
 pixel_samples = [3, 6]
 integration_time_frames = [1]
+[hooks]
+summary = "radiosim.paper:column_summary"
+figures = "radiosim.paper:make_figures"
 """
 
 

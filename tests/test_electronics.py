@@ -5,15 +5,8 @@ import math
 import numpy as np
 import pytest
 
-from radiosim.electronics import Electronics, etendue, quantise
+from radiosim.electronics import Electronics, quantise
 from radiosim.errors import RadiosimError
-
-
-def test_etendue_is_area_times_projected_solid_angle():
-    # Cone of half-angle θ: projected solid angle π sin²θ, and sin θ = 1/√(4N² + 1).
-    for n in (0.7, 1.0, 2.5, 4.0):
-        theta = math.asin(1 / math.sqrt(4 * n**2 + 1))
-        assert etendue(2e-10, n) == pytest.approx(2e-10 * math.pi * math.sin(theta) ** 2)
 
 
 def _variance_and_error(samples):

@@ -7,7 +7,8 @@ import pytest
 
 from radiosim import Camera, FocalPlaneArray, FrameStack, MovingGaussianBand
 from radiosim.errors import RadiosimError
-from radiosim.integrator import FootprintIntegrator, axis_footprints, integrate
+from radiosim.integrator import FootprintIntegrator, Window, axis_footprints, integrate
+from radiosim.response import LinearResponse
 
 
 def naive_tensors(stack, p, first, n):
@@ -134,9 +135,16 @@ def test_axis_pieces_weights_sum_to_one():
     assert integrator.shape == (ax.n_pixels, ax.n_pixels)
 
 
+class Square(LinearResponse):
+    """A response whose signal is T² [K²]: not the temperature, so accumulated on its own."""
+
+    def signal(self, frame):
+        return frame.temperature**2
+
+
 def test_integrate_accumulates_the_signal_separately():
     scene = FrameStack(np.random.default_rng(2).uniform(300, 600, (4, 12, 12)), dt=1.0, dx=1.0)
     integrator = FootprintIntegrator.for_scene(scene, 3.0, 1.0, (4, 4))
-    stats = integrate(scene, integrator, 0.0, 4.0, signal=lambda t, k: t**2)
+    stats = integrate(scene, integrator, Window(0.0, 4.0), Square())
     block = scene._stack.reshape(4, 4, 3, 4, 3)
     np.testing.assert_allclose(stats.signal_mean, (block**2).mean(axis=(0, 2, 4)), rtol=1e-12)

@@ -170,7 +170,8 @@ def test_parameters_round_trip_through_toml(tmp_path):
 
 
 @pytest.mark.parametrize("text, message", [
-    ("[chip]\nband_widht_um = 3\n", "unknown chip parameter"),
+    ("[chip]\nband_widht_um = 3\n",
+     r"chip parameters: unknown key\(s\) band_widht_um \(did you mean band_width_um\?\)"),
     ("[chip]\nband_width_um = -3\n", "band_width must be > 0"),
     ("[chip]\nchip_ratio = 1.5\n", r"chip_ratio must be in \(0, 1\)"),
     ("[chip]\nrake_angle_deg = -5\n", "right-angle wedge"),

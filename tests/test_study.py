@@ -6,6 +6,7 @@ import numpy as np
 import pytest
 
 from radiosim.errors import RadiosimError
+from radiosim.paper import COLUMN_I_COLUMNS
 from radiosim.study import STUDY_DIRECTORY, RESULT_COLUMNS, Study, available_studies
 
 
@@ -36,7 +37,8 @@ def coarse_paper_study():
 def test_a_coarse_run_of_the_papers_study(tmp_path):
     study = coarse_paper_study()
     result = study.run(tmp_path, write_exr=False)
-    assert list(result.rows[0]) == RESULT_COLUMNS
+    assert study.columns() == RESULT_COLUMNS + COLUMN_I_COLUMNS  # the paper's hook adds them
+    assert list(result.rows[0]) == study.columns()
     rows = {(r["sweep"], r["camera"], r["integration_time_us"], r["pixel_pitch_um"]): r
             for r in result.rows}
     lin_1, lin_90 = rows[("integration-time", "linear", 1.0, 6.0)], rows[
@@ -65,12 +67,35 @@ def test_window_alignments(tmp_path):
     rows = study.run(write_exr=False).rows
     assert [r["t_start_us"] for r in rows] == [0.0, 0.0, 0.0, 0.0]  # no event: from t = 0
     assert all(r["peak_C"] == pytest.approx(400 - 273.15) for r in rows)
-    assert all(r["peak_error_K"] == pytest.approx(0.0) for r in rows)
+    assert all(r["peak_bias_K"] == pytest.approx(0.0) for r in rows)
+    assert all(r["alignment"] == "scene start" for r in rows)  # said as it happened
+
+
+def test_window_alignments_around_an_event(tmp_path):
+    # Frame k holds 300 + k kelvin; the event is frame 10 (its mid-time 10.5 µs).
+    stack = tmp_path / "s.npy"
+    np.save(stack, 300.0 + np.arange(20)[:, None, None] * np.ones((20, 6, 6)))
+    study = Study.from_dict({
+        "name": "frames",
+        "scene": {"type": "frames", "path": str(stack), "dt_us": 1.0, "dx_um": 1.0,
+                  "units": "K", "event_time_us": 10.5},
+        "cameras": {"c": {"preset": "linear-ideal", "pixel_pitch_um": 3.0}},
+        "sweeps": [{"name": "s", "cameras": ["c"], "integration_time_us": [3],
+                    "alignment": ["centred", "starting", "ending"]}],
+    })
+    rows = {r["alignment"]: r for r in study.run(write_exr=False).rows}
+    # centred: frames 9, 10, 11; starting: 10, 11, 12; ending: 8, 9, 10 (the event's end).
+    assert rows["centred"]["t_start_us"] == pytest.approx(9.0)
+    assert rows["starting"]["t_start_us"] == pytest.approx(10.0)
+    assert rows["ending"]["t_start_us"] == pytest.approx(8.0)
+    for name, frames in (("centred", (9, 10, 11)), ("starting", (10, 11, 12)),
+                         ("ending", (8, 9, 10))):
+        assert rows[name]["peak_C"] == pytest.approx(300 + np.mean(frames) - 273.15, abs=1e-9)
 
 
 @pytest.mark.parametrize("change, message", [
     (lambda d: d.pop("scene"), "needs a \\[scene\\]"),
-    (lambda d: d.update(colour="red"), "unknown study key"),
+    (lambda d: d.update(colour="red"), r"study: unknown key\(s\) colour"),
     (lambda d: d["sweeps"][0].update(cameras=["nope"]), "cameras must name"),
     (lambda d: d["sweeps"][0].update(integration_time_frames=[1]), "one of them"),
     (lambda d: d["sweeps"][0].update(alignment=["sideways"]), "alignment must be"),

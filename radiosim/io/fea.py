@@ -20,16 +20,16 @@ from pathlib import Path
 
 import numpy as np
 from scipy.spatial import Delaunay
-
+from radiosim.checks import check_positive
 from radiosim.errors import RadiosimError
-from radiosim.scenes.base import Region, Scene, check_emissivity, check_positive
-from radiosim.scenes.framestack import TEMPERATURE_OFFSETS
+from radiosim.scenes.fea_nodes import FeaNodes
+from radiosim.units import TEMPERATURE_OFFSETS, UNITS
 
-__all__ = ["read_fea_nodes", "FeaNodes", "LENGTH_UNITS", "TIME_UNITS"]
+__all__ = ["read_fea_nodes", "FeaNodes"]
 
 #: Length and time units accepted for FEA files, with their factor to SI.
-LENGTH_UNITS = {"m": 1.0, "mm": 1e-3, "um": 1e-6, "µm": 1e-6}
-TIME_UNITS = {"s": 1.0, "ms": 1e-3, "us": 1e-6, "µs": 1e-6, "ns": 1e-9}
+LENGTH_UNITS = {unit: 10.0**exponent for unit, (exponent, _) in UNITS["length"].items()}
+TIME_UNITS = {unit: 10.0**exponent for unit, (exponent, _) in UNITS["time"].items()}
 _COLUMNS = ("time", "x", "y", "temperature")
 
 
@@ -78,66 +78,6 @@ def _parse(path: Path):
     if header is None or not rows:
         raise RadiosimError(f"{path}: no data (expected a header {','.join(_COLUMNS)} and rows)")
     return np.array(rows), stated
-
-
-class FeaNodes(Scene):
-    """
-    A scene resampled from FEA nodes, one frame per simulation step.
-
-    Build it with :func:`read_fea_nodes`. Frames are interpolated on demand (the triangulation
-    of each step is kept), so memory holds the nodes, not a gridded stack.
-    """
-
-    def __init__(self, steps, times, dx, origin, shape, fill, max_edge, emissivity, source):
-        self._steps = steps  # list of (points [m], temperature [K])
-        self.times = times
-        self.dt = float(np.mean(np.diff(times))) if len(times) > 1 else None
-        self.dx = dx
-        self.origin = origin  # (x of column 0's left edge, y of row 0's top edge) [m]
-        self.shape = shape
-        self.n_frames = len(steps)
-        self.fill = fill
-        self.max_edge = max_edge
-        self.emissivity = check_emissivity(emissivity, shape)
-        self.event_time = None
-        self._source = source
-        self._triangulations: dict[int, tuple] = {}
-
-    def _mesh(self, k):
-        if k not in self._triangulations:
-            points, _ = self._steps[k]
-            try:
-                tri = Delaunay(points)
-            except Exception as exc:  # qhull errors: too few or collinear nodes
-                raise RadiosimError(f"step {k} (t = {self.times[k]:g} s) of {self._source}: "
-                                    f"cannot triangulate its {len(points)} nodes: {exc}") from None
-            corners = points[tri.simplices]
-            edges = np.linalg.norm(corners - np.roll(corners, 1, axis=1), axis=2).max(axis=1)
-            self._triangulations = {k: (tri, edges <= self.max_edge)}  # keep the latest only
-        return self._triangulations[k]
-
-    def _read(self, k: int, region: Region) -> np.ndarray:
-        tri, valid = self._mesh(k)
-        _, temperature = self._steps[k]
-        rows = np.arange(region[0].start, region[0].stop)
-        cols = np.arange(region[1].start, region[1].stop)
-        x = self.origin[0] + (cols + 0.5) * self.dx
-        y = self.origin[1] - (rows + 0.5) * self.dx
-        grid = np.column_stack([np.tile(x, rows.size), np.repeat(y, cols.size)])
-        simplex = tri.find_simplex(grid)
-        inside = simplex >= 0
-        inside[inside] = valid[simplex[inside]]
-        out = np.full(grid.shape[0], self.fill)
-        s = simplex[inside]
-        transform = tri.transform[s]
-        bary = np.einsum("ijk,ik->ij", transform[:, :2], grid[inside] - transform[:, 2])
-        weights = np.column_stack([bary, 1 - bary.sum(axis=1)])
-        out[inside] = np.einsum("ij,ij->i", weights, temperature[tri.simplices[s]])
-        return out.reshape(rows.size, cols.size)
-
-    def describe(self) -> dict:
-        return super().describe() | {"source": self._source, "fill_K": self.fill,
-                                     "max_edge_m": self.max_edge}
 
 
 def read_fea_nodes(path, dx, dt=None, units=None, fill=293.15, bounds=None, max_edge=None,

@@ -13,23 +13,11 @@ from pathlib import Path
 import numpy as np
 
 from radiosim.errors import RadiosimError, RadiosimWarning
-from radiosim.scenes.base import Region, Scene, check_emissivity, check_positive
-from radiosim.scenes.framestack import TEMPERATURE_OFFSETS, FrameStack
+from radiosim.scenes.base import Scene
+from radiosim.scenes.exr_sequence import EXR_TEMPERATURE_CHANNELS, ExrSequence, temperature_unit
+from radiosim.scenes.framestack import FrameStack
 
 __all__ = ["read_frames", "ExrSequence", "EXR_TEMPERATURE_CHANNELS"]
-
-#: Channel names read as temperature from EXR frames, in order of preference.
-EXR_TEMPERATURE_CHANNELS = ("temperature", "T", "Y")
-#: Header attributes that state the temperature unit of an EXR frame.
-EXR_UNIT_ATTRIBUTES = ("temperature_unit", "units")
-
-
-def _units(value, path) -> str:
-    aliases = {"k": "K", "kelvin": "K", "c": "C", "°c": "C", "celsius": "C", "degc": "C"}
-    unit = aliases.get(str(value).strip().lower())
-    if unit is None:
-        raise RadiosimError(f"{path}: temperature unit {value!r} is not K or C")
-    return unit
 
 
 def _npz_member(path: Path, key: str | None):
@@ -66,87 +54,6 @@ def _npz_member(path: Path, key: str | None):
                   RadiosimWarning, stacklevel=3)
     with np.load(path) as data:
         return data[key]
-
-
-class ExrSequence(Scene):
-    """
-    Temperature frames from a sequence of EXR files, one per frame, read one at a time.
-
-    Parameters
-    ----------
-    paths
-        The frame files in time order.
-    dt, dx
-        Frame interval [s] and sample pitch [m]; ``None``: from the first file's header
-        attributes ``dt_s`` and ``dx_m``.
-    units
-        ``"K"`` or ``"C"``; ``None``: from the header attribute ``temperature_unit`` (or
-        ``units``).
-    channel
-        Temperature channel; ``None``: the first of :data:`EXR_TEMPERATURE_CHANNELS` present.
-    emissivity
-        As for :class:`~radiosim.FrameStack`.
-    """
-
-    def __init__(self, paths, dt=None, dx=None, units=None, channel=None, emissivity=1.0,
-                 event_time=None):
-        import OpenEXR  # optional at import time of radiosim; required here
-
-        self._exr = OpenEXR
-        self.paths = [Path(p) for p in paths]
-        if not self.paths:
-            raise RadiosimError("no EXR frames given")
-        header, channels = self._open(0)
-        if channel is None:
-            channel = next((c for c in EXR_TEMPERATURE_CHANNELS if c in channels), None)
-            if channel is None:
-                raise RadiosimError(f"{self.paths[0]}: no temperature channel (looked for "
-                                    f"{', '.join(EXR_TEMPERATURE_CHANNELS)}; it has "
-                                    f"{', '.join(channels)})")
-        self.channel = channel
-        if units is None:
-            stated = next((header[a] for a in EXR_UNIT_ATTRIBUTES if a in header), None)
-            if stated is None:
-                raise RadiosimError(f"{self.paths[0]}: the header states no temperature unit "
-                                    "(attribute temperature_unit); pass units='K' or 'C'")
-            units = stated
-        self.units = _units(units, self.paths[0])
-        self.dt = check_positive(dt if dt is not None else header.get("dt_s"), "dt", "s")
-        self.dx = check_positive(dx if dx is not None else header.get("dx_m"), "dx", "m")
-        self.shape = self._pixels(0, channels).shape
-        self.n_frames = len(self.paths)
-        self.emissivity = check_emissivity(emissivity, self.shape)
-        self.event_time = event_time
-
-    def _open(self, k):
-        path = self.paths[k]
-        try:
-            with self._exr.File(str(path)) as exr:
-                # The bindings release the pixels when the file closes: copy them out.
-                return dict(exr.header()), {name: np.array(channel.pixels)
-                                            for name, channel in exr.channels().items()}
-        except Exception as exc:  # the bindings raise RuntimeError for unreadable files
-            raise RadiosimError(f"frame {k}: cannot read EXR file {path}: {exc}") from None
-
-    def _pixels(self, k, channels):
-        if self.channel not in channels:
-            raise RadiosimError(f"frame {k}: {self.paths[k]} has no channel {self.channel!r}")
-        pixels = channels[self.channel]
-        if pixels.ndim != 2:
-            raise RadiosimError(f"frame {k}: channel {self.channel!r} of {self.paths[k]} is not "
-                                f"a single-component image (shape {pixels.shape})")
-        return pixels
-
-    def _read(self, k: int, region: Region) -> np.ndarray:
-        pixels = self._pixels(k, self._open(k)[1])
-        if pixels.shape != self.shape:
-            raise RadiosimError(f"frame {k}: {self.paths[k]} is {pixels.shape}, the first frame "
-                                f"is {self.shape}")
-        return pixels[region[0], region[1]].astype(np.float64) + TEMPERATURE_OFFSETS[self.units]
-
-    def describe(self) -> dict:
-        return super().describe() | {"source": str(self.paths[0].parent),
-                                     "source_units": self.units, "channel": self.channel}
 
 
 def _natural_key(path: Path):
@@ -187,7 +94,7 @@ def read_frames(path, dt=None, dx=None, units=None, key=None, channel=None, emis
             raise RadiosimError(f"{path} does not exist")
         if units is None:
             raise RadiosimError(f"{path}: NumPy files carry no unit; pass units='K' or 'C'")
-        units = _units(units, path)
+        units = temperature_unit(units, path)
         if dt is None or dx is None:
             raise RadiosimError(f"{path}: pass dt [s] and dx [m] for a NumPy stack")
         if path.suffix.lower() == ".npy":

@@ -14,7 +14,7 @@ import numpy as np
 from scipy.special import erf
 
 from radiosim.errors import RadiosimError
-from radiosim.scenes.base import Region, Scene, check_emissivity, check_positive
+from radiosim.scenes.base import Region, Scene, check_emissivity, check_grid, check_positive
 
 __all__ = ["UniformBlackbody", "MovingGaussianBand", "StepEdge"]
 
@@ -57,8 +57,7 @@ class UniformBlackbody(Scene):
                  n_frames=None):
         self.temperature = check_positive(temperature, "temperature", "K")
         self.shape = _shape(shape)
-        self.dx = check_positive(dx, "dx", "m")
-        self.dt = check_positive(dt, "dt", "s")
+        self.dx, self.dt = check_grid(dx, dt)
         self.emissivity = check_emissivity(emissivity, self.shape)
         self.n_frames = None if n_frames is None else int(n_frames)
 
@@ -120,8 +119,7 @@ class MovingGaussianBand(Scene):
             raise RadiosimError(f"velocity must be finite and non-zero [m/s], got {velocity!r}")
         self.x0 = float(x0)
         self.shape = _shape(shape)
-        self.dx = check_positive(dx, "dx", "m")
-        self.dt = check_positive(dt, "dt", "s")
+        self.dx, self.dt = check_grid(dx, dt)
         self.emissivity = check_emissivity(emissivity, self.shape)
         self.n_frames = None if n_frames is None else int(n_frames)
         if event_time is None:
@@ -200,8 +198,7 @@ class StepEdge(Scene):
         self.cold = check_positive(cold, "cold", "K")
         self.edge = float(edge)
         self.shape = _shape(shape)
-        self.dx = check_positive(dx, "dx", "m")
-        self.dt = check_positive(dt, "dt", "s")
+        self.dx, self.dt = check_grid(dx, dt)
         if not 0 <= self.edge <= self.shape[1] * self.dx:
             raise RadiosimError(f"edge {edge!r} m is outside the scene (0 to "
                                 f"{self.shape[1] * self.dx:g} m)")

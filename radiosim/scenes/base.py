@@ -9,57 +9,57 @@ frames of interval ``dt`` [s]: frame k holds over [k·dt, (k+1)·dt). Consumers 
 
 from __future__ import annotations
 
-import math
 from abc import ABC, abstractmethod
 from collections.abc import Iterator
+import dataclasses
+from dataclasses import dataclass
 
 import numpy as np
 from colour import SpectralDistribution
 
+from radiosim.checks import check_frame, check_positive
 from radiosim.errors import RadiosimError
 from radiosim.spectral import as_spectrum
 
-__all__ = ["Region", "Scene", "CroppedScene", "check_frame", "check_positive", "check_emissivity"]
+__all__ = ["Region", "SceneFrame", "Scene", "CroppedScene", "check_frame", "check_positive",
+           "check_emissivity", "check_grid"]
 
 #: A rectangular region of a frame: (row slice, column slice), both with explicit bounds.
 Region = tuple[slice, slice]
 
-
-def check_positive(value, name: str, unit: str) -> float:
-    """``value`` as a finite float > 0, or a :class:`RadiosimError` naming it."""
-    try:
-        number = float(value)
-    except (TypeError, ValueError):
-        raise RadiosimError(f"{name} must be a number [{unit}], got {value!r}") from None
-    if not math.isfinite(number) or number <= 0:
-        raise RadiosimError(f"{name} must be finite and > 0 [{unit}], got {value!r}")
-    return number
-
-
-def check_frame(frame: np.ndarray, k: int, origin: tuple[int, int] = (0, 0)) -> np.ndarray:
+@dataclass(frozen=True, eq=False)
+class SceneFrame:
     """
-    Check that a temperature frame is usable: finite and > 0 K everywhere.
+    One frame of a scene over a region, as the response needs it: temperature and emissivity of
+    every sample, from one evaluation of the scene.
 
-    Parameters
+    Attributes
     ----------
-    frame
-        Temperature [K], 2-D.
-    k
-        Frame index, for the error message.
-    origin
-        (row, column) of ``frame[0, 0]`` in the full frame, for the error message.
+    temperature : numpy.ndarray
+        Temperature of each sample [K], 2-D.
+    emissivity : float, SpectralDistribution or numpy.ndarray
+        Emissivity of every sample (a grey scalar or a spectral curve), or a grey map shaped like
+        ``temperature`` (dimensionless).
+    regions : numpy.ndarray of int or None
+        Region code of each sample, when the emissivity is given per region.
+    region_emissivity : dict or None
+        Region code → grey scalar or spectral curve; with ``regions``, it overrides
+        ``emissivity``.
+    index : int
+        Frame index k.
     """
-    if frame.size and frame.min() > 0:  # NaN compares false, so NaN frames fall through
-        return frame
-    bad = ~(frame > 0)
-    i, j = (int(v) for v in np.argwhere(bad)[0])
-    value = frame[i, j]
-    what = "NaN" if np.isnan(value) else f"{value:g} K"
-    expected = "finite" if np.isnan(value) else "> 0 K (°C passed as kelvin?)"
-    raise RadiosimError(
-        f"frame {k}: temperature at row {i + origin[0]}, column {j + origin[1]} is {what}; "
-        f"temperatures must be {expected} ({int(bad.sum())} bad sample(s) in this frame)"
-    )
+
+    temperature: np.ndarray
+    emissivity: float | SpectralDistribution | np.ndarray = 1.0
+    regions: np.ndarray | None = None
+    region_emissivity: dict | None = None
+    index: int = 0
+
+
+def check_grid(dx: float, dt: float) -> tuple[float, float]:
+    """A scene's sample pitch [m] and frame interval [s], each finite and > 0 (whether they
+    suit a camera is the integrator's check: :func:`radiosim.integrator.check_scale`)."""
+    return check_positive(dx, "dx", "m"), check_positive(dt, "dt", "s")
 
 
 def check_emissivity(emissivity, shape: tuple[int, int]):
@@ -115,20 +115,25 @@ class Scene(ABC):
     def _read(self, k: int, region: Region) -> np.ndarray:
         """Frame ``k`` over ``region`` as float64 [K], unchecked."""
 
-    def frame(self, k: int, region: Region | None = None) -> np.ndarray:
-        """
-        Temperature of frame ``k`` [K], float64, optionally restricted to ``region``.
+    def _sample(self, k: int, region: Region) -> SceneFrame:
+        """Frame ``k`` over ``region`` with its emissivity, unchecked (scenes whose emissivity
+        changes with time override this)."""
+        emissivity = self.emissivity
+        if isinstance(emissivity, np.ndarray):
+            emissivity = emissivity[region[0], region[1]]
+        return SceneFrame(self._read(k, region), emissivity, index=k)
 
-        Raises :class:`~radiosim.errors.RadiosimError` if ``k`` is outside the scene or the frame
-        holds NaN or non-positive temperatures.
-        """
+    def _where(self, k, region: Region | None) -> tuple[int, Region]:
         k = int(k)
         if k < 0 or (self.n_frames is not None and k >= self.n_frames):
             last = "∞" if self.n_frames is None else self.n_frames - 1
             raise RadiosimError(f"frame {k} is outside the scene (frames 0 to {last})")
         if region is None:
             region = (slice(0, self.shape[0]), slice(0, self.shape[1]))
-        values = np.asarray(self._read(k, region), dtype=np.float64)
+        return k, region
+
+    def _checked(self, values, k: int, region: Region) -> np.ndarray:
+        values = np.asarray(values, dtype=np.float64)
         expected = tuple(s.stop - s.start for s in region)
         if values.shape != expected:
             raise RadiosimError(
@@ -137,17 +142,29 @@ class Scene(ABC):
             )
         return check_frame(values, k, (region[0].start, region[1].start))
 
+    def frame(self, k: int, region: Region | None = None) -> np.ndarray:
+        """
+        Temperature of frame ``k`` [K], float64, optionally restricted to ``region``.
+
+        Raises :class:`~radiosim.errors.RadiosimError` if ``k`` is outside the scene or the frame
+        holds NaN, infinite or non-positive temperatures.
+        """
+        k, region = self._where(k, region)
+        return self._checked(self._read(k, region), k, region)
+
+    def sample(self, k: int, region: Region | None = None) -> SceneFrame:
+        """
+        Frame ``k`` over ``region``: temperature [K] and emissivity of every sample, as one
+        checked :class:`SceneFrame` (an emissivity map is cropped to the region).
+        """
+        k, region = self._where(k, region)
+        frame = self._sample(k, region)
+        return dataclasses.replace(frame, temperature=self._checked(frame.temperature, k, region))
+
     def frames(self, start: int, stop: int, region: Region | None = None) -> Iterator[np.ndarray]:
         """Frames ``start`` to ``stop - 1`` [K], one at a time."""
         for k in range(start, stop):
             yield self.frame(k, region)
-
-    def emissivity_map(self, k: int, region: Region):
-        """
-        Emissivity of frame ``k`` over ``region`` when it changes with time, as
-        (integer region codes, {code: emissivity}); ``None`` when :attr:`emissivity` holds.
-        """
-        return None
 
     def crop(self, rows: tuple[int, int], cols: tuple[int, int]) -> "CroppedScene":
         """The window (row start, stop) × (column start, stop) of this scene, as a scene."""
@@ -215,8 +232,8 @@ class CroppedScene(Scene):
     def _read(self, k: int, region: Region) -> np.ndarray:
         return self.parent._read(k, self._shift(region))
 
-    def emissivity_map(self, k: int, region: Region):
-        return self.parent.emissivity_map(k, self._shift(region))
+    def _sample(self, k: int, region: Region) -> SceneFrame:
+        return self.parent._sample(k, self._shift(region))
 
     def describe(self) -> dict:
         return self.parent.describe() | {

@@ -7,12 +7,10 @@ from __future__ import annotations
 import numpy as np
 
 from radiosim.errors import RadiosimError
-from radiosim.scenes.base import Region, Scene, check_emissivity, check_positive
+from radiosim.units import TEMPERATURE_OFFSETS
+from radiosim.scenes.base import Region, Scene, check_emissivity, check_grid, check_positive
 
-__all__ = ["FrameStack", "TEMPERATURE_OFFSETS"]
-
-#: Temperature units accepted at the edges and their offset to kelvin.
-TEMPERATURE_OFFSETS = {"K": 0.0, "C": 273.15}
+__all__ = ["FrameStack"]
 
 
 class FrameStack(Scene):
@@ -67,8 +65,7 @@ class FrameStack(Scene):
         if min(temperature.shape) == 0:
             raise RadiosimError(f"temperature array is empty: shape {temperature.shape}")
         self._stack = temperature
-        self.dt = check_positive(dt, "dt", "s")
-        self.dx = check_positive(dx, "dx", "m")
+        self.dx, self.dt = check_grid(dx, dt)
         self.n_frames = int(temperature.shape[0])
         self.shape = (int(temperature.shape[1]), int(temperature.shape[2]))
         self.emissivity = check_emissivity(emissivity, self.shape)

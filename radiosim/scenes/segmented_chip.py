@@ -47,10 +47,10 @@ from scipy.interpolate import RegularGridInterpolator
 from scipy.signal import fftconvolve
 from scipy.special import erfc
 
+from radiosim.config import build_from_toml, dumps_toml, edge_field, from_table, to_table
 from radiosim.errors import RadiosimError
-from radiosim.tomlio import build_from_toml, dumps_toml
-from radiosim.units import shift
-from radiosim.scenes.base import Region, Scene, check_emissivity, check_positive
+from radiosim.scenes.base import Region, Scene, SceneFrame, check_emissivity, check_grid
+from radiosim.units import CELSIUS_OFFSET
 
 __all__ = ["ChipParameters", "SegmentedChip", "REGIONS", "COLUMNS"]
 
@@ -60,7 +60,6 @@ REGIONS = {"air": 0, "workpiece": 1, "chip": 2, "tool": 3}
 #: vertical column of pixels crosses L0 [m]. Column I is the paper's (near the free surface).
 COLUMNS = {"I": 440e-6, "II": 300e-6, "III": 160e-6}
 
-_CELSIUS = 273.15
 _NEGLIGIBLE = 1e-3  # K: moving terms below this are not evaluated
 
 
@@ -71,31 +70,10 @@ _FADE_REACH = 10.0  # the rake-face fade is 1 − O(e^{−20}) beyond 10 fade le
 _UM, _US = 1e-6, 1e-6
 
 
-def _power_of_ten(scale: float) -> int | None:
-    exponent = round(math.log10(scale))
-    return exponent if math.isclose(10.0**exponent, scale, rel_tol=1e-15) else None
-
-
-def _to_si(value: float, scale: float, offset: float) -> float:
-    """Edge unit → SI: exact on the decimal representation for powers of ten."""
-    exponent = _power_of_ten(scale)
-    scaled = shift(value, exponent) if exponent is not None else value * scale
-    return scaled + offset if offset else scaled
-
-
-def _to_edge(value: float, scale: float, offset: float) -> float:
-    """SI → edge unit (the inverse of :func:`_to_si`)."""
-    value = value - offset if offset else value
-    exponent = _power_of_ten(scale)
-    if exponent is not None:
-        return shift(value, -exponent)
-    return float(repr(round(value / scale, 12)))
-
-
 def _param(default, toml_key, scale=1.0, offset=0.0, doc=""):
     """A parameter with its TOML key (edge units) and conversion: SI = value·scale + offset."""
-    return field(default=default, metadata={"toml": toml_key, "scale": scale,
-                                            "offset": offset, "doc": doc})
+    return edge_field(default, toml_key, scale, offset, doc,
+                      kind="int" if isinstance(default, int) else "number")
 
 
 @dataclass(frozen=True)
@@ -106,7 +84,7 @@ class ChipParameters:
     TOML files use the units of ``shared/SCENE.md`` with the unit in each key (``period_us``,
     ``band_width_um``, ``initial_temperature_C``); :meth:`from_toml` and :meth:`to_toml`
     convert. The defaults are SCENE.md's values except the eight that
-    :func:`radiosim.scenes.chip_calibration.calibrate` fitted to the paper's figures
+    :func:`radiosim.paper.chip_calibration.calibrate` fitted to the paper's figures
     (slip fraction, primary rise, band amplitude, widths and diffusivity, secondary rise,
     modulation); docs/scene.md gives the fit and its result.
     """
@@ -115,9 +93,9 @@ class ChipParameters:
     cutting_speed: float = _param(250 / 60, "cutting_speed_m_per_min", 1 / 60,
                                   doc="workpiece speed V [m/s]")
     uncut_thickness: float = _param(300e-6, "uncut_thickness_um", _UM, doc="h [m]")
-    initial_temperature: float = _param(293.15, "initial_temperature_C", 1.0, _CELSIUS,
+    initial_temperature: float = _param(293.15, "initial_temperature_C", 1.0, CELSIUS_OFFSET,
                                         doc="T₀ [K]")
-    ambient_temperature: float = _param(293.15, "ambient_temperature_C", 1.0, _CELSIUS,
+    ambient_temperature: float = _param(293.15, "ambient_temperature_C", 1.0, CELSIUS_OFFSET,
                                         doc="air [K]")
     rake_angle: float = _param(math.radians(-7), "rake_angle_deg", math.pi / 180, doc="α [rad]")
     clearance_angle: float = _param(math.radians(7), "clearance_angle_deg", math.pi / 180,
@@ -242,30 +220,12 @@ class ChipParameters:
 
     def to_dict(self) -> dict:
         """Values in the TOML edge units, keyed by their TOML names."""
-        out = {}
-        for f in dataclasses.fields(self):
-            m = f.metadata
-            value = _to_edge(getattr(self, f.name), m["scale"], m["offset"])
-            out[m["toml"]] = int(round(value)) if f.type == "int" else float(value)
-        return out
+        return to_table(self)
 
     @classmethod
     def from_dict(cls, data: dict) -> ChipParameters:
         """Parameters from TOML-unit values (missing keys take the defaults)."""
-        by_key = {f.metadata["toml"]: f for f in dataclasses.fields(cls)}
-        unknown = sorted(set(data) - set(by_key))
-        if unknown:
-            raise RadiosimError(f"unknown chip parameter(s): {', '.join(unknown)}; known: "
-                                f"{', '.join(sorted(by_key))}")
-        kwargs = {}
-        for key, value in data.items():
-            f = by_key[key]
-            if isinstance(value, bool) or not isinstance(value, (int, float)):
-                raise RadiosimError(f"chip parameter {key} must be a number, got {value!r}")
-            kwargs[f.name] = _to_si(value, f.metadata["scale"], f.metadata["offset"])
-            if f.type == "int":
-                kwargs[f.name] = int(round(kwargs[f.name]))
-        return cls(**kwargs)
+        return from_table(cls, data, "chip parameters")
 
     @classmethod
     def from_toml(cls, path) -> ChipParameters:
@@ -277,8 +237,8 @@ class ChipParameters:
         """The parameters as TOML text (written to ``path`` if given)."""
         comments = {f.metadata["toml"]: re.sub(r"\s*\[.*?\]", "", f.metadata["doc"])
                     for f in dataclasses.fields(self)}
-        text = "# radiosim segmented-chip scene parameters (units in the keys)\n" + dumps_toml(
-            {"chip": self.to_dict()}, tables=("chip",), comments=comments).lstrip("\n")
+        text = dumps_toml({"chip": self.to_dict()}, tables=("chip",), comments=comments,
+                          header="radiosim segmented-chip scene parameters (units in the keys)")
         if path is not None:
             Path(path).write_text(text, encoding="utf-8")
         return text
@@ -523,8 +483,7 @@ class SegmentedChip(Scene):
             raise RadiosimError(f"params must be ChipParameters or a TOML path, got "
                                 f"{type(params).__name__}")
         self.params = params
-        self.dx = check_positive(dx, "dx", "m")
-        self.dt = check_positive(dt, "dt", "s")
+        self.dx, self.dt = check_grid(dx, dt)
         self.shape = (int(round(params.field_height / self.dx)),
                       int(round(params.field_width / self.dx)))
         if min(self.shape) < 2:
@@ -545,7 +504,6 @@ class SegmentedChip(Scene):
         self._geometry = None
         self._regions: dict[tuple, _RegionData] = {}
         self._lock = threading.RLock()
-        self._recent_regions: dict[tuple, np.ndarray] = {}
 
     @property
     def geometry(self) -> _Geometry:
@@ -652,27 +610,17 @@ class SegmentedChip(Scene):
         return self._evaluate(float(t), region or self._full(), want_regions=True)[1]
 
     def _read(self, k: int, region: Region) -> np.ndarray:
-        if self._region_emissivity is None:
-            return self._evaluate((k + 0.5) * self.dt, region)
-        temperature, regions = self._evaluate((k + 0.5) * self.dt, region, want_regions=True)
-        key = (k, region[0].start, region[0].stop, region[1].start, region[1].stop)
-        with self._lock:  # kept for emissivity_map, which the camera asks right after
-            self._recent_regions[key] = regions
-            while len(self._recent_regions) > 4:
-                self._recent_regions.pop(next(iter(self._recent_regions)))
-        return temperature
+        return self._evaluate((k + 0.5) * self.dt, region)
 
-    def emissivity_map(self, k: int, region: Region):
-        """Region codes of frame k over ``region`` and the emissivity of each region, or
-        ``None`` when the scene has one emissivity (:attr:`emissivity`)."""
+    def _sample(self, k: int, region: Region) -> SceneFrame:
+        """Temperature and, with an emissivity per region, the region codes of the same
+        evaluation."""
         if self._region_emissivity is None:
-            return None
-        key = (k, region[0].start, region[0].stop, region[1].start, region[1].stop)
-        with self._lock:
-            regions = self._recent_regions.get(key)
-        if regions is None:
-            regions = self._evaluate((k + 0.5) * self.dt, region, want_regions=True)[1]
-        return regions, {REGIONS[name]: value for name, value in self._region_emissivity.items()}
+            return super()._sample(k, region)
+        temperature, regions = self._evaluate((k + 0.5) * self.dt, region, want_regions=True)
+        return SceneFrame(temperature, 1.0, regions=regions, index=k,
+                          region_emissivity={REGIONS[name]: value for name, value
+                                             in self._region_emissivity.items()})
 
     # -- reference locations -----------------------------------------------------------------
 

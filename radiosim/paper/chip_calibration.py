@@ -5,7 +5,7 @@ Calibration of the segmented-chip scene to the paper's figures.
 tolerances of ``shared/SCENE.md``; :func:`evaluate_targets` measures each of them through the
 linear ideal camera (:meth:`radiosim.Camera.linear_ideal`) on the scene, and :func:`calibrate`
 re-runs the tuning of the scene's free parameters: a bounded least-squares fit of the targets,
-each residual scaled by its tolerance. ``python -m radiosim.scenes.chip_calibration`` runs it and
+each residual scaled by its tolerance. ``python -m radiosim.paper.chip_calibration`` runs it and
 prints the result; ``benchmarks/check_chip_calibration.py`` asserts the table at full resolution.
 
 Definitions (all with 0.2 µs frames unless ``dt`` says otherwise):
@@ -28,13 +28,16 @@ import logging
 
 import numpy as np
 
+from radiosim.camera import Camera
+from radiosim.paper.columns import column_index
 from radiosim.scenes.segmented_chip import ChipParameters, SegmentedChip
+from radiosim.units import CELSIUS_OFFSET
 
 __all__ = ["TARGETS", "FREE_PARAMETERS", "evaluate_targets", "calibrate", "report"]
 
 logger = logging.getLogger(__name__)
 
-_C = 273.15
+_C = CELSIUS_OFFSET
 
 #: The paper's numbers [°C or K] and tolerances [K] (shared/SCENE.md).
 TARGETS = {
@@ -95,8 +98,6 @@ def evaluate_targets(params: ChipParameters | None = None, dx: float = 960e-6 / 
         Values keyed as :data:`TARGETS` [°C or K], plus ``"column_I_peak_row"`` and
         ``"peak_90us_location_um"`` for reference.
     """
-    from radiosim.camera import Camera  # late import: camera imports scenes
-
     scene = SegmentedChip(params, dx=dx, dt=dt)
     p = scene.params
     event, period = scene.event_time, p.period
@@ -105,13 +106,12 @@ def evaluate_targets(params: ChipParameters | None = None, dx: float = 960e-6 / 
     if abs(step - round(step)) > 1e-6:
         raise ValueError(f"dx = {dx} m must divide the 6 µm pixel")
     step = round(step)
-    x_col = scene.column_x("I")
 
     # Event frame (n = 1): scene values and size-of-source readings.
     frame_start = event - 0.5 * dt
     m9 = small.measure(scene, dt, t_start=frame_start)
     m21 = large.measure(scene, dt, t_start=frame_start)
-    col9, col21 = int(x_col // SMALL_PITCH), int(x_col // LARGE_PITCH)
+    col9, col21 = column_index(scene, SMALL_PITCH), column_index(scene, LARGE_PITCH)
     peak_scene = float(m9.tensor_max.max())
     column_scene = float(m9.tensor_max[:, col9].max())
     row = int(np.argmax(m9.apparent_temperature[:, col9]))

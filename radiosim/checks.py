@@ -1,0 +1,87 @@
+"""
+Input checks every stage may use: one line naming the value and what was expected.
+
+They raise :class:`~radiosim.errors.RadiosimError`, never a raw numpy or Python error, so that
+nothing a user passes ends in a traceback from deep inside the chain.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from radiosim.errors import RadiosimError
+
+__all__ = ["check_positive", "check_non_negative", "check_fraction", "check_frame"]
+
+
+def _number(value, name: str, unit: str) -> float:
+    if isinstance(value, (str, bytes)):
+        raise RadiosimError(f"{name} must be a number [{unit}], got the string {value!r}")
+    try:
+        return float(value)
+    except (TypeError, ValueError):
+        raise RadiosimError(f"{name} must be a number [{unit}], got {value!r}") from None
+
+
+def check_positive(value, name: str, unit: str) -> float:
+    """
+    ``value`` as a finite float > 0, or a :class:`RadiosimError` naming it.
+
+    Examples
+    --------
+    >>> check_positive(2.5, "f_number", "1")
+    2.5
+    """
+    number = _number(value, name, unit)
+    if not math.isfinite(number) or number <= 0:
+        raise RadiosimError(f"{name} must be finite and > 0 [{unit}], got {value!r}")
+    return number
+
+
+def check_non_negative(value, name: str, unit: str) -> float:
+    """``value`` as a finite float ≥ 0, or a :class:`RadiosimError` naming it."""
+    number = _number(value, name, unit)
+    if not math.isfinite(number) or number < 0:
+        raise RadiosimError(f"{name} must be finite and ≥ 0 [{unit}], got {value!r}")
+    return number
+
+
+def check_fraction(value, name: str, low_open: bool = True) -> float:
+    """``value`` as a float in (0, 1] (or [0, 1] with ``low_open=False``)."""
+    number = _number(value, name, "1")
+    ok = (0 < number <= 1) if low_open else (0 <= number <= 1)
+    if not ok:
+        raise RadiosimError(f"{name} must be in {'(' if low_open else '['}0, 1], got {value!r}")
+    return number
+
+
+def check_frame(frame: np.ndarray, k: int, origin: tuple[int, int] = (0, 0)) -> np.ndarray:
+    """
+    Check that a temperature frame is usable: finite and > 0 K everywhere.
+
+    Parameters
+    ----------
+    frame
+        Temperature [K], 2-D.
+    k
+        Frame index, for the error message.
+    origin
+        (row, column) of ``frame[0, 0]`` in the full frame, for the error message.
+    """
+    if frame.size and frame.min() > 0 and frame.max() < np.inf:  # NaN compares false
+        return frame
+    bad = ~((frame > 0) & (frame < np.inf))
+    i, j = (int(v) for v in np.argwhere(bad)[0])
+    value = frame[i, j]
+    if np.isnan(value):
+        what, expected = "NaN", "finite"
+    elif np.isinf(value):
+        what, expected = f"{value:g}", "finite"
+    else:
+        what, expected = f"{value:g} K", "> 0 K (°C passed as kelvin?)"
+    raise RadiosimError(
+        f"frame {k}: temperature at row {i + origin[0]}, column {j + origin[1]} is {what}; "
+        f"temperatures must be {expected} ({int(bad.sum())} bad sample(s) in this frame)"
+    )

@@ -1,0 +1,254 @@
+"""
+The paper's figures (MSEC2009-84319, Figures 4–11), drawn from a study's results folder.
+
+Every figure reads on its own: a title that says what is shown and by which camera, a legend
+for every line and marker, one quantity per axis, and a note on what the error bars are.
+"""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import numpy as np
+
+from radiosim.paper.columns import COLUMN_NAMES, column_index, has_columns
+from radiosim.plotting import figure, load_results, plot_versus, save_figure, select
+from radiosim.units import CELSIUS_OFFSET
+
+__all__ = ["preview_scene", "plot_peak", "plot_column_i", "plot_column_profiles",
+           "plot_long_integration", "plot_maps", "make_figures", "ERROR_BARS"]
+
+#: What the error bars of Figures 5 and 7 are.
+ERROR_BARS = ("bars: ±1σ, the standard deviation of the scene temperature over the pixel's "
+              "footprint × window (the paper's uncertainty)")
+
+
+def _tool_outline(p, width, height):
+    """Polygon (x, y) [µm] of the tool: rounded tip, rake face up, clearance face right."""
+    a, g = p.rake_angle, p.clearance_angle
+    tip = np.array([p.tool_tip_x, p.tool_tip_y])
+    t_r = np.array([math.sin(a), math.cos(a)])  # up the rake face
+    t_c = np.array([math.cos(g), math.sin(g)])  # along the clearance face
+    r = p.edge_radius
+    centre = tip + r * t_r + r * t_c
+    arc = [centre + r * (math.cos(v) * -t_c + math.sin(v) * -t_r)
+           for v in np.linspace(0, math.pi / 2, 12)]
+    far = 4 * max(width, height)
+    points = [tip + far * t_r, *arc, tip + far * t_c, tip + far * (t_r + t_c)]
+    return np.array(points) * 1e6
+
+
+def preview_scene(scene, t=None, path=None, columns=True, pixel_pitch=6e-6):
+    """
+    Plot a frame of a scene in °C, like the paper's Figure 4.
+
+    For the segmented-chip scene the tool outline, the shear-band line L0, Columns I–III and a
+    cross-hair on the peak temperature are drawn.
+
+    Parameters
+    ----------
+    scene
+        A scene; :class:`~radiosim.scenes.SegmentedChip` gets the reference lines.
+    t
+        Time [s]; default: ``scene.event_time`` (or 0).
+    path
+        Write a PNG there if given.
+    columns
+        Draw Columns I–III (as the pixel columns of ``pixel_pitch`` [m] that contain them).
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+    """
+    if t is None:
+        t = scene.event_time if scene.event_time is not None else 0.0
+    from radiosim.scenes import SegmentedChip
+
+    chip = isinstance(scene, SegmentedChip)
+    # The chip is defined at any time; other scenes show the frame that holds t.
+    frame = scene.temperature(t) if chip else scene.frame(int(math.floor(t / scene.dt)))
+    height, width = scene.shape[0] * scene.dx, scene.shape[1] * scene.dx
+    fig = figure(8.0, 8.0 * height / width + 0.6)
+    ax = fig.add_subplot()
+    image = ax.imshow(frame - CELSIUS_OFFSET, extent=(0, width * 1e6, 0, height * 1e6), cmap="inferno",
+                      origin="upper", interpolation="nearest")
+    fig.colorbar(image, ax=ax, label="temperature [°C]", shrink=0.85)
+    ax.set_xlabel("x [µm]")
+    ax.set_ylabel("y [µm]")
+    ax.set_title(f"t = {t * 1e6:.2f} µs, peak {frame.max() - CELSIUS_OFFSET:.0f} °C")
+    if chip:
+        p = scene.params
+        outline = _tool_outline(p, width, height)
+        ax.fill(outline[:, 0], outline[:, 1], facecolor="none", edgecolor="white", lw=1.2,
+                label="tool")
+        (x0, y0), (x1, y1) = scene.shear_plane()
+        ax.plot([x0 * 1e6, x1 * 1e6], [y0 * 1e6, y1 * 1e6], "--", color="cyan", lw=1.0,
+                label="shear plane L0")
+        if columns:
+            for name, style in zip(COLUMN_NAMES, ("-", "--", ":")):
+                left = column_index(scene, pixel_pitch, name) * pixel_pitch * 1e6
+                ax.axvline(left + pixel_pitch * 5e5, color="lime", ls=style, lw=1.0,
+                           label=f"Column {name}")
+    i, j = np.unravel_index(np.argmax(frame), frame.shape)
+    xp, yp = (j + 0.5) * scene.dx * 1e6, height * 1e6 - (i + 0.5) * scene.dx * 1e6
+    ax.plot([xp], [yp], marker="+", color="white", markersize=18, mew=1.5, ls="none",
+            label=f"peak, {frame.max() - CELSIUS_OFFSET:.0f} °C")
+    ax.legend(loc="lower left", fontsize=8, framealpha=0.6)
+    ax.set_xlim(0, width * 1e6)
+    ax.set_ylim(0, height * 1e6)
+    if path is not None:
+        save_figure(fig, path)
+    return fig
+
+
+def _two_panels(rows, sweeps, y_key, err_key, scene_key, subject):
+    fig = figure(11, 4.6)
+    fig.suptitle(f"{subject}: reading of each camera against the scene; {ERROR_BARS}",
+                 fontsize=9)
+    left, right = fig.subfigures(1, 2)
+    plot_versus(left, select(rows, sweeps[0]), "integration_time_us", y_key, err_key,
+                scene_key, "integration time [µs]",
+                f"A) {subject} vs integration time (9 × 9 × n)")
+    plot_versus(right, select(rows, sweeps[1]), "sensor_area_um2", y_key, err_key, scene_key,
+                "sensor element area [µm²]", f"B) {subject} vs sensor area (p × p × 1)")
+    return fig
+
+
+def plot_peak(rows, sweeps=("integration-time", "size-of-source")):
+    """Figure 5: peak temperature against integration time and sensor area, ±1σ bars."""
+    return _two_panels(rows, sweeps, "peak_C", "peak_uncertainty_K", "peak_scene_C",
+                       "Figure 5, peak temperature")
+
+
+def plot_column_i(rows, sweeps=("integration-time", "size-of-source")):
+    """Figure 7: the shear band's peak in Column I against integration time and sensor area."""
+    return _two_panels(rows, sweeps, "column_I_C", "column_I_uncertainty_K", "column_I_scene_C",
+                       "Figure 7, shear band peak in Column I")
+
+
+def plot_column_profiles(rows, folder, scene, sweep="integration-time", camera="linear"):
+    """Figure 6: vertical temperature profiles along Columns I, II and III, one line per
+    integration time, with the scene's event frame."""
+    from radiosim.io.exr import read_exr
+
+    mine = sorted(select(rows, sweep, camera=camera), key=lambda r: r["integration_time_us"])
+    fig = figure(12, 4.8)
+    fig.suptitle(f"Figure 6: vertical profiles of the camera {camera!r} "
+                 f"({mine[0]['response'] if mine else ''} response) along Columns I–III, one line "
+                 "per integration time, centred on the shear band; black: the scene's event frame",
+                 fontsize=9)
+    axes = fig.subplots(1, 3, sharey=True)
+    event = scene.temperature(scene.event_time) if hasattr(scene, "temperature") else None
+    for ax, name in zip(axes, ("I", "II", "III")):
+        for r in mine:
+            m = read_exr(Path(folder) / r["exr"])
+            pitch = m.camera.fpa.pixel_pitch
+            j = column_index(scene, pitch, name, m.camera.fpa.origin[1])
+            y = (scene.shape[0] * scene.dx - (np.arange(m.shape[0]) + 0.5) * pitch) * 1e6
+            ax.plot(m.apparent_temperature[:, j] - CELSIUS_OFFSET, y,
+                    label=f"{r['integration_time_us']:g} µs")
+        if event is not None:
+            j = column_index(scene, scene.dx, name)
+            y = (scene.shape[0] - np.arange(scene.shape[0]) - 0.5) * scene.dx * 1e6
+            ax.plot(event[:, j] - CELSIUS_OFFSET, y, color="black", lw=0.8, label="scene, event frame")
+        ax.set_title(f"Column {name}")
+        ax.set_xlabel("temperature [°C]")
+    axes[0].set_ylabel("y [µm]")
+    axes[0].legend(fontsize=7)
+    return fig
+
+
+def plot_long_integration(rows, history, sweep="long-integration"):
+    """
+    Figure 8, one quantity per axis: above, the band pixel's instantaneous 9 × 9 mean over time
+    and its reading at an integration time equal to the position on the axis [°C]; below, the
+    standard deviation of the scene over the same tensor [K].
+    """
+    fig = figure(8, 6.5)
+    top, bottom = fig.subplots(2, 1, sharex=True)
+    mine = sorted(select(rows, sweep), key=lambda r: r["integration_time_us"])
+    camera = mine[0]["camera"] if mine else ""
+    fig.suptitle(f"Figure 8: the Column I pixel where the shear band peaks, camera {camera!r}; "
+                 "windows start at the event frame", fontsize=9)
+    if history:
+        top.plot([h["time_us"] for h in history], [h["mean_C"] for h in history], lw=0.8,
+                 color="tab:blue", label="pixel footprint mean, instantaneous (x = time)")
+    x = [r["integration_time_us"] for r in mine]
+    top.plot(x, [r["peak_C"] for r in mine], "o-", color="tab:red",
+             label="reading (x = integration time)")
+    top.set_ylabel("temperature [°C]")
+    top.legend(fontsize=8)
+    bottom.plot(x, [r["peak_uncertainty_K"] for r in mine], "s-", color="tab:green",
+                label="standard deviation over the tensor (x = integration time)")
+    bottom.set_ylabel("standard deviation [K]")
+    bottom.set_xlabel("time since the event frame's start; integration time [µs]")
+    bottom.legend(fontsize=8)
+    return fig
+
+
+def plot_maps(folder, rows, cases):
+    """Figures 9-11: maps of apparent temperature, peak error and uncertainty, one column per
+    case (rows of the results table)."""
+    from radiosim.io.exr import read_exr
+
+    fig = figure(3.2 * len(cases) + 1.5, 8.8)
+    fig.suptitle("Figures 9–11: maps of each case (columns); rows: the reading, the paper's "
+                 "peak error (tensor max − reading, > 0 when the camera reads low) and its "
+                 "uncertainty (tensor standard deviation)", fontsize=9)
+    axes = fig.subplots(3, len(cases), squeeze=False)
+    titles = ("apparent temperature [°C]", "peak error [K]", "uncertainty [K]")
+    row_names = ("Fig. 9: reading", "Fig. 10: peak error", "Fig. 11: uncertainty")
+    for c, row in enumerate(cases):
+        m = read_exr(Path(folder) / row["exr"])
+        pitch = m.camera.fpa.pixel_pitch * 1e6
+        extent = (0, m.shape[1] * pitch, 0, m.shape[0] * pitch)
+        fields = (m.apparent_temperature - CELSIUS_OFFSET, m.tensor_max - m.apparent_temperature,
+                  m.tensor_std)
+        for r, (values, title) in enumerate(zip(fields, titles)):
+            image = axes[r, c].imshow(values, extent=extent, cmap="inferno", origin="upper")
+            fig.colorbar(image, ax=axes[r, c], shrink=0.8, label=title)
+            axes[r, c].set_xlabel("x [µm]")
+            axes[r, c].set_ylabel(f"{row_names[r]}\ny [µm]" if c == 0 else "y [µm]")
+        p = round(row["pixel_samples"], 3)
+        label = (f"{p:g}×{p:g}×{row['n_frames']:g} "
+                 f"({row['integration_time_us']:g} µs, {row['camera']})")
+        axes[0, c].set_title(label, fontsize=9)
+    return fig
+
+
+def make_figures(folder, scene=None, camera="linear") -> list[Path]:
+    """
+    Write the paper's figures for a study's results folder into ``folder/figures`` (the
+    ``figures`` hook of the ``msec2009`` study).
+
+    Returns the PNG paths written: figures whose sweeps the study lacks, or whose EXR files
+    were not written (profiles, maps), are skipped.
+    """
+    folder = Path(folder)
+    rows, history = load_results(folder)
+    out = folder / "figures"
+    out.mkdir(exist_ok=True)
+    written = []
+
+    def save(fig, name):
+        written.append(save_figure(fig, out / name))
+
+    sweeps = {r["sweep"] for r in rows}
+    if {"integration-time", "size-of-source"} <= sweeps:
+        save(plot_peak(rows), "fig05_peak.png")
+        if any(np.isfinite(r.get("column_I_C", math.nan)) for r in rows):
+            save(plot_column_i(rows), "fig07_column_I.png")
+    timed = [r for r in rows if r["sweep"] == "integration-time" and r["camera"] == camera]
+    if scene is not None and has_columns(scene) and timed and all(r.get("exr") for r in timed):
+        save(plot_column_profiles(rows, folder, scene, camera=camera), "fig06_profiles.png")
+    if "long-integration" in sweeps:
+        save(plot_long_integration(rows, history), "fig08_long_integration.png")
+    cases = [r for r in rows if r["sweep"] == "size-of-source" and r["camera"] == camera
+             and round(r["pixel_samples"], 6) == 9]
+    cases += [r for r in rows if r["sweep"] == "integration-time" and r["camera"] == camera
+              and r["integration_time_us"] in (10, 45, 90)]
+    cases = [c for c in cases if c.get("exr")]
+    if cases:
+        save(plot_maps(folder, rows, cases), "fig09-11_maps.png")
+    return written
