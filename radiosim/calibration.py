@@ -19,9 +19,12 @@ Flags (a flagged pixel has no apparent temperature, NaN):
 -   *saturated*: the well is full or the converter is at its top code, or the reading lies
     above the calibration range;
 -   *under range*: the converter is at code 0, or the reading lies below the calibration range,
-    or below the noise floor — the lowest temperature whose signal above the dark level equals
-    its temporal noise (:meth:`Calibration.lowest_measurable_temperature`, SNR = 1). A reading
-    there is dominated by noise and would read high, so it is not reported.
+    or its counts lie below those of the noise floor — the lowest temperature whose
+    photo-signal equals its temporal noise (:meth:`Calibration.lowest_measurable_temperature`,
+    SNR = 1). A reading there is dominated by noise and would read high, so it is not
+    reported. The rule applies to each reading: a scene far below the floor is still reported
+    where noise lifts a pixel above it (for noise around the dark level, with the probability
+    of a one-σ excursion, about one pixel in six), so readings near the floor are noisy ones.
 """
 
 from __future__ import annotations
@@ -43,6 +46,7 @@ __all__ = ["Calibration", "Reading", "MIN_CALIBRATION_SPAN_DN"]
 #: A quantising camera whose calibration spans fewer counts than this over its temperature
 #: range reads in steps of more than 1/this of the range: the calibration warns.
 MIN_CALIBRATION_SPAN_DN = 100.0
+_ROUNDING = 1e-12  # relative slack of the range's ends for the DN ↔ signal round trip
 
 
 @dataclass(frozen=True)
@@ -147,7 +151,8 @@ class Calibration:
         signal = self._signal(counts)
         low, high = (self.response.grey_signal(t, self.emissivity)
                      for t in self.temperature_range)
-        below, above = signal < low, signal > high
+        # The range is closed: its ends survive the counts round trip within a few ulp.
+        below, above = signal < low * (1 - _ROUNDING), signal > high * (1 + _ROUNDING)
         temperature = self.response.temperature(np.clip(signal, low, high), self.emissivity)
         return np.where(below | above, np.nan, temperature), below, above
 

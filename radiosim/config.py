@@ -15,6 +15,7 @@ import dataclasses
 import difflib
 import math
 import tomllib
+from decimal import Decimal
 from pathlib import Path
 
 import numpy as np
@@ -65,12 +66,19 @@ def si_value(value: float, scale: float = 1.0, offset: float = 0.0) -> float:
     """
     exponent = _power_of_ten(scale)
     scaled = shift(value, exponent) if exponent is not None else float(value) * scale
-    return scaled + offset if offset else scaled
+    return _add_exactly(scaled, offset) if offset else scaled
+
+
+def _add_exactly(value: float, offset: float) -> float:
+    """value + offset on their shortest decimal representations (21.3 + 273.15 = 294.45)."""
+    if not math.isfinite(value):
+        return value + offset
+    return float(Decimal(repr(float(value))) + Decimal(repr(float(offset))))
 
 
 def edge_value(value: float, scale: float = 1.0, offset: float = 0.0) -> float:
     """SI → edge unit (the inverse of :func:`si_value`)."""
-    value = float(value) - offset if offset else float(value)
+    value = _add_exactly(float(value), -offset) if offset else float(value)
     exponent = _power_of_ten(scale)
     if exponent is not None:
         return shift(value, -exponent)

@@ -8,7 +8,7 @@ import pytest
 
 VALIDATION = Path(__file__).resolve().parent.parent / "validation"
 sys.path.insert(0, str(VALIDATION))
-from run_notebooks import NOTEBOOKS, execute  # noqa: E402
+from run_notebooks import NOTEBOOKS, conclusion_of, execute, stated_conclusion  # noqa: E402
 
 
 def test_there_are_three_notebooks():
@@ -25,10 +25,13 @@ def test_notebook_runs_and_states_its_conclusion(path, tmp_path):
     assert "CONCLUSION_" not in first.source
     # Committed with outputs, so they read without running.
     assert any(cell.get("outputs") for cell in committed.cells if cell.cell_type == "code")
+    # The stated conclusion is the one the conclusion cell computed (no number typed by hand).
+    assert stated_conclusion(committed) == conclusion_of(committed)
     executed = nbformat.read(execute(path, reduced=True, out=tmp_path), as_version=4)
     errors = [o for cell in executed.cells if cell.cell_type == "code"
               for o in cell.outputs if o.output_type == "error"]
-    assert not errors
+    assert not errors  # the conclusion cell asserts the conclusion's claims on this run too
+    assert conclusion_of(executed).startswith("**Conclusion.**")
     images = sum("image/png" in o.get("data", {}) for cell in executed.cells
                  if cell.cell_type == "code" for o in cell.outputs)
     assert images >= 2

@@ -4,7 +4,10 @@ Execute the validation notebooks and save them with their outputs.
     python validation/run_notebooks.py              # full resolution, in place (a few minutes)
     python validation/run_notebooks.py --reduced    # the test suite's coarse settings, into --out
 
-The notebooks read RADIOSIM_VALIDATION=reduced for the coarse settings.
+The notebooks read RADIOSIM_VALIDATION=reduced for the coarse settings. Each ends with a cell
+tagged ``conclusion`` that writes the notebook's conclusion from its computed numbers (and
+asserts its claims); the text it displays is copied into the notebook's first cell, so no
+conclusion number is typed by hand.
 """
 
 import argparse
@@ -13,11 +16,39 @@ import sys
 import time
 from pathlib import Path
 
+import re
+
 import nbformat
 from nbclient import NotebookClient
 
 HERE = Path(__file__).resolve().parent
 NOTEBOOKS = sorted(HERE.glob("[0-9][0-9]_*.ipynb"))
+
+
+def conclusion_of(notebook) -> str | None:
+    """The Markdown text displayed by the notebook's ``conclusion`` cell, if it ran."""
+    for cell in notebook.cells:
+        if "conclusion" in cell.get("metadata", {}).get("tags", []):
+            for output in cell.get("outputs", []):
+                text = output.get("data", {}).get("text/markdown")
+                if text:
+                    return "".join(text).strip()
+    return None
+
+
+def stated_conclusion(notebook) -> str:
+    """The conclusion paragraph of the notebook's first cell."""
+    match = re.search(r"\*\*Conclusion\.\*\*.*?(?=\n\n|\Z)", notebook.cells[0].source, re.S)
+    return match.group(0).strip() if match else ""
+
+
+def state_conclusion(notebook):
+    """Replace the first cell's conclusion paragraph with the computed one."""
+    computed = conclusion_of(notebook)
+    if computed is None:
+        raise RuntimeError("the notebook's conclusion cell displayed no Markdown")
+    first = notebook.cells[0]
+    first.source = first.source.replace(stated_conclusion(notebook), computed)
 
 
 def execute(path: Path, reduced: bool, out: Path | None = None, timeout: int = 1800) -> Path:
@@ -33,6 +64,7 @@ def execute(path: Path, reduced: bool, out: Path | None = None, timeout: int = 1
             os.environ.pop("RADIOSIM_VALIDATION", None)
         else:
             os.environ["RADIOSIM_VALIDATION"] = previous
+    state_conclusion(notebook)
     target = (out / path.name) if out else path
     nbformat.write(notebook, target)
     return target

@@ -1,0 +1,419 @@
+"""Calibration and electronics against a forward model written out in the test.
+
+The independent forward model of the nist-ir preset is built here from its parts only:
+
+-   in-band photon radiance L_q(T) by :func:`radiosim.radiometry.band_radiance` (quadrature);
+-   the étendue written out as G = A·π·sin²θ', with A the active area on the focal plane
+    (fill factor × detector pitch²) and sin θ' = NA/m, the objective's image-side cone, which
+    is narrower than the f/2.5 cold stop's 1/√(4N² + 1);
+-   DN = K·(ε_a·L_q·G·t + I_dark·t) + offset; noise² = photo e⁻ + dark e⁻ + σ_read² + 1/(12K²);
+-   roots by a bisection of our own.
+
+The calibration evaluates radiance through a spline table whose relative error is ≤ 1e-7 at
+T ≥ 150 K (the calibration range); tolerances below follow from that.
+"""
+
+import math
+import warnings
+from dataclasses import replace
+
+import numpy as np
+import pytest
+
+from radiosim import Camera, FrameStack, UniformBlackbody
+from radiosim.calibration import Calibration
+from radiosim.electronics import Electronics, Exposure
+from radiosim.errors import RadiosimWarning
+from radiosim.radiometry import band_radiance
+
+TABLE_RTOL = 1e-7  # relative accuracy of the radiance table at T ≥ 150 K
+
+
+@pytest.fixture(scope="module")
+def nist():
+    return Camera.preset("nist-ir")
+
+
+# -- the independent forward model ------------------------------------------------------------
+
+
+def written_out_etendue(camera):
+    """G = A·π·sin²θ' [m² sr], from the preset's numbers."""
+    fpa, optics = camera.fpa, camera.optics
+    area = fpa.fill_factor * fpa.detector_pitch**2  # active area on the focal plane [m²]
+    magnification = fpa.detector_pitch / fpa.pixel_pitch
+    sine_objective = optics.objective_na / magnification
+    sine_cold_stop = 1.0 / math.sqrt(4 * optics.f_number**2 + 1)
+    assert sine_objective < sine_cold_stop  # the objective limits the cone
+    return area * math.pi * sine_objective**2
+
+
+class Forward:
+    """The nist-ir camera's noise-free forward model and noise, written out."""
+
+    def __init__(self, camera, t_int):
+        self.camera, self.t = camera, t_int
+        self.el = camera.electronics
+        self.G = written_out_etendue(camera)
+        self.eps = camera.assumed_emissivity
+
+    def radiance(self, temperature):
+        return band_radiance(temperature, self.camera.optics.band, "photon",
+                             self.camera.responsivity)
+
+    def photo(self, temperature):  # photo-electrons [e⁻]
+        return self.eps * self.radiance(temperature) * self.G * self.t
+
+    def dark(self):  # dark electrons [e⁻]
+        return self.el.dark_current * self.t
+
+    def counts(self, temperature):  # noise-free DN
+        return self.el.gain * (self.photo(temperature) + self.dark()) + self.el.offset
+
+    def noise(self, temperature):  # temporal noise [e⁻ rms]
+        return math.sqrt(float(self.photo(temperature)) + self.dark() + self.el.read_noise**2
+                         + 1 / (12 * self.el.gain**2))
+
+    def dlnL_dT(self, temperature, h=1e-2):
+        return float((np.log(self.radiance(temperature + h))
+                      - np.log(self.radiance(temperature - h))) / (2 * h))
+
+    def table_tolerance(self, temperature):
+        """Temperature error [K] of a root found on the table instead of the quadrature:
+        a relative radiance error δ shifts it by δ / (d ln L/dT); ×2 for safety."""
+        return 2 * TABLE_RTOL / self.dlnL_dT(temperature)
+
+
+def bisect(f, lo, hi, tol=1e-9):
+    """Root of an increasing f in [lo, hi] by bisection."""
+    assert f(lo) < 0 < f(hi)
+    while hi - lo > tol:
+        mid = 0.5 * (lo + hi)
+        lo, hi = (mid, hi) if f(mid) < 0 else (lo, mid)
+    return 0.5 * (lo + hi)
+
+
+# -- (a) the linear ideal camera ------------------------------------------------------------
+
+
+@pytest.mark.parametrize("t_int", [1e-6, 3e-6, 10e-6, 73e-6, 1e-3])
+def test_linear_ideal_counts_are_K_R_T_t(t_int):
+    camera = Camera.linear_ideal(6e-6)
+    el = camera.electronics
+    assert (el.dark_current, el.offset, el.gain) == (0.0, 0.0, 1.0)  # ideal electronics
+    cal = camera.calibration(t_int)
+    temperature = np.linspace(150.0, 3000.0, 1001)
+    K, R = el.gain, camera.linear_responsivity
+    expected = K * R * temperature * t_int + (el.dark_current * t_int * K + el.offset)
+    np.testing.assert_array_equal(cal.counts(temperature), expected)
+
+
+@pytest.mark.parametrize("t_int", [1e-6, 3e-6, 10e-6, 73e-6, 1e-3])
+def test_linear_ideal_calibration_is_the_identity(t_int):
+    cal = Camera.linear_ideal(6e-6).calibration(t_int)
+    temperature = np.linspace(150.0, 3000.0, 1001)[1:-1]
+    # counts = (T·R)·t, then T = counts / (R·t): two correctly rounded operations each way, so
+    # the identity holds to one unit in the last place (not always bitwise: e.g. 3000·1e6·1e-5
+    # / (1e6·1e-5) is 3000.0000000000005).
+    np.testing.assert_array_max_ulp(cal.temperature(cal.counts(temperature)), temperature,
+                                    maxulp=1)
+
+
+@pytest.mark.parametrize("t_int", [5e-6, 10e-6, 20e-6])
+def test_linear_ideal_reads_the_ends_of_its_calibration_range(t_int):
+    # The calibration range is closed: 150 K and 3000 K are in it, and the ideal camera reads
+    # every temperature of its range exactly (Camera.linear_ideal's docstring).
+    cal = Camera.linear_ideal(6e-6).calibration(t_int)
+    ends = np.array(cal.temperature_range)
+    reading = cal.read(Exposure(electrons=cal.counts(ends), counts=cal.counts(ends),
+                                saturated=np.zeros(2, bool), adc_floor=np.zeros(2, bool)))
+    assert not reading.saturated.any() and not reading.under_range.any()
+    np.testing.assert_array_max_ulp(reading.apparent_temperature, ends, maxulp=1)
+
+
+def test_linear_ideal_flags_temperatures_outside_its_range():
+    cal = Camera.linear_ideal(6e-6).calibration(10e-6)
+    counts = np.array([100.0, 3100.0]) * 1e6 * 10e-6  # K·R·T·t for 100 K and 3100 K
+    no = np.zeros(2, bool)
+    reading = cal.read(Exposure(counts, counts, no, no))
+    assert reading.under_range.tolist() == [True, False]
+    assert reading.saturated.tolist() == [False, True]
+    assert np.isnan(reading.apparent_temperature).all()
+
+
+# -- (b) nist-ir forward model --------------------------------------------------------------
+
+
+@pytest.mark.parametrize("t_int", [1e-6, 10e-6, 1e-3])
+def test_nist_counts_match_the_written_out_forward_model(nist, t_int):
+    cal = nist.calibration(t_int)
+    forward = Forward(nist, t_int)
+    temperature = np.array([151.37, 287.91, 555.55, 1012.15, 2222.2, 2999.9])
+    # The only difference is the radiance table (≤ 1e-7 relative in L, hence in the photo part
+    # of the counts; the offset and dark parts are exact).
+    np.testing.assert_allclose(cal.counts(temperature), forward.counts(temperature),
+                               rtol=TABLE_RTOL)
+    # The étendue the camera uses is the written-out one (sin θ' = NA/m, not the cold stop).
+    assert nist.rate_per_signal == pytest.approx(forward.G, rel=1e-12)
+
+
+def test_nist_calibration_inverts_the_written_out_forward_model(nist):
+    t_int = 1e-6  # nothing saturates below 3000 K here
+    cal = nist.calibration(t_int)
+    forward = Forward(nist, t_int)
+    temperature = np.array([400.0, 777.7, 1012.15, 2500.5])
+    recovered = cal.temperature(forward.counts(temperature))
+    tolerance = [forward.table_tolerance(t) for t in temperature]
+    np.testing.assert_allclose(recovered, temperature, rtol=0, atol=max(tolerance))
+
+
+# -- (c) measurable range --------------------------------------------------------------------
+
+
+@pytest.mark.parametrize("t_int", [10e-6, 100e-6, 1e-3])
+@pytest.mark.parametrize("snr", [1.0, 3.0])
+def test_lowest_measurable_temperature_by_bisection(nist, t_int, snr):
+    forward = Forward(nist, t_int)
+    floor = bisect(lambda t: float(forward.photo(t)) - snr * forward.noise(t), 150.0, 3000.0)
+    low = nist.calibration(t_int).lowest_measurable_temperature(snr)
+    # brentq's xtol (1e-6 K) plus the table's radiance error turned into kelvin.
+    assert low == pytest.approx(floor, abs=1e-6 + forward.table_tolerance(floor))
+
+
+def test_lowest_measurable_temperature_rises_with_the_snr(nist):
+    cal = nist.calibration(10e-6)
+    lows = [cal.lowest_measurable_temperature(s) for s in (0.5, 1.0, 3.0, 10.0)]
+    assert np.all(np.diff(lows) > 0)
+
+
+@pytest.mark.parametrize("t_int", [10e-6, 100e-6, 1e-3])
+def test_saturation_temperature_by_bisection(nist, t_int):
+    forward = Forward(nist, t_int)
+    el = nist.electronics
+    # Saturation: the well (full_well) or the converter's top code, which starts at
+    # K·e⁻ + offset = 2^bits − 1 − ½; whichever comes first, photo plus dark charge.
+    top_code_charge = (2**el.adc_bits - 1 - 0.5 - el.offset) / el.gain
+    charge = min(el.full_well, top_code_charge)
+    expected = bisect(lambda t: float(forward.photo(t)) + forward.dark() - charge, 150.0, 3000.0)
+    saturation = nist.calibration(t_int).saturation_temperature
+    assert saturation == pytest.approx(expected, abs=1e-6 + forward.table_tolerance(expected))
+
+
+def test_saturation_temperature_beyond_the_range_is_nan(nist):
+    t_int = 1e-6
+    forward = Forward(nist, t_int)
+    # Independently: 3000 K does not fill the well at 1 µs...
+    assert float(forward.photo(3000.0)) + forward.dark() < nist.electronics.full_well
+    # ...so no temperature of the range saturates.
+    assert math.isnan(nist.calibration(t_int).saturation_temperature)
+
+
+def test_noise_free_unquantised_electronics_have_no_saturation_or_floor():
+    cal = Camera.linear_ideal(6e-6).calibration(10e-6)
+    assert cal.saturation_temperature == math.inf
+    assert cal.noise_floor_counts == -math.inf
+    assert cal.lowest_measurable_temperature() == 150.0  # any signal beats zero noise
+
+
+# -- (d) flags of Calibration.read -----------------------------------------------------------
+
+
+def test_read_flags_hand_built_exposures(nist):
+    t_int = 1e-6
+    cal = nist.calibration(t_int)
+    forward = Forward(nist, t_int)
+    el = nist.electronics
+    floor = bisect(lambda t: float(forward.photo(t)) - forward.noise(t), 150.0, 3000.0)
+    assert 160.0 < floor < 2900.0  # the noise floor lies inside the calibration range
+    top = float(forward.counts(3000.0))
+    assert top < el.max_count - 10  # "above the range" is reachable without saturating
+    cases = {
+        # name: (counts, exposure saturated, ADC floor) -> expected (saturated, under range)
+        "valid": (float(forward.counts(1012.15)), False, False),
+        # 1 K below the floor: inside the calibration range (> 150 K) but under the noise.
+        "below noise floor": (float(forward.counts(floor - 1.0)), False, False),
+        "below range": (float(forward.counts(150.0)) - 0.5, False, False),
+        "code 0": (0.0, False, True),
+        "above range": (top + 5.0, False, False),
+        "saturated": (el.max_count, True, False),
+        "full well in range": (float(forward.counts(1012.15)), True, False),
+        "just above floor": (float(forward.counts(floor + 1.0)), False, False),
+    }
+    expected = {
+        "valid": (False, False), "below noise floor": (False, True),
+        "below range": (False, True), "code 0": (False, True), "above range": (True, False),
+        "saturated": (True, False), "full well in range": (True, False),
+        "just above floor": (False, False),
+    }
+    names = list(cases)
+    counts = np.array([cases[n][0] for n in names])
+    exposure = Exposure(electrons=(counts - el.offset) / el.gain, counts=counts,
+                        saturated=np.array([cases[n][1] for n in names]),
+                        adc_floor=np.array([cases[n][2] for n in names]))
+    reading = cal.read(exposure)
+    for k, name in enumerate(names):
+        assert (bool(reading.saturated[k]), bool(reading.under_range[k])) == expected[name], name
+        flagged = any(expected[name])
+        assert np.isnan(reading.apparent_temperature[k]) == flagged, name
+    k = names.index("valid")
+    assert reading.apparent_temperature[k] == pytest.approx(
+        1012.15, abs=forward.table_tolerance(1012.15))
+    k = names.index("just above floor")
+    assert reading.apparent_temperature[k] == pytest.approx(
+        floor + 1.0, abs=1e-6 + forward.table_tolerance(floor))
+
+
+def test_noise_floor_counts_are_the_counts_of_the_floor(nist):
+    t_int = 10e-6
+    forward = Forward(nist, t_int)
+    floor = bisect(lambda t: float(forward.photo(t)) - forward.noise(t), 150.0, 3000.0)
+    # Counts are ≈ 1000 DN; the table's 1e-7 on the photo part (≈ 1 DN here) is ≪ 1e-6 DN,
+    # plus dDN/dT × brentq's 1e-6 K.
+    slope = float(forward.counts(floor + 0.01) - forward.counts(floor - 0.01)) / 0.02
+    assert nist.calibration(t_int).noise_floor_counts == pytest.approx(
+        float(forward.counts(floor)), abs=1e-6 + slope * 2e-6)
+
+
+# -- (e) a near-zero integration time ---------------------------------------------------------
+
+
+def _measure_600K_at_1ns(camera):
+    scene = UniformBlackbody(600.0, shape=(12, 12), dx=6e-6, dt=1e-6)
+    # 1 ns spans a few DN over the whole calibration range: the camera says so.
+    with pytest.warns(RadiosimWarning, match="spans only"):
+        return camera.measure(scene, 1e-9, t_start=0.0, rng=0)
+
+
+def test_near_zero_integration_is_not_saturated(nist):
+    m = _measure_600K_at_1ns(nist)
+    forward = Forward(nist, 1e-9)
+    # Independently: the 600 K photo-charge (≈ 27 e⁻) is a few % of the read noise (600 e⁻):
+    # the reading is noise, whose upward excursions must not count as "above the range".
+    assert float(forward.photo(600.0)) < 0.1 * nist.electronics.read_noise
+    assert not m.saturated.any()
+    assert np.isnan(m.apparent_temperature[m.under_range]).all()
+
+
+def test_near_zero_integration_applies_the_noise_floor_rule(nist):
+    # The documented rule: a reading below the counts of the SNR = 1 noise floor is under range;
+    # pure noise passes it only by an upward excursion of about one σ or more.
+    m = _measure_600K_at_1ns(nist)
+    floor = nist.calibration(1e-9).noise_floor_counts
+    np.testing.assert_array_equal(m.under_range, m.counts < floor)
+    passed = float(np.mean(~m.under_range))
+    # P(reading ≥ floor) for noise around the dark level: the floor is ≈ 1σ above it, and the
+    # 1 DN codes round it; allow the binomial spread of 144 pixels (±4σ).
+    el = nist.electronics
+    sigma = float(el.temporal_noise(el.dark_current * 1e-9)) * el.gain  # [DN]
+    from math import erf, sqrt
+    code = np.ceil(floor - 0.5)  # the lowest code that rounds at or above the floor
+    p = 0.5 * (1 - erf((code - 0.5 - el.offset) / (sigma * sqrt(2))))
+    assert abs(passed - p) <= 4 * sqrt(p * (1 - p) / m.under_range.size) + 1e-9
+
+
+# -- (f) a linear response with real electronics -----------------------------------------------
+
+
+def test_linear_response_with_real_electronics_warns_coarse(nist):
+    camera = nist.replace(response="linear")
+    t_int = 10e-6
+    el = camera.electronics
+    span = el.gain * camera.linear_responsivity * (3000.0 - 150.0) * t_int  # DN
+    assert span < 100  # independently: ~40 DN across 2850 K
+    scene = UniformBlackbody(1000.0, shape=(12, 12), dx=6e-6, dt=1e-6)
+    with pytest.warns(RadiosimWarning, match="spans only") as record:
+        camera.measure(scene, t_int, t_start=0.0, rng=0)
+    assert any(f"{span:.3g} DN" in str(w.message) for w in record)
+
+
+def test_planck_response_at_10us_does_not_warn(nist):
+    scene = UniformBlackbody(1000.0, shape=(12, 12), dx=6e-6, dt=1e-6)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", RadiosimWarning)
+        m = nist.measure(scene, 10e-6, t_start=0.0, rng=0)
+    assert m.valid.all()
+
+
+# -- (g) scenes colder than the radiance table --------------------------------------------------
+
+
+def _cold_stack():
+    return FrameStack(np.full((3, 12, 12), 140.0), dt=1e-6, dx=6e-6)
+
+
+def test_cold_scene_is_measured_not_raised(nist):
+    m = nist.measure(_cold_stack(), 2e-6, t_start=0.0, rng=0)
+    assert m.shape == (12, 12)  # 6 µm pixels on 6 µm samples
+    assert np.isfinite(m.counts).all()
+    assert not m.saturated.any()
+    np.testing.assert_array_equal(m.tensor_max, 140.0)
+    # The signal is the quadrature radiance of 140 K (photon units).
+    expected = band_radiance(140.0, nist.optics.band, "photon", nist.responsivity)
+    np.testing.assert_allclose(m.signal_mean, expected, rtol=TABLE_RTOL)
+
+
+def test_cold_scene_is_under_range_without_noise(nist):
+    camera = nist.replace(electronics=replace(nist.electronics, shot_noise=False,
+                                              read_noise=0.0))
+    m = camera.measure(_cold_stack(), 2e-6, t_start=0.0, rng=0)
+    assert m.under_range.all() and not m.saturated.any()
+    assert np.isnan(m.apparent_temperature).all()
+
+
+def test_cold_scene_below_the_floor_is_flagged(nist):
+    m = nist.measure(_cold_stack(), 2e-6, t_start=0.0, rng=0)
+    floor = nist.calibration(2e-6).noise_floor_counts
+    np.testing.assert_array_equal(m.under_range, m.counts < floor)
+    assert m.under_range.mean() > 0.5  # most of a 140 K scene reads as what it is: noise
+
+
+# -- (h) electronics: mean counts and their inverse ---------------------------------------------
+
+
+@pytest.fixture(scope="module")
+def electronics():
+    return Electronics(full_well=None, dark_current=6e4, read_noise=0.0, shot_noise=False,
+                       gain=0.0014, offset=1000.0, adc_bits=None)
+
+
+def test_mean_counts_and_photoelectrons_invert_each_other(electronics):
+    t_int = 37e-6
+    photo = np.array([0.0, 1.0, 1234.5, 3.3e6, 1.1e7])
+    counts = electronics.mean_counts(photo, t_int)
+    # Written out: K·(e⁻ + I_dark·t) + offset.
+    np.testing.assert_allclose(counts, 0.0014 * (photo + 6e4 * t_int) + 1000.0, rtol=1e-15)
+    # A few roundings each way on numbers ≤ 1.6e4 DN: 1e-8 e⁻ is ~1e5 ulp of a count of 1.
+    np.testing.assert_allclose(electronics.photoelectrons(counts, t_int), photo, rtol=0,
+                               atol=1e-8)
+    codes = np.array([1000.0, 1000.5, 5000.0, 16383.0])
+    np.testing.assert_allclose(electronics.mean_counts(
+        electronics.photoelectrons(codes, t_int), t_int), codes, rtol=1e-14)
+
+
+def test_mean_counts_equals_a_noise_free_exposure(electronics):
+    t_int = 37e-6
+    photo = np.linspace(0.0, 2e6, 35).reshape(5, 7)
+    exposure = electronics.expose(photo, t_int, rng=1)
+    np.testing.assert_array_equal(exposure.counts, electronics.mean_counts(photo, t_int))
+    assert not exposure.saturated.any() and not exposure.adc_floor.any()
+
+
+def test_mean_counts_is_the_mean_of_noisy_exposures():
+    el = Electronics(full_well=None, dark_current=6e4, read_noise=600.0, shot_noise=True,
+                     gain=0.0014, offset=1000.0, adc_bits=None)
+    t_int = 37e-6
+    photo = np.full(200_000, 4.0e5)
+    counts = el.expose(photo, t_int, rng=7).counts
+    mean = float(el.mean_counts(4.0e5, t_int))
+    # σ per pixel = K·√(μ_e + σ_read²); the mean of n draws is within 5 σ/√n (p ≈ 6e-7).
+    sigma = 0.0014 * math.sqrt(4.0e5 + 6e4 * t_int + 600.0**2)
+    assert abs(counts.mean() - mean) < 5 * sigma / math.sqrt(photo.size)
+    assert counts.std() == pytest.approx(sigma, rel=0.01)  # 1 % ≫ √(2/n) ≈ 0.3 %
+
+
+def test_calibration_counts_use_the_electronics_mean_counts(nist):
+    cal = Calibration(nist.response_model, nist.electronics, nist.rate_per_signal, 10e-6)
+    temperature = np.array([300.0, 900.0])
+    np.testing.assert_array_equal(
+        cal.counts(temperature),
+        nist.electronics.mean_counts(cal.photoelectrons(temperature), 10e-6))
