@@ -30,7 +30,7 @@ __version__ = "0.1.0"
 #: The package's modules in the order of the chain: a module imports only modules before it
 #: (tests/test_architecture.py checks this with ``ast``).
 CHAIN = (
-    "errors", "units", "checks", "config", "spectral", "radiometry", "scenes", "response",
+    "errors", "units", "checks", "config", "files", "spectral", "radiometry", "kernels", "scenes", "response",
     "fpa", "integrator", "optics", "electronics", "calibration", "measurement", "presets",
     "camera", "characterization", "io", "study", "plotting", "paper", "cli",
 )

@@ -5,8 +5,12 @@ The ``radiosim`` command.
 files and figures; ``radiosim measure`` measures one scene file with one camera;
 ``radiosim presets`` lists cameras and studies; ``radiosim scene preview`` draws the built-in
 scene like the paper's Figure 4. Options take human units (``10us``, ``6um``, ``739C``).
-``radiosim presets`` lists the camera presets. The command owns all console output; the library
-only logs and warns.
+The command owns all console output; the library only logs and warns.
+
+One error boundary (:func:`main`): a mistake in the input (a :class:`RadiosimError`, a bad
+option) prints one line on stderr and exits with 2; a failure while running (an ``OSError``
+such as a full disk) exits with 1; Ctrl-C or SIGTERM exits with 130, leaving no temporary file.
+``--debug`` shows the traceback instead.
 """
 
 from __future__ import annotations
@@ -14,8 +18,8 @@ from __future__ import annotations
 import argparse
 import logging
 import math
+import signal
 import sys
-import time
 import warnings
 from pathlib import Path
 
@@ -24,7 +28,26 @@ from radiosim.camera import Camera, available_presets
 from radiosim.errors import RadiosimError, RadiosimWarning
 from radiosim.units import parse_quantity
 
-__all__ = ["main", "parse_time", "parse_length", "parse_temperature"]
+__all__ = ["main", "parse_time", "parse_length", "parse_temperature", "EXIT_INPUT",
+           "EXIT_FAILURE", "EXIT_INTERRUPTED"]
+
+#: Exit codes: a mistake in the input or the options, a failure while running, an interrupt.
+EXIT_INPUT, EXIT_FAILURE, EXIT_INTERRUPTED = 2, 1, 130
+
+
+class Interrupted(BaseException):
+    """Ctrl-C or SIGTERM: unwinds like KeyboardInterrupt, so every ``finally`` runs."""
+
+
+def parse_seed(text: str) -> int:
+    """A noise seed: a whole number ≥ 0."""
+    try:
+        value = int(text)
+    except ValueError:
+        value = -1
+    if value < 0:
+        raise argparse.ArgumentTypeError(f"{text!r} is not a seed; expected a whole number ≥ 0")
+    return value
 
 def _parser_of(kind: str, positive: bool = True):
     def parse(text: str) -> float:
@@ -57,25 +80,30 @@ def parse_time(text: str) -> float:
 
 
 class _Progress:
-    """A one-line progress bar on stderr (the library never prints; the command does)."""
+    """Progress on stderr: a tqdm bar on a terminal, one plain line per step in a log file
+    (no carriage returns)."""
 
-    def __init__(self, stream=None, width=30):
+    def __init__(self, stream=None):
         self.stream = stream or sys.stderr  # looked up now, not at import: redirections hold
-        self.width = width
-        self.start = time.perf_counter()
+        self.bar = None
 
     def __call__(self, done, total, label):
-        filled = int(self.width * done / total)
-        elapsed = time.perf_counter() - self.start
-        line = (f"\r[{'#' * filled}{'.' * (self.width - filled)}] {done}/{total} "
-                f"{elapsed:5.0f} s  {label[:60]:<60}")
-        self.stream.write(line)
-        if done == total:
-            self.stream.write("\n")
-        self.stream.flush()
+        if self.stream.isatty():
+            if self.bar is None:
+                from tqdm import tqdm
+
+                self.bar = tqdm(total=total, file=self.stream, unit="measurement",
+                                dynamic_ncols=True)
+            self.bar.set_postfix_str(label[:50])
+            self.bar.update(1)
+            if done == total:
+                self.bar.close()
+        else:
+            print(f"[{done}/{total}] {label}", file=self.stream, flush=True)
 
 
 def _run(args) -> int:
+    from radiosim.files import OutputFolder
     from radiosim.study import Study, available_studies
 
     target = args.study
@@ -86,21 +114,32 @@ def _run(args) -> int:
     else:
         raise RadiosimError(f"{target!r} is neither a study file nor a shipped study "
                             f"({', '.join(available_studies())})")
-    out = Path(args.out or f"radiosim-{study.name}")
-    print(f"radiosim {__version__}: study {study.name} → {out}/")
+    draw = None if args.no_figures else study.hook("figures")
+    study.scene  # build (and check) the scene before anything is written
+    out = OutputFolder(Path(args.out or f"radiosim-{study.name}"), overwrite=args.overwrite)
+    print(f"radiosim {__version__}: study {study.name} → {out.path}/")
     if study.description:
         print(f"  {study.description}")
-    result = study.run(out, rng=args.seed, write_exr=not args.no_exr,
-                       progress=None if args.quiet else _Progress())
-    draw = study.hook("figures")
-    figures = [] if args.no_figures or draw is None else draw(out, study.scene)
+    completed = False
+    try:
+        result = study.run(out.staging, rng=args.seed, write_exr=not args.no_exr,
+                           progress=None if args.quiet else _Progress())
+        figures = [] if draw is None else draw(out.staging, study.scene)
+        written = out.commit()
+        completed = True
+    finally:
+        if not completed:
+            kept = out.abandon(keep=True)
+            if kept is not None:
+                print(f"radiosim: the run did not complete; its finished measurements are in "
+                      f"{kept}/", file=sys.stderr)
     _print_table(result.rows)
-    print(f"wrote {result.table}" + (f", {len(result.rows)} rows" if result.rows else ""))
-    if result.exr_directory:
-        print(f"wrote {sum(1 for r in result.rows if r['exr'])} EXR files in "
-              f"{result.exr_directory}")
+    exr = sum(1 for r in result.rows if r.get("exr"))
+    print(f"wrote {out.path / 'results.csv'}, {len(result.rows)} rows"
+          + (f"; {exr} EXR files in {out.path / 'exr'}" if exr else ""))
     for path in figures:
-        print(f"wrote {path}")
+        print(f"wrote {out.path / path.relative_to(out.staging)}")
+    logging.getLogger(__name__).info("%d files in %s", len(written), out.path)
     return 0
 
 
@@ -151,11 +190,12 @@ def _measure(args) -> int:
                                 "length=…, temperature=…')") from None
     else:
         scene = read_frames(path, dt=args.dt, dx=args.dx, units=args.units)
-    with warnings.catch_warnings(record=True) as caught:
-        warnings.simplefilter("always", RadiosimWarning)
-        m = camera.measure(scene, args.integration_time, t_start=args.start, rng=args.seed)
-    for w in caught:
-        print(f"warning: {w.message}", file=sys.stderr)
+    if args.out is not None and Path(args.out).suffix.lower() != ".exr":
+        raise RadiosimError(f"--out {args.out}: radiosim measure writes one EXR file; give a "
+                            "path ending in .exr")
+    if args.out is not None and Path(args.out).exists() and not args.overwrite:
+        raise RadiosimError(f"--out {args.out} exists; choose a new name or pass --overwrite")
+    m = camera.measure(scene, args.integration_time, t_start=args.start, rng=args.seed)
     summary = summarise(m)
     print(f"{camera.name}: {m.shape[1]} × {m.shape[0]} pixels, {m.integration_time * 1e6:g} µs "
           f"from {m.t_start * 1e6:g} µs ({m.n_frames} frames)")
@@ -189,6 +229,10 @@ def _preview(args) -> int:
     from radiosim.paper import preview_scene
     from radiosim.scenes import SegmentedChip
 
+    if Path(args.out).suffix.lower() != ".png":
+        raise RadiosimError(f"--out {args.out}: the preview is a PNG; give a path ending in .png")
+    if Path(args.out).exists() and not args.overwrite:
+        raise RadiosimError(f"--out {args.out} exists; choose a new name or pass --overwrite")
     scene = SegmentedChip(args.params) if args.params else SegmentedChip()
     t = args.time if args.time is not None else scene.event_time
     preview_scene(scene, t, args.out)
@@ -197,19 +241,27 @@ def _preview(args) -> int:
 
 
 def build_parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(
-        prog="radiosim", description="Radiometric simulation of infrared cameras."
+    parser = _Parser(
+        prog="radiosim", description="Radiometric simulation of infrared cameras.",
+        epilog="Exit codes: 0 done, 2 a mistake in the input or options, 1 a failure while "
+        "running, 130 interrupted.",
     )
     parser.add_argument("--version", action="version", version=f"radiosim {__version__}")
     parser.add_argument("-v", "--verbose", action="store_true", help="log progress")
+    parser.add_argument("--debug", action="store_true",
+                        help="show the traceback of an error instead of one line")
     sub = parser.add_subparsers(dest="command", required=True)
+    sub._parser_class = _Parser
     run = sub.add_parser("run", help="run a study (default: the paper's, msec2009)",
                          description="Run a study: every measurement of its sweeps, then "
                          "results.csv, EXR files and the paper's figures in --out.")
     run.add_argument("study", nargs="?", default="msec2009",
                      help="a study TOML file or a shipped study name (default msec2009)")
-    run.add_argument("--out", help="output folder (default radiosim-STUDY)")
-    run.add_argument("--seed", type=int, default=0, help="noise seed (default 0)")
+    run.add_argument("--out", help="output folder, new or empty (default radiosim-STUDY)")
+    run.add_argument("--overwrite", action="store_true",
+                     help="replace the files of radiosim's previous run in --out (only those "
+                     "its manifest lists; other files are never touched)")
+    run.add_argument("--seed", type=parse_seed, default=0, help="noise seed ≥ 0 (default 0)")
     run.add_argument("--no-exr", action="store_true",
                      help="write no EXR files (then no maps nor profiles either)")
     run.add_argument("--no-figures", action="store_true", help="write no figures")
@@ -236,8 +288,10 @@ def build_parser() -> argparse.ArgumentParser:
     measure.add_argument("--length-unit", choices=["m", "mm", "um"], help="FEA CSV length unit")
     measure.add_argument("--fill", type=parse_temperature, default=293.15,
                          help="FEA: temperature outside the mesh, e.g. 20C (default 20C)")
-    measure.add_argument("--seed", type=int, default=0, help="noise seed (default 0)")
-    measure.add_argument("--out", help="write the measurement to this EXR file")
+    measure.add_argument("--seed", type=parse_seed, default=0,
+                         help="noise seed ≥ 0 (default 0)")
+    measure.add_argument("--out", help="write the measurement to this .exr file (a new one)")
+    measure.add_argument("--overwrite", action="store_true", help="replace --out if it exists")
     measure.set_defaults(func=_measure)
     presets = sub.add_parser("presets", help="list the cameras and studies")
     presets.set_defaults(func=_presets)
@@ -249,19 +303,74 @@ def build_parser() -> argparse.ArgumentParser:
                          help="time with a unit (default: the fully developed band)")
     preview.add_argument("--params", help="TOML file of chip parameters")
     preview.add_argument("--out", default="scene.png", help="PNG path (default scene.png)")
+    preview.add_argument("--overwrite", action="store_true", help="replace --out if it exists")
     preview.set_defaults(func=_preview)
     return parser
 
 
+class _Parser(argparse.ArgumentParser):
+    """argparse with one-line errors and the documented exit code."""
+
+    def error(self, message):
+        self.exit(EXIT_INPUT, f"radiosim: error: {message} (see {self.prog} --help)\n")
+
+
+def _show_warning(message, category, filename, lineno, file=None, line=None):
+    """Warnings as one line on stderr, without the source line."""
+    name = "warning" if issubclass(category, RadiosimWarning) else category.__name__
+    print(f"radiosim: {name}: {message}", file=sys.stderr)
+
+
+def _interrupt(signum, frame):
+    raise Interrupted(signal.Signals(signum).name)
+
+
 def main(argv=None) -> int:
+    """Run the command; returns the exit code (see the module docstring)."""
     args = build_parser().parse_args(argv)
     logging.basicConfig(level=logging.INFO if args.verbose else logging.WARNING,
                         format="%(levelname)s %(name)s: %(message)s")
+    previous = signal.getsignal(signal.SIGTERM)
+    in_main_thread = _main_thread()
+    if in_main_thread:
+        signal.signal(signal.SIGTERM, _interrupt)
     try:
-        return args.func(args)
+        with warnings.catch_warnings():
+            warnings.showwarning = _show_warning
+            warnings.simplefilter("default", RadiosimWarning)
+            return args.func(args)
+    except (KeyboardInterrupt, Interrupted) as exc:
+        if args.debug:
+            raise
+        what = "SIGTERM" if isinstance(exc, Interrupted) else "Ctrl-C"
+        print(f"radiosim: interrupted ({what}); temporary files removed", file=sys.stderr)
+        return EXIT_INTERRUPTED
     except RadiosimError as exc:
+        if args.debug:
+            raise
         print(f"radiosim: error: {exc}", file=sys.stderr)
-        return 2
+        return EXIT_INPUT
+    except OSError as exc:
+        if args.debug:
+            raise
+        where = f" {exc.filename}" if exc.filename else ""
+        print(f"radiosim: error:{where} {exc.strerror or exc}", file=sys.stderr)
+        return EXIT_FAILURE
+    except Exception as exc:  # a bug, not a user mistake: say so, in one line
+        if args.debug:
+            raise
+        print(f"radiosim: internal error ({type(exc).__name__}: {exc}); run with --debug for "
+              "the traceback and please report it", file=sys.stderr)
+        return EXIT_FAILURE
+    finally:
+        if in_main_thread:
+            signal.signal(signal.SIGTERM, previous)
+
+
+def _main_thread() -> bool:
+    import threading
+
+    return threading.current_thread() is threading.main_thread()
 
 
 if __name__ == "__main__":

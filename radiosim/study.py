@@ -43,6 +43,7 @@ import numpy as np
 from radiosim.camera import Camera
 from radiosim.config import build_from_toml, reject_unknown
 from radiosim.errors import RadiosimError, RadiosimWarning
+from radiosim.files import atomic_write
 from radiosim.measurement import Measurement
 from radiosim.scenes.base import Scene
 from radiosim.units import shift, to_celsius
@@ -315,8 +316,6 @@ class Study:
         progress
             Called as ``progress(done, total, label)`` after each measurement.
         """
-        from radiosim.io.exr import write_exr as write
-
         rng = np.random.default_rng(rng)
         plan = list(self.plan())
         summary, pick_pixel = self.hook("summary"), self.hook("pixel")
@@ -330,6 +329,26 @@ class Study:
                 exr_dir.mkdir(exist_ok=True)
         result = StudyResult(rows=[], exr_directory=exr_dir, columns=columns)
         history = {}
+        try:
+            self._measure_all(plan, result, history, summary, pick_pixel, exr_dir, rng,
+                              progress)
+        except BaseException:
+            if out is not None and result.rows:  # what completed, as a table of its own
+                _write_csv(out / "results.csv", columns, result.rows)
+            raise
+        if out is not None:
+            result.table = out / "results.csv"
+            _write_csv(result.table, columns, result.rows)
+            if history:
+                result.history = out / "pixel_history.csv"
+                self._write_history(result.history, history)
+        return result
+
+    def _measure_all(self, plan, result, history, summary, pick_pixel, exr_dir, rng, progress):
+        """Measure every planned case into ``result.rows`` (and ``history``)."""
+        from radiosim.io.exr import write_exr as write
+
+        columns = result.columns
         for done, (sweep, name, camera, t_int, alignment) in enumerate(plan, start=1):
             scene = self.scene
             label = (f"{sweep.name}: {name} ({camera.response}), {t_int * 1e6:g} µs, "
@@ -369,13 +388,6 @@ class Study:
             result.rows.append({k: row.get(k, "") for k in columns})
             if progress is not None:
                 progress(done, len(plan), label)
-        if out is not None:
-            result.table = out / "results.csv"
-            _write_csv(result.table, columns, result.rows)
-            if history:
-                result.history = out / "pixel_history.csv"
-                self._write_history(result.history, history)
-        return result
 
     def _write_history(self, path: Path, history: dict):
         """Instantaneous footprint mean of the chosen pixel over the longest window."""
@@ -391,7 +403,8 @@ class Study:
 
 
 def _write_csv(path: Path, columns: list[str], rows: list[dict]):
-    with path.open("w", newline="") as handle:
+    """A table written atomically (see :func:`radiosim.files.atomic_write`)."""
+    with atomic_write(path, "w", newline="", encoding="utf-8") as handle:
         writer = csv.DictWriter(handle, fieldnames=columns)
         writer.writeheader()
         writer.writerows({k: format_value(v) for k, v in row.items()} for row in rows)

@@ -127,9 +127,9 @@ def write_exr(path, measurement: Measurement) -> Path:
         with OpenEXR.File(header, channels) as exr:
             exr.write(str(temporary))
         os.replace(temporary, path)
-    except Exception as exc:
+    except BaseException as exc:  # interrupts too: no temporary file is left behind
         temporary.unlink(missing_ok=True)
-        if isinstance(exc, RadiosimError):
+        if not isinstance(exc, Exception) or isinstance(exc, RadiosimError):
             raise
         raise RadiosimError(f"cannot write {path}: {exc}") from exc
     return path

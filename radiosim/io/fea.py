@@ -19,10 +19,9 @@ import math
 from pathlib import Path
 
 import numpy as np
-from scipy.spatial import Delaunay
 from radiosim.checks import check_positive
 from radiosim.errors import RadiosimError
-from radiosim.scenes.fea_nodes import FeaNodes
+from radiosim.scenes.fea_nodes import FeaNodes, triangulate
 from radiosim.units import TEMPERATURE_OFFSETS, UNITS
 
 __all__ = ["read_fea_nodes", "FeaNodes"]
@@ -78,6 +77,27 @@ def _parse(path: Path):
     if header is None or not rows:
         raise RadiosimError(f"{path}: no data (expected a header {','.join(_COLUMNS)} and rows)")
     return np.array(rows), stated
+
+
+def _unique_nodes(path, k, t, rows, xy, temperature, units):
+    """A step's nodes with exact duplicates merged; two temperatures for one node raise,
+    naming the node and both data rows."""
+    unique, first, inverse = np.unique(xy, axis=0, return_index=True, return_inverse=True)
+    if unique.shape[0] == xy.shape[0]:
+        return xy, temperature
+    inverse = inverse.reshape(-1)
+    kept = temperature[first]
+    clash = np.flatnonzero(temperature != kept[inverse])
+    if clash.size:
+        i = int(clash[0])
+        j = int(first[inverse[i]])
+        scale = LENGTH_UNITS[units["length"]]
+        raise RadiosimError(
+            f"{path}: step {k} (t = {t:g} s) gives the node at x = {xy[i, 0] / scale:g}, "
+            f"y = {xy[i, 1] / scale:g} {units['length']} two temperatures, "
+            f"{temperature[j]:g} K (data row {rows[j] + 1}) and {temperature[i]:g} K (data row "
+            f"{rows[i] + 1}); a node has one temperature per step")
+    return unique, kept
 
 
 def read_fea_nodes(path, dx, dt=None, units=None, fill=293.15, bounds=None, max_edge=None,
@@ -144,7 +164,8 @@ def read_fea_nodes(path, dx, dt=None, units=None, fill=293.15, bounds=None, max_
         if mine.sum() < 3:
             raise RadiosimError(f"{path}: step {k} (t = {times[k]:g} s) has {mine.sum()} "
                                 "node(s); at least 3 are needed")
-        steps.append((xy[mine], temperature[mine]))
+        steps.append(_unique_nodes(path, k, times[k], np.flatnonzero(mine), xy[mine],
+                                   temperature[mine], units))
     if times.size > 1:
         step = np.diff(times)
         uneven = np.abs(step - step.mean()) > 1e-6 * step.mean()
@@ -164,7 +185,7 @@ def read_fea_nodes(path, dx, dt=None, units=None, fill=293.15, bounds=None, max_
     if min(shape) < 1:
         raise RadiosimError(f"{path}: the grid {bounds} holds no {dx:g} m sample")
     if max_edge is None:
-        tri = Delaunay(steps[0][0])
+        tri = triangulate(steps[0][0], f"{path}: step 0 (t = {times[0]:g} s)")
         corners = steps[0][0][tri.simplices]
         max_edge = 4 * float(np.median(np.linalg.norm(corners - np.roll(corners, 1, axis=1),
                                                       axis=2)))

@@ -56,6 +56,30 @@ def _npz_member(path: Path, key: str | None):
         return data[key]
 
 
+def _npy(path: Path) -> np.ndarray:
+    """A ``.npy`` file, memory-mapped, or an error that says what the file is instead."""
+    try:
+        with open(path, "rb") as handle:
+            start = handle.read(6)
+    except OSError as exc:
+        raise RadiosimError(f"cannot read {path}: {exc.strerror or exc}") from None
+    if not start:
+        raise RadiosimError(f"{path} is empty (0 bytes); expected a NumPy .npy stack")
+    if start != b"\x93NUMPY":
+        raise RadiosimError(f"{path} is not a NumPy .npy file (it starts with {start!r}, not the "
+                            "NumPy magic '\\x93NUMPY'); save the stack with numpy.save")
+    try:
+        stack = np.load(path, mmap_mode="r")
+    except ValueError as exc:
+        if "pickle" in str(exc).lower() or "object" in str(exc).lower():
+            raise RadiosimError(f"{path} holds Python objects, not numbers; expected a numeric "
+                                "(frames, rows, columns) stack") from None
+        raise RadiosimError(f"{path} is truncated or damaged: {exc}") from None
+    except (OSError, EOFError) as exc:
+        raise RadiosimError(f"{path} is truncated or damaged: {exc}") from None
+    return stack
+
+
 def _natural_key(path: Path):
     return [int(t) if t.isdigit() else t for t in re.split(r"(\d+)", path.name)]
 
@@ -98,10 +122,7 @@ def read_frames(path, dt=None, dx=None, units=None, key=None, channel=None, emis
         if dt is None or dx is None:
             raise RadiosimError(f"{path}: pass dt [s] and dx [m] for a NumPy stack")
         if path.suffix.lower() == ".npy":
-            try:
-                stack = np.load(path, mmap_mode="r")
-            except (OSError, ValueError) as exc:
-                raise RadiosimError(f"{path} is not a readable .npy file: {exc}") from exc
+            stack = _npy(path)
         else:
             stack = _npz_member(path, key)
         return FrameStack(stack, dt, dx, emissivity=emissivity, event_time=event_time,

@@ -14,7 +14,28 @@ from scipy.spatial import Delaunay
 from radiosim.errors import RadiosimError
 from radiosim.scenes.base import Region, Scene, check_emissivity
 
-__all__ = ["FeaNodes"]
+__all__ = ["FeaNodes", "triangulate"]
+
+
+def triangulate(points: np.ndarray, where: str):
+    """
+    The Delaunay triangulation of FEA nodes (x, y) [m], or one line naming what is wrong
+    (collinear or coincident nodes), never qhull's own report.
+    """
+    points = np.asarray(points, dtype=float)
+    if points.shape[0] < 3:
+        raise RadiosimError(f"{where}: {points.shape[0]} node(s); at least 3 are needed")
+    centred = points - points.mean(axis=0)
+    scale = float(np.abs(centred).max()) or 1.0
+    if np.linalg.matrix_rank(centred / scale, tol=1e-9) < 2:
+        raise RadiosimError(f"{where}: its {points.shape[0]} nodes are collinear (or coincide); "
+                            "a 2-D mesh needs nodes that span an area")
+    try:
+        return Delaunay(points)
+    except Exception as exc:  # qhull's errors carry a long report: keep its first line
+        first = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
+        raise RadiosimError(f"{where}: cannot triangulate its {points.shape[0]} nodes "
+                            f"({first})") from None
 
 
 class FeaNodes(Scene):
@@ -43,11 +64,7 @@ class FeaNodes(Scene):
     def _mesh(self, k):
         if k not in self._triangulations:
             points, _ = self._steps[k]
-            try:
-                tri = Delaunay(points)
-            except Exception as exc:  # qhull errors: too few or collinear nodes
-                raise RadiosimError(f"step {k} (t = {self.times[k]:g} s) of {self._source}: "
-                                    f"cannot triangulate its {len(points)} nodes: {exc}") from None
+            tri = triangulate(points, f"step {k} (t = {self.times[k]:g} s) of {self._source}")
             corners = points[tri.simplices]
             edges = np.linalg.norm(corners - np.roll(corners, 1, axis=1), axis=2).max(axis=1)
             self._triangulations = {k: (tri, edges <= self.max_edge)}  # keep the latest only

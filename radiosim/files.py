@@ -1,0 +1,165 @@
+"""
+Files radiosim writes: atomically, into folders it owns, never over a user's file.
+
+-   :func:`atomic_write`: a file is written under a hidden temporary name beside its destination
+    and renamed into place only when complete; on any exit before that — an error, Ctrl-C,
+    SIGTERM — the temporary file is removed. A reader never sees half a file, and an existing
+    file is never destroyed by a failed write.
+-   :class:`OutputFolder`: a run's results go to a new or empty folder, or, with
+    ``overwrite=True``, to a folder radiosim wrote before: then only the files named in the
+    manifest it left there (:data:`MANIFEST`) are replaced. Files are staged in a clearly named
+    sibling folder (``NAME.partial``) and moved in when the run completes; a run that fails or is
+    interrupted leaves that partial folder only if it holds a completed result, never an empty
+    skeleton.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import json
+import os
+import shutil
+import tempfile
+from pathlib import Path
+
+from radiosim.errors import RadiosimError
+
+__all__ = ["atomic_write", "write_text", "OutputFolder", "MANIFEST"]
+
+#: The file in which a run lists what it wrote (so that ``--overwrite`` replaces only those).
+MANIFEST = "radiosim-manifest.json"
+
+
+@contextlib.contextmanager
+def atomic_write(path, mode: str = "w", **kwargs):
+    """
+    Open a temporary file beside ``path`` for writing; rename it to ``path`` when the block
+    completes, remove it on any exit before (exceptions and interrupts included).
+
+    Examples
+    --------
+    >>> import tempfile, pathlib
+    >>> folder = pathlib.Path(tempfile.mkdtemp())
+    >>> with atomic_write(folder / "a.txt") as handle:
+    ...     _ = handle.write("done")
+    >>> sorted(p.name for p in folder.iterdir())
+    ['a.txt']
+    """
+    path = Path(path)
+    if not path.parent.is_dir():
+        raise RadiosimError(f"cannot write {path}: folder {path.parent} does not exist")
+    if path.is_dir():
+        raise RadiosimError(f"cannot write {path}: it is a folder")
+    try:
+        handle, temporary = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".partial",
+                                             dir=path.parent)
+    except OSError as exc:
+        raise RadiosimError(f"cannot write {path}: {exc.strerror or exc}") from None
+    temporary = Path(temporary)
+    try:
+        with os.fdopen(handle, mode, **kwargs) as stream:
+            yield stream
+        os.replace(temporary, path)
+    except BaseException:
+        temporary.unlink(missing_ok=True)
+        raise
+
+
+def write_text(path, text: str) -> Path:
+    """Write ``text`` to ``path`` atomically (UTF-8)."""
+    with atomic_write(path, "w", encoding="utf-8", newline="") as stream:
+        stream.write(text)
+    return Path(path)
+
+
+class OutputFolder:
+    """
+    The folder a run writes into (see the module docstring).
+
+    Parameters
+    ----------
+    path
+        The destination folder.
+    overwrite
+        Allow a folder that holds radiosim's own files from an earlier run (listed in its
+        manifest); other files are never touched, and a run that would write over one refuses.
+
+    Use :attr:`staging` as the run's folder, :meth:`commit` when it completed, and
+    :meth:`abandon` when it failed.
+    """
+
+    def __init__(self, path, overwrite: bool = False):
+        self.path = Path(path)
+        self.overwrite = overwrite
+        self.previous: list[str] = []
+        if self.path.exists() and not self.path.is_dir():
+            raise RadiosimError(f"--out {self.path} is an existing file, not a folder; choose a "
+                                "new folder")
+        if self.path.is_dir() and any(self.path.iterdir()):
+            manifest = self.path / MANIFEST
+            if not overwrite:
+                raise RadiosimError(
+                    f"--out {self.path} is not empty; choose a new or empty folder, or pass "
+                    "--overwrite to replace the files of radiosim's previous run there "
+                    f"(those listed in {MANIFEST})")
+            if manifest.is_file():
+                try:
+                    self.previous = list(json.loads(manifest.read_text())["files"])
+                except (OSError, ValueError, KeyError, TypeError):
+                    raise RadiosimError(f"{manifest} is not a radiosim manifest; --overwrite "
+                                        "will not touch that folder") from None
+        parent = self.path.parent
+        if not parent.is_dir():
+            try:
+                parent.mkdir(parents=True)
+            except OSError as exc:
+                raise RadiosimError(f"cannot create {parent}: {exc.strerror or exc}") from None
+        self.staging = parent / f"{self.path.name}.partial"
+        if self.staging.exists():
+            raise RadiosimError(f"{self.staging} exists (an earlier run's partial result); move "
+                                "or delete it first")
+        try:
+            self.staging.mkdir()
+        except OSError as exc:
+            raise RadiosimError(f"cannot write in {parent}: {exc.strerror or exc}") from None
+
+    def files(self) -> list[str]:
+        """The files written in the staging folder, relative to it."""
+        return sorted(str(p.relative_to(self.staging)) for p in self.staging.rglob("*")
+                      if p.is_file() and not p.name.endswith(".partial"))
+
+    def commit(self) -> list[Path]:
+        """Move the staged files into the destination and write the manifest; returns the
+        destination paths."""
+        from radiosim import __version__
+
+        written = self.files()
+        clash = [f for f in written if (self.path / f).exists() and f not in self.previous]
+        if clash:
+            raise RadiosimError(f"{self.path / clash[0]} exists and is not radiosim's (not in "
+                                f"{MANIFEST}); nothing was replaced. Partial results are in "
+                                f"{self.staging}")
+        write_text(self.staging / MANIFEST, json.dumps(
+            {"radiosim": __version__, "files": written}, indent=1) + "\n")
+        if not self.path.exists():
+            self.staging.rename(self.path)
+        else:
+            for name in self.previous:  # the previous run's files go, the user's stay
+                if name not in written:
+                    (self.path / name).unlink(missing_ok=True)
+            for name in written + [MANIFEST]:
+                target = self.path / name
+                target.parent.mkdir(parents=True, exist_ok=True)
+                os.replace(self.staging / name, target)
+            shutil.rmtree(self.staging, ignore_errors=True)
+        return [self.path / f for f in written]
+
+    def abandon(self, keep: bool) -> Path | None:
+        """
+        After a failure: keep the staging folder as a clearly named partial result if ``keep``
+        and it holds files, else remove it. Returns the partial folder kept, if any.
+        """
+        if keep and self.files():
+            return self.staging
+        shutil.rmtree(self.staging, ignore_errors=True)
+        return None
