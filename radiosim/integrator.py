@@ -115,9 +115,15 @@ def integration_window(scene: Scene, duration: float, t_start: float | None = No
     if not (math.isfinite(duration) and duration > 0):
         raise RadiosimError(f"integration time must be finite and > 0 [s], got {duration!r}")
     if t_start is not None:
-        start = float(t_start)
-        if math.isnan(start):
-            raise RadiosimError("t_start is NaN; expected a window start ≥ 0 [s]")
+        try:
+            start = float(t_start)
+        except (TypeError, ValueError):
+            raise RadiosimError(f"t_start must be a number [s], got {t_start!r}") from None
+        if not math.isfinite(start):
+            raise RadiosimError(f"t_start is {start}; expected a finite window start ≥ 0 [s]")
+        if start < 0:
+            raise RadiosimError(f"t_start = {start:g} s is before the scene's first frame "
+                                "(t = 0)")
         return Window(start, duration, "given")
     if scene.event_time is None:
         return Window(0.0, duration, "scene start")

@@ -62,6 +62,15 @@ RESULT_COLUMNS = [
     "peak_bias_K", "peak_uncertainty_K", "saturated_fraction", "under_range_fraction", "exr",
 ]
 ALIGNMENTS = ("centred", "starting", "ending")
+#: The keys of a [[sweeps]] table.
+SWEEP_KEYS = ("name", "cameras", "response", "pixel_pitch_um", "pixel_samples",
+              "integration_time_us", "integration_time_frames", "alignment", "kind")
+#: The keys of each [scene] type, and of a [cameras.NAME] table.
+SCENE_KEYS = {"segmented-chip": ("type", "params", "dx_um", "dt_us", "emissivity"),
+              "frames": ("type", "path", "dt_us", "dx_um", "units", "emissivity",
+                         "event_time_us"),
+              "fea": ("type", "path", "dx_um", "dt_us", "units", "fill_K", "emissivity")}
+CAMERA_KEYS = ("preset", "file", "response", "assumed_emissivity", "pixel_pitch_um")
 #: The hooks a study file may name, and what each is called with.
 HOOKS = {"summary": "summary(measurement, scene) -> dict of extra columns",
          "pixel": "pixel(scene, pixel_pitch) -> the scene cropped to one pixel",
@@ -116,6 +125,7 @@ class Sweep:
     def from_dict(cls, data: dict, cameras) -> Sweep:
         data = dict(data)
         name = str(data.pop("name", "sweep"))
+        reject_unknown([k for k in data if k not in SWEEP_KEYS], SWEEP_KEYS, f"sweep {name!r}")
         names = tuple(data.pop("cameras", ()))
         unknown = [c for c in names if c not in cameras]
         if not names or unknown:
@@ -128,8 +138,12 @@ class Sweep:
                 return ()
             if not isinstance(values, list) or not values or not all(
                     isinstance(v, (int, float)) and not isinstance(v, bool) and v > 0
-                    for v in values):
-                raise RadiosimError(f"sweep {name!r}: {key} must be a list of positive numbers")
+                    and math.isfinite(v) for v in values):
+                hint = (" (numbers written as strings? drop the quotes)"
+                        if isinstance(values, list) and any(isinstance(v, str) for v in values)
+                        else "")
+                raise RadiosimError(f"sweep {name!r}: {key} must be a list of positive numbers, "
+                                    f"got {values!r}{hint}")
             return tuple(shift(v, exponent) for v in values)
 
         times, frames = numbers("integration_time_us", -6), numbers("integration_time_frames")
@@ -149,8 +163,6 @@ class Sweep:
         kind = data.pop("kind", "field")
         if kind not in ("field", "pixel"):
             raise RadiosimError(f"sweep {name!r}: kind must be 'field' or 'pixel'")
-        if data:
-            raise RadiosimError(f"sweep {name!r}: unknown key(s) {', '.join(data)}")
         return cls(name=name, cameras=names, responses=responses,
                    pixel_pitches=pitches or (None,), pixel_samples=tuple(int(s) for s in samples),
                    integration_times=times, integration_frames=tuple(int(f) for f in frames),
@@ -410,8 +422,32 @@ def _write_csv(path: Path, columns: list[str], rows: list[dict]):
         writer.writerows({k: format_value(v) for k, v in row.items()} for row in rows)
 
 
+def _number(table: dict, key: str, what: str):
+    """A number of a study table (None if absent); strings and booleans are refused."""
+    value = table.pop(key, None)
+    if value is None:
+        return None
+    if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(
+            value):
+        hint = " (a number written as a string? drop the quotes)" if isinstance(value, str) else ""
+        raise RadiosimError(f"{what}: {key} must be a finite number, got {value!r}{hint}")
+    return value
+
+
+def _path(spec: dict, kind: str) -> str:
+    value = spec.pop("path", None)
+    if not isinstance(value, str) or not value:
+        raise RadiosimError(f"[scene] of type {kind!r} needs path = \"…\" (the file to read), "
+                            f"got {value!r}")
+    return value
+
+
 def _camera_from(table: dict, name: str, base: Path) -> Camera:
+    if not isinstance(table, dict):
+        raise RadiosimError(f"[cameras.{name}] must be a table, got {table!r}")
     table = dict(table)
+    reject_unknown([k for k in table if k not in CAMERA_KEYS], CAMERA_KEYS,
+                   f"[cameras.{name}]")
     if "preset" in table and "file" in table:
         raise RadiosimError(f"camera {name!r}: give preset or file, not both")
     if "file" in table:
@@ -421,7 +457,7 @@ def _camera_from(table: dict, name: str, base: Path) -> Camera:
         if preset is None:
             raise RadiosimError(f"camera {name!r}: needs preset = … or file = …")
         if preset == "linear-ideal":
-            pitch = table.pop("pixel_pitch_um", None)
+            pitch = _number(table, "pixel_pitch_um", f"[cameras.{name}]")
             if pitch is None:
                 raise RadiosimError(f"camera {name!r}: linear-ideal needs pixel_pitch_um")
             camera = Camera.linear_ideal(shift(pitch, -6))
@@ -431,11 +467,11 @@ def _camera_from(table: dict, name: str, base: Path) -> Camera:
     if "response" in table:
         changes["response"] = table.pop("response")
     if "assumed_emissivity" in table:
-        changes["assumed_emissivity"] = float(table.pop("assumed_emissivity"))
+        changes["assumed_emissivity"] = _number(table, "assumed_emissivity",
+                                                f"[cameras.{name}]")
     if "pixel_pitch_um" in table:
-        camera = camera.with_pixel_pitch(shift(table.pop("pixel_pitch_um"), -6))
-    if table:
-        raise RadiosimError(f"camera {name!r}: unknown key(s) {', '.join(table)}")
+        pitch = _number(table, "pixel_pitch_um", f"[cameras.{name}]")
+        camera = camera.with_pixel_pitch(shift(pitch, -6))
     return camera.replace(name=name, **changes)
 
 
@@ -444,10 +480,16 @@ def _scene_from(spec: dict, base: Path) -> Scene:
     from radiosim.scenes import ChipParameters, SegmentedChip
 
     spec = dict(spec)
-    kind = spec.pop("type")
+    kind = spec.get("type")
+    if kind not in SCENE_KEYS:
+        raise RadiosimError(f"scene type {kind!r} is not segmented-chip, frames or fea")
+    reject_unknown([k for k in spec if k not in SCENE_KEYS[kind]], SCENE_KEYS[kind],
+                   f"[scene] ({kind})")
+    spec.pop("type")
 
     def take_length(key, default=None):
-        value = spec.pop(key, default)
+        value = _number(spec, key, "[scene]")
+        value = default if value is None else value
         return None if value is None else shift(value, -6)
 
     emissivity = spec.pop("emissivity", 1.0)
@@ -458,15 +500,12 @@ def _scene_from(spec: dict, base: Path) -> Scene:
                               dt=take_length("dt_us", 0.2), emissivity=emissivity)
     elif kind == "frames":
         event = take_length("event_time_us")
-        scene = read_frames(base / spec.pop("path"), dt=take_length("dt_us"),
+        scene = read_frames(base / _path(spec, kind), dt=take_length("dt_us"),
                             dx=take_length("dx_um"), units=spec.pop("units", None),
                             emissivity=emissivity, event_time=event)
     elif kind == "fea":
-        scene = read_fea_nodes(base / spec.pop("path"), dx=take_length("dx_um"),
+        scene = read_fea_nodes(base / _path(spec, kind), dx=take_length("dx_um"),
                                dt=take_length("dt_us"), units=spec.pop("units", None),
-                               fill=float(spec.pop("fill_K", 293.15)), emissivity=emissivity)
-    else:
-        raise RadiosimError(f"scene type {kind!r} is not segmented-chip, frames or fea")
-    if spec:
-        raise RadiosimError(f"[scene]: unknown key(s) {', '.join(spec)}")
+                               fill=_number(spec, "fill_K", "[scene]") or 293.15,
+                               emissivity=emissivity)
     return scene
