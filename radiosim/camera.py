@@ -31,14 +31,16 @@ from radiosim.config import build_from_toml, dumps_toml, edge_field
 from radiosim.electronics import Electronics
 from radiosim.errors import RadiosimError, RadiosimWarning
 from radiosim.fpa import FocalPlaneArray
-from radiosim.integrator import FootprintIntegrator, Window, integrate, integration_window
+from radiosim.integrator import (FootprintIntegrator, Job, TensorStatistics, Window, integrate,
+                                 integrate_many, integration_window)
 from radiosim.measurement import Measurement
 from radiosim.optics import Optics, collect
 from radiosim.presets import PRESET_DIRECTORY, available_presets, camera_fields, camera_table
 from radiosim.response import LinearResponse, PlanckResponse, Response
 from radiosim.scenes.base import Scene
 
-__all__ = ["Optics", "FocalPlaneArray", "Camera", "available_presets", "PRESET_DIRECTORY"]
+__all__ = ["Optics", "FocalPlaneArray", "Camera", "measure_many", "available_presets",
+           "PRESET_DIRECTORY"]
 
 
 @dataclass(frozen=True, eq=False)
@@ -254,11 +256,19 @@ class Camera:
         Measurement
         """
         window = self.window(scene, integration_time, t_start)  # [s]
-        calibration = self.calibration(window.duration)
-        calibration.check_resolution(stacklevel=2)
         # Scene frames (T [K], ε) → response signal per sample → mean per pixel over
         # footprint × window [signal unit], with the tensor's T statistics [K].
         stats = integrate(scene, self.integrator(scene), window, self.response_model)
+        return self.read_out(stats, window, scene, rng)
+
+    def read_out(self, stats: TensorStatistics, window: Window, scene: Scene,
+                 rng=None) -> Measurement:
+        """
+        The stages after the integrator: the optics, the electronics and the calibration turn
+        a window's tensor statistics into a :class:`Measurement`.
+        """
+        calibration = self.calibration(window.duration)
+        calibration.check_resolution(stacklevel=3)
         # Optics: mean signal → mean photo-electrons [e⁻] through the étendue.
         photoelectrons = collect(stats.signal_mean, self.rate_per_signal, window.duration)
         # Electronics: dark charge, shot noise, full well, read noise, ADC → counts [DN].
@@ -269,7 +279,7 @@ class Camera:
             warnings.warn(
                 f"{self.name}: {int(reading.saturated.sum())} of {reading.saturated.size} pixels "
                 f"saturated at {window.duration:g} s integration; their apparent temperature is "
-                "NaN", RadiosimWarning, stacklevel=2)
+                "NaN", RadiosimWarning, stacklevel=3)
         return Measurement(
             apparent_temperature=reading.apparent_temperature, counts=exposure.counts,
             electrons=exposure.electrons, saturated=reading.saturated,
@@ -298,3 +308,39 @@ class Camera:
         period = 1.0 / self.frame_rate
         return [self.measure(scene, integration_time, first.start + i * period, rng)
                 for i in range(int(n_frames))]
+
+
+def measure_many(scene: Scene, cases, rng=None, progress=None) -> list[Measurement]:
+    """
+    Several measurements of one scene in one pass over its frames.
+
+    Each frame any window touches is read (or generated) once and feeds every measurement
+    (:func:`~radiosim.integrator.integrate_many`); the read-outs then follow in the order of
+    ``cases``, drawing their noise from one generator, so the result equals calling
+    :meth:`Camera.measure` on each case in turn with that generator, bit for bit.
+
+    Parameters
+    ----------
+    scene
+        The scene.
+    cases
+        ``(camera, integration_time [s], t_start [s] or None)`` triples.
+    rng
+        Seed or :class:`numpy.random.Generator`.
+    progress
+        Called as ``progress(done, total)`` after each frame.
+    """
+    rng = np.random.default_rng(rng)
+    cases = list(cases)
+    windows = [camera.window(scene, t_int, t_start) for camera, t_int, t_start in cases]
+    integrators = {}
+    jobs = []
+    for (camera, _, _), window in zip(cases, windows):
+        fpa = camera.fpa
+        key = (fpa.pixel_pitch, fpa.fill_factor, fpa.shape, fpa.origin)
+        if key not in integrators:  # cameras with the same footprints share them
+            integrators[key] = camera.integrator(scene)
+        jobs.append(Job(integrators[key], window, camera.response_model))
+    statistics = integrate_many(scene, jobs, progress)
+    return [camera.read_out(stats, window, scene, rng)
+            for (camera, _, _), window, stats in zip(cases, windows, statistics)]

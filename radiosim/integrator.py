@@ -37,7 +37,7 @@ import numpy as np
 
 from radiosim.errors import RadiosimError
 from radiosim.response import Response
-from radiosim.scenes.base import Region, Scene
+from radiosim.scenes.base import Region, Scene, SceneFrame
 
 __all__ = [
     "Window",
@@ -48,6 +48,8 @@ __all__ = [
     "FootprintIntegrator",
     "TensorStatistics",
     "integrate",
+    "integrate_many",
+    "Job",
     "check_scale",
 ]
 
@@ -415,6 +417,125 @@ def _prefetched(scene: Scene, indices: range, region: Region):
             yield pending.result()
 
 
+@dataclass(frozen=True, eq=False)
+class Job:
+    """
+    One measurement's integration: footprints, window and response.
+
+    Attributes
+    ----------
+    integrator : FootprintIntegrator
+        The pixel array's footprints on the scene.
+    window : Window
+        Integration window [s].
+    response : Response
+        Signal per sample.
+    """
+
+    integrator: FootprintIntegrator
+    window: Window
+    response: Response
+
+
+class _Accumulator:
+    """The running sums of one job (see :func:`integrate_many`)."""
+
+    def __init__(self, job: Job, scene: Scene):
+        self.job = job
+        check_scale(scene, job.integrator.pixel_pitch, job.window.duration)
+        self.first, self.weights = frame_weights(job.window.start, job.window.duration,
+                                                 scene.dt, scene.n_frames)
+        self.stop = self.first + self.weights.size
+        self.reference = None
+        self.signal_is_temperature = True
+
+    def add(self, frame: SceneFrame, k: int, signal: np.ndarray):
+        integrator = self.job.integrator
+        weight = self.weights[k - self.first]
+        t = integrator.expand(frame.temperature)  # [K], on the piece grid
+        if self.reference is None:
+            self.reference = integrator.pixel_mean(t)
+            self.reference_pieces = integrator.broadcast(self.reference)
+            self.mean_dev = np.zeros(integrator.shape)
+            self.mean_sq = np.zeros(integrator.shape)
+            self.signal_mean = np.zeros(integrator.shape)
+            self.t_max = np.full(integrator.shape, -np.inf)
+        deviation = t - self.reference_pieces  # [K]
+        self.mean_dev += weight * integrator.pixel_mean(deviation)
+        self.mean_sq += weight * integrator.pixel_mean(deviation * deviation)
+        np.maximum(self.t_max, integrator.pixel_max(t), out=self.t_max)
+        if signal is not frame.temperature:  # the linear response's signal is T: mean below
+            self.signal_is_temperature = False
+            self.signal_mean += weight * integrator.pixel_mean(integrator.expand(signal))
+
+    def statistics(self) -> TensorStatistics:
+        mean = self.reference + self.mean_dev
+        variance = np.clip(self.mean_sq - self.mean_dev * self.mean_dev, 0.0, None)
+        return TensorStatistics(
+            signal_mean=mean if self.signal_is_temperature else self.signal_mean,
+            mean=mean, std=np.sqrt(variance), max=self.t_max, n_frames=int(self.weights.size))
+
+
+def _union(regions: list[Region]) -> Region:
+    return (slice(min(r[0].start for r in regions), max(r[0].stop for r in regions)),
+            slice(min(r[1].start for r in regions), max(r[1].stop for r in regions)))
+
+
+def _within(frame: SceneFrame, outer: Region, inner: Region) -> SceneFrame:
+    """The part of a frame read over ``outer`` that covers ``inner`` (views, no copies)."""
+    if inner == outer:
+        return frame
+    rows = slice(inner[0].start - outer[0].start, inner[0].stop - outer[0].start)
+    cols = slice(inner[1].start - outer[1].start, inner[1].stop - outer[1].start)
+
+    def cut(values):
+        return values[rows, cols] if isinstance(values, np.ndarray) else values
+
+    return SceneFrame(cut(frame.temperature), cut(frame.emissivity), cut(frame.regions),
+                      frame.region_emissivity, frame.index)
+
+
+def integrate_many(scene: Scene, jobs: list[Job], progress=None) -> list[TensorStatistics]:
+    """
+    Integrate several measurements of one scene in one pass: each frame any window touches is
+    read (or generated) once, over the union of the jobs' regions, and feeds every job whose
+    window holds it. The signal of a frame is computed once per response and region.
+
+    Results equal :func:`integrate` of each job alone, bit for bit.
+
+    Parameters
+    ----------
+    scene
+        The scene.
+    jobs
+        The measurements (:class:`Job`).
+    progress
+        Called as ``progress(done, total)`` after each frame.
+    """
+    accumulators = [_Accumulator(job, scene) for job in jobs]
+    if not accumulators:
+        return []
+    frames = sorted(set().union(*(range(a.first, a.stop) for a in accumulators)))
+    region = _union([a.job.integrator.region for a in accumulators])
+    for done, frame in enumerate(_prefetched(scene, frames, region), start=1):
+        k = frame.index
+        signals = {}
+        for acc in accumulators:
+            if not acc.first <= k < acc.stop:
+                continue
+            inner = acc.job.integrator.region
+            mine = _within(frame, region, inner)
+            key = (id(acc.job.response), inner[0].start, inner[0].stop, inner[1].start,
+                   inner[1].stop)
+            if key not in signals:
+                signals[key] = (mine, acc.job.response.signal(mine))  # [unit] per sample
+            mine, signal = signals[key]
+            acc.add(mine, k, signal)
+        if progress is not None:
+            progress(done, len(frames))
+    return [acc.statistics() for acc in accumulators]
+
+
 def integrate(
     scene: Scene,
     integrator: FootprintIntegrator,
@@ -443,35 +564,4 @@ def integrate(
     -------
     TensorStatistics
     """
-    check_scale(scene, integrator.pixel_pitch, window.duration)
-    first, weights = frame_weights(window.start, window.duration, scene.dt, scene.n_frames)
-    region = integrator.region
-    reference = mean_dev = mean_sq = signal_mean = t_max = None
-    signal_is_temperature = True
-    frames = _prefetched(scene, range(first, first + weights.size), region)
-    for weight, frame in zip(weights, frames):
-        signal = response.signal(frame)  # [response unit] per sample
-        t = integrator.expand(frame.temperature)  # [K], on the piece grid
-        if reference is None:
-            reference = integrator.pixel_mean(t)
-            reference_pieces = integrator.broadcast(reference)
-            mean_dev = np.zeros(integrator.shape)
-            mean_sq = np.zeros(integrator.shape)
-            signal_mean = np.zeros(integrator.shape)
-            t_max = np.full(integrator.shape, -np.inf)
-        deviation = t - reference_pieces  # [K]
-        mean_dev += weight * integrator.pixel_mean(deviation)
-        mean_sq += weight * integrator.pixel_mean(deviation * deviation)
-        np.maximum(t_max, integrator.pixel_max(t), out=t_max)
-        if signal is not frame.temperature:  # the linear response's signal is T: mean below
-            signal_is_temperature = False
-            signal_mean += weight * integrator.pixel_mean(integrator.expand(signal))
-    mean = reference + mean_dev
-    variance = np.clip(mean_sq - mean_dev * mean_dev, 0.0, None)
-    return TensorStatistics(
-        signal_mean=mean if signal_is_temperature else signal_mean,
-        mean=mean,
-        std=np.sqrt(variance),
-        max=t_max,
-        n_frames=int(weights.size),
-    )
+    return integrate_many(scene, [Job(integrator, window, response)])[0]

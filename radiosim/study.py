@@ -40,7 +40,7 @@ from pathlib import Path
 
 import numpy as np
 
-from radiosim.camera import Camera
+from radiosim.camera import Camera, measure_many
 from radiosim.config import build_from_toml, reject_unknown
 from radiosim.errors import RadiosimError, RadiosimWarning
 from radiosim.files import atomic_write
@@ -309,7 +309,7 @@ class Study:
 
     def columns(self) -> list[str]:
         """Columns of the results table: :data:`RESULT_COLUMNS` and the summary hook's."""
-        return list(RESULT_COLUMNS) + list(getattr(self.hook("summary"), "columns", []))
+        return result_columns(self, self.hook("summary"))
 
     def run(self, out=None, rng=0, write_exr: bool = True,
             progress: Callable[[int, int, str], None] | None = None) -> StudyResult:
@@ -357,49 +357,72 @@ class Study:
         return result
 
     def _measure_all(self, plan, result, history, summary, pick_pixel, exr_dir, rng, progress):
-        """Measure every planned case into ``result.rows`` (and ``history``)."""
+        """
+        Measure every planned case into ``result.rows`` (and ``history``). Consecutive cases on
+        the same scene are measured in one pass over its frames
+        (:func:`~radiosim.camera.measure_many`); read-outs keep the plan's order, so the noise
+        is the same as measuring case by case.
+        """
         from radiosim.io.exr import write_exr as write
 
-        columns = result.columns
-        for done, (sweep, name, camera, t_int, alignment) in enumerate(plan, start=1):
+        pixels = {}
+        cases = []
+        for sweep, name, camera, t_int, alignment in plan:
             scene = self.scene
-            label = (f"{sweep.name}: {name} ({camera.response}), {t_int * 1e6:g} µs, "
-                     f"{camera.fpa.pixel_pitch * 1e6:.3g} µm")
             if sweep.kind == "pixel":
                 if pick_pixel is None:
                     raise RadiosimError(f"sweep {sweep.name!r} is of kind 'pixel': the study "
                                         "needs a pixel hook ([hooks] pixel = 'module:function')")
-                scene = pick_pixel(scene, camera.fpa.pixel_pitch)
+                pitch = camera.fpa.pixel_pitch
+                if pitch not in pixels:  # one crop per pixel size: its cases share a pass
+                    pixels[pitch] = pick_pixel(scene, pitch)
+                scene = pixels[pitch]
+            cases.append((sweep, name, camera, t_int, alignment, scene))
+        groups = [list(g) for _, g in itertools.groupby(cases, key=lambda c: id(c[5]))]
+        done = 0
+        for group in groups:
+            scene = group[0][5]
             with warnings.catch_warnings():
                 warnings.simplefilter("ignore", RadiosimWarning)
-                m = camera.measure(scene, t_int, self._window_start(t_int, alignment), rng)
-            row = {
-                "study": self.name, "sweep": sweep.name, "camera": name,
-                "response": camera.response, "integration_time_us": shift(t_int, 6),
-                "n_frames": m.n_frames, "pixel_pitch_um": shift(camera.fpa.pixel_pitch, 6),
-                "pixel_samples": camera.fpa.pixel_pitch / scene.dx,
-                "sensor_area_um2": camera.fpa.fill_factor * (camera.fpa.pixel_pitch * 1e6) ** 2,
-                "alignment": alignment if scene.event_time is not None else m.alignment,
-                "t_start_us": shift(m.t_start, 6),
-            }
-            row.update(summarise(m))
-            if sweep.kind == "pixel":
-                row.update(peak_C=to_celsius(float(m.tensor_mean[0, 0])),
-                           peak_uncertainty_K=float(m.tensor_std[0, 0]))
-                key = (name, camera.response)
-                if t_int > history.get(key, (0.0,))[0]:
-                    history[key] = (t_int, m.t_start, scene)
-            else:
-                if summary is not None:
-                    row.update(summary(m, scene))
-                if exr_dir is not None:
-                    filename = (f"{sweep.name}_{name}_{camera.response}_{t_int * 1e6:g}us_"
-                                f"{camera.fpa.pixel_pitch * 1e6:.4g}um_{alignment}.exr")
-                    write(exr_dir / filename, m)
-                    row["exr"] = f"exr/{filename}"
-            result.rows.append({k: row.get(k, "") for k in columns})
-            if progress is not None:
-                progress(done, len(plan), label)
+                measurements = measure_many(scene, [
+                    (camera, t_int, self._window_start(t_int, alignment))
+                    for _, _, camera, t_int, alignment, _ in group], rng)
+            for (sweep, name, camera, t_int, alignment, scene), m in zip(group, measurements):
+                done += 1
+                result.rows.append(self._row(sweep, name, camera, t_int, alignment, scene, m,
+                                             summary, exr_dir, write, history))
+                if progress is not None:
+                    progress(done, len(cases), f"{sweep.name}: {name} ({camera.response}), "
+                             f"{t_int * 1e6:g} µs, {camera.fpa.pixel_pitch * 1e6:.3g} µm")
+
+    def _row(self, sweep, name, camera, t_int, alignment, scene, m, summary, exr_dir, write,
+             history) -> dict:
+        """One row of the results table (and the measurement's EXR file)."""
+        row = {
+            "study": self.name, "sweep": sweep.name, "camera": name,
+            "response": camera.response, "integration_time_us": shift(t_int, 6),
+            "n_frames": m.n_frames, "pixel_pitch_um": shift(camera.fpa.pixel_pitch, 6),
+            "pixel_samples": camera.fpa.pixel_pitch / scene.dx,
+            "sensor_area_um2": camera.fpa.fill_factor * (camera.fpa.pixel_pitch * 1e6) ** 2,
+            "alignment": alignment if scene.event_time is not None else m.alignment,
+            "t_start_us": shift(m.t_start, 6),
+        }
+        row.update(summarise(m))
+        if sweep.kind == "pixel":
+            row.update(peak_C=to_celsius(float(m.tensor_mean[0, 0])),
+                       peak_uncertainty_K=float(m.tensor_std[0, 0]))
+            key = (name, camera.response)
+            if t_int > history.get(key, (0.0,))[0]:
+                history[key] = (t_int, m.t_start, scene)
+        else:
+            if summary is not None:
+                row.update(summary(m, scene))
+            if exr_dir is not None:
+                filename = (f"{sweep.name}_{name}_{camera.response}_{t_int * 1e6:g}us_"
+                            f"{camera.fpa.pixel_pitch * 1e6:.4g}um_{alignment}.exr")
+                write(exr_dir / filename, m)
+                row["exr"] = f"exr/{filename}"
+        return {k: row.get(k, "") for k in result_columns(self, summary)}
 
     def _write_history(self, path: Path, history: dict):
         """Instantaneous footprint mean of the chosen pixel over the longest window."""
@@ -412,6 +435,11 @@ class Study:
                              "time_us": ((k + 0.5) * pixel.dt - t_start) * 1e6,
                              "mean_C": to_celsius(float(pixel.frame(k).mean()))})
         _write_csv(path, ["camera", "response", "time_us", "mean_C"], rows)
+
+
+def result_columns(study: Study, summary) -> list[str]:
+    """:data:`RESULT_COLUMNS` and the columns of a summary hook."""
+    return list(RESULT_COLUMNS) + list(getattr(summary, "columns", []))
 
 
 def _write_csv(path: Path, columns: list[str], rows: list[dict]):
