@@ -16,8 +16,9 @@ for T on the response's monotonic curve.
 
 Flags (a flagged pixel has no apparent temperature, NaN):
 
--   *saturated*: the well is full or the converter is at its top code, or the reading lies
-    above the calibration range;
+-   *saturated*: the well is full or the converter is at its top code;
+-   *over range*: the reading lies above the calibration range while neither is full (a
+    temperature hotter than the calibration covers, or noise on a very short integration);
 -   *under range*: the converter is at code 0, or the reading lies below the calibration range,
     or its counts lie below those of the noise floor — the lowest temperature whose
     photo-signal equals its temporal noise (:meth:`Calibration.lowest_measurable_temperature`,
@@ -62,11 +63,14 @@ class Reading:
         Full well, converter top code, or above the calibration range.
     under_range : numpy.ndarray of bool
         Converter code 0, below the calibration range, or below the noise floor.
+    over_range : numpy.ndarray of bool
+        Above the calibration range although the well and the converter are not full.
     """
 
     apparent_temperature: np.ndarray
     saturated: np.ndarray
     under_range: np.ndarray
+    over_range: np.ndarray
 
 
 class Calibration:
@@ -168,11 +172,15 @@ class Calibration:
         Apparent temperature [K] and flags of a read-out (see the module docstring).
         """
         apparent, below, above = self.invert(exposure.counts)
-        saturated = exposure.saturated | above
         floor = self.noise_floor_counts
+        saturated = exposure.saturated
         under = ~saturated & (exposure.adc_floor | below | (exposure.counts < floor))
-        apparent = np.where(saturated | under, np.nan, apparent)
-        return Reading(apparent, saturated, under)
+        # Above the range: a temperature the calibration cannot give. It is saturation when
+        # the signal would fill the well within the range's reach; noise on a short
+        # integration that carries a reading past the top is "over range", not saturation.
+        over = ~saturated & ~under & above
+        apparent = np.where(saturated | under | over, np.nan, apparent)
+        return Reading(apparent, saturated, under, over)
 
     # -- limits ----------------------------------------------------------------------------
 

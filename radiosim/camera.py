@@ -26,7 +26,7 @@ from pathlib import Path
 import numpy as np
 
 from radiosim.calibration import Calibration
-from radiosim.checks import check_fraction, check_positive
+from radiosim.checks import check_fraction, check_positive, check_rng
 from radiosim.config import build_from_toml, dumps_toml, edge_field
 from radiosim.electronics import Electronics
 from radiosim.errors import RadiosimError, RadiosimWarning
@@ -283,7 +283,8 @@ class Camera:
         return Measurement(
             apparent_temperature=reading.apparent_temperature, counts=exposure.counts,
             electrons=exposure.electrons, saturated=reading.saturated,
-            under_range=reading.under_range, tensor_max=stats.max, tensor_mean=stats.mean,
+            under_range=reading.under_range, over_range=reading.over_range,
+            tensor_max=stats.max, tensor_mean=stats.mean,
             tensor_std=stats.std, signal_mean=stats.signal_mean,
             signal_unit=self.response_model.unit, camera=self,
             integration_time=window.duration, t_start=window.start, n_frames=stats.n_frames,
@@ -303,7 +304,7 @@ class Camera:
             raise RadiosimError(f"{self.name} has no frame rate; set frame_rate to record")
         if isinstance(n_frames, bool) or int(n_frames) != n_frames or n_frames < 1:
             raise RadiosimError(f"n_frames must be a whole number ≥ 1, got {n_frames!r}")
-        rng = np.random.default_rng(rng)
+        rng = check_rng(rng)
         first = self.window(scene, integration_time, t_start)
         period = 1.0 / self.frame_rate
         return [self.measure(scene, integration_time, first.start + i * period, rng)
@@ -330,7 +331,7 @@ def measure_many(scene: Scene, cases, rng=None, progress=None) -> list[Measureme
     progress
         Called as ``progress(done, total)`` after each frame.
     """
-    rng = np.random.default_rng(rng)
+    rng = check_rng(rng)
     cases = list(cases)
     windows = [camera.window(scene, t_int, t_start) for camera, t_int, t_start in cases]
     integrators = {}

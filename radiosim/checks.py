@@ -13,7 +13,21 @@ import numpy as np
 
 from radiosim.errors import RadiosimError
 
-__all__ = ["check_positive", "check_non_negative", "check_fraction", "check_frame"]
+__all__ = ["check_positive", "check_non_negative", "check_fraction", "check_frame", "check_rng"]
+
+
+def check_rng(rng) -> np.random.Generator:
+    """
+    A :class:`numpy.random.Generator` from ``rng``: ``None`` (fresh entropy), a seed (a whole
+    number ≥ 0), a :class:`numpy.random.SeedSequence` or a Generator (used as it is).
+    """
+    if isinstance(rng, np.random.Generator):
+        return rng
+    if rng is None or isinstance(rng, np.random.SeedSequence) or (
+            isinstance(rng, (int, np.integer)) and not isinstance(rng, bool) and rng >= 0):
+        return np.random.default_rng(rng)
+    raise RadiosimError(f"rng must be a seed (a whole number ≥ 0), a numpy Generator or None, "
+                        f"got {rng!r}")
 
 
 def _number(value, name: str, unit: str) -> float:

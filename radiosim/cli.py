@@ -117,11 +117,11 @@ def _run(args) -> int:
     draw = None if args.no_figures else study.hook("figures")
     study.scene  # build (and check) the scene before anything is written
     out = OutputFolder(Path(args.out or f"radiosim-{study.name}"), overwrite=args.overwrite)
-    print(f"radiosim {__version__}: study {study.name} → {out.path}/")
-    if study.description:
-        print(f"  {study.description}")
     completed = False
     try:
+        print(f"radiosim {__version__}: study {study.name} → {out.path}/")
+        if study.description:
+            print(f"  {study.description}")
         result = study.run(out.staging, rng=args.seed, write_exr=not args.no_exr,
                            progress=None if args.quiet else _Progress())
         figures = [] if draw is None else draw(out.staging, study.scene)
@@ -175,7 +175,14 @@ def _measure(args) -> int:
     if args.pixel_pitch is not None and args.camera != "linear-ideal":
         camera = camera.with_pixel_pitch(args.pixel_pitch)
     path = Path(args.scene)
-    if path.suffix.lower() == ".csv":
+    suffix = path.suffix.lower()
+    needed = {".csv": ("dx",), ".npy": ("dt", "dx", "units"), ".npz": ("dt", "dx", "units")}
+    missing = [f"--{flag}" for flag in needed.get(suffix, ()) if getattr(args, flag) is None]
+    if missing:
+        raise RadiosimError(f"{path}: give {', '.join(missing)} (the file does not state "
+                            f"{'them' if len(missing) > 1 else 'it'}; e.g. --dt 0.2us --dx "
+                            "0.5um --units C)")
+    if suffix == ".csv":
         units = {"time": args.time_unit, "length": args.length_unit,
                  "temperature": args.units} if args.units else None
         if units is not None:
@@ -202,7 +209,8 @@ def _measure(args) -> int:
     print(f"  scene peak {summary['peak_scene_C']:.1f} °C; highest reading "
           f"{summary['peak_C']:.1f} °C (bias {summary['peak_bias_K']:+.1f} K, ±1σ "
           f"{summary['peak_uncertainty_K']:.1f} K); saturated {100 * m.saturated_fraction:.1f} %,"
-          f" under range {100 * summary['under_range_fraction']:.1f} %")
+          f" under range {100 * summary['under_range_fraction']:.1f} %, over range "
+          f"{100 * summary['over_range_fraction']:.1f} %")
     if args.out:
         print(f"wrote {write_exr(args.out, m)}")
     return 0

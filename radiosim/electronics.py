@@ -24,6 +24,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from radiosim.checks import check_rng
 from radiosim.config import edge_field
 from radiosim.errors import RadiosimError
 
@@ -234,7 +235,7 @@ class Electronics:
         rng
             Seed or :class:`numpy.random.Generator` for shot and read noise.
         """
-        rng = np.random.default_rng(rng)
+        rng = check_rng(rng)
         electrons = add_dark_charge(photoelectrons, self.dark_current, integration_time)  # [e⁻]
         if self.shot_noise:
             electrons = apply_shot_noise(electrons, rng)  # [e⁻], Poisson

@@ -19,12 +19,46 @@ import contextlib
 import json
 import os
 import shutil
+import sys
 import tempfile
+import threading
 from pathlib import Path
 
 from radiosim.errors import RadiosimError
 
-__all__ = ["atomic_write", "write_text", "OutputFolder", "MANIFEST"]
+__all__ = ["atomic_write", "write_text", "OutputFolder", "MANIFEST", "native_output_silenced"]
+
+_NATIVE = threading.Lock()
+
+
+@contextlib.contextmanager
+def native_output_silenced():
+    """
+    Keep what a native library prints (OpenEXR's own messages on a damaged file) off the
+    terminal: file descriptors 1 and 2 point to the null device for the duration. Python's
+    own error for the same problem still reaches the caller, who reports it in one line.
+    """
+    with _NATIVE:
+        for stream in (sys.stdout, sys.stderr):
+            with contextlib.suppress(Exception):
+                stream.flush()
+        try:
+            saved = [os.dup(1), os.dup(2)]
+        except OSError:  # no descriptors to redirect (an embedded interpreter)
+            yield
+            return
+        null = os.open(os.devnull, os.O_WRONLY)
+        try:
+            os.dup2(null, 1)
+            os.dup2(null, 2)
+            with open(os.devnull, "w") as sink, contextlib.redirect_stdout(sink), \
+                    contextlib.redirect_stderr(sink):
+                yield
+        finally:
+            os.dup2(saved[0], 1)
+            os.dup2(saved[1], 2)
+            for fd in (*saved, null):
+                os.close(fd)
 
 #: The file in which a run lists what it wrote (so that ``--overwrite`` replaces only those).
 MANIFEST = "radiosim-manifest.json"
@@ -59,10 +93,17 @@ def atomic_write(path, mode: str = "w", **kwargs):
     try:
         with os.fdopen(handle, mode, **kwargs) as stream:
             yield stream
+        os.chmod(temporary, 0o666 & ~_umask())  # as open() would create it, not mkstemp's 0600
         os.replace(temporary, path)
     except BaseException:
         temporary.unlink(missing_ok=True)
         raise
+
+
+def _umask() -> int:
+    mask = os.umask(0)
+    os.umask(mask)
+    return mask
 
 
 def write_text(path, text: str) -> Path:
@@ -104,16 +145,26 @@ class OutputFolder:
                     f"(those listed in {MANIFEST})")
             if manifest.is_file():
                 try:
-                    self.previous = list(json.loads(manifest.read_text())["files"])
+                    self.previous = [str(f) for f in json.loads(manifest.read_text())["files"]]
                 except (OSError, ValueError, KeyError, TypeError):
                     raise RadiosimError(f"{manifest} is not a radiosim manifest; --overwrite "
                                         "will not touch that folder") from None
+                root = self.path.resolve()
+                for name in self.previous:  # only files inside the folder, never beyond it
+                    target = (self.path / name).resolve()
+                    if Path(name).is_absolute() or root not in target.parents:
+                        raise RadiosimError(f"{manifest} lists {name!r}, outside {self.path}; "
+                                            "--overwrite will not touch that folder")
         parent = self.path.parent
-        if not parent.is_dir():
-            try:
-                parent.mkdir(parents=True)
-            except OSError as exc:
-                raise RadiosimError(f"cannot create {parent}: {exc.strerror or exc}") from None
+        self.created: list[Path] = []  # parent folders made for this run, removed if it fails
+        try:
+            for folder in [*reversed(parent.parents), parent]:
+                if not folder.exists():
+                    folder.mkdir()
+                    self.created.append(folder)
+        except OSError as exc:
+            raise RadiosimError(f"cannot create {exc.filename or parent}: "
+                                f"{exc.strerror or exc}") from None
         self.staging = parent / f"{self.path.name}.partial"
         if self.staging.exists():
             raise RadiosimError(f"{self.staging} exists (an earlier run's partial result); move "
@@ -121,7 +172,13 @@ class OutputFolder:
         try:
             self.staging.mkdir()
         except OSError as exc:
+            self._remove_created()
             raise RadiosimError(f"cannot write in {parent}: {exc.strerror or exc}") from None
+
+    def _remove_created(self):
+        for folder in reversed(self.created):
+            with contextlib.suppress(OSError):
+                folder.rmdir()
 
     def files(self) -> list[str]:
         """The files written in the staging folder, relative to it."""
@@ -162,4 +219,5 @@ class OutputFolder:
         if keep and self.files():
             return self.staging
         shutil.rmtree(self.staging, ignore_errors=True)
+        self._remove_created()
         return None

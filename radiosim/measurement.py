@@ -25,7 +25,8 @@ class Measurement:
     What one integration of the camera produced, pixel by pixel, with the scene truth beside it.
 
     Arrays are shaped like the pixel array that the scene covers (rows, columns), row 0 at the
-    top. Pixels that are ``saturated`` or ``under_range`` have no apparent temperature (NaN):
+    top. Pixels that are ``saturated``, ``under_range`` or ``over_range`` have no apparent
+    temperature (NaN):
     they are never reported as plausible numbers.
 
     Attributes
@@ -37,7 +38,8 @@ class Measurement:
     electrons : numpy.ndarray
         Charge in the well at the end of integration [e⁻].
     saturated : numpy.ndarray of bool
-        Full well, converter top code, or above the calibration's range.
+        Full well or converter top code, or (with a full well's worth of signal) above the
+        calibration's range.
     under_range : numpy.ndarray of bool
         Converter code 0 or below the calibration's range.
     tensor_max : numpy.ndarray
@@ -63,6 +65,9 @@ class Measurement:
     alignment : str
         How the window start was chosen: ``"given"``, ``"centred"`` on the scene's event, or
         ``"scene start"``.
+    over_range : numpy.ndarray of bool
+        Readings above the calibration range although neither the well nor the converter is
+        full (with a very short integration, noise can carry a reading there).
     """
 
     #: Units of the array fields and derived properties.
@@ -72,6 +77,7 @@ class Measurement:
         "electrons": "e-",
         "saturated": "1",
         "under_range": "1",
+        "over_range": "1",
         "tensor_max": "K",
         "tensor_mean": "K",
         "tensor_std": "K",
@@ -97,6 +103,11 @@ class Measurement:
     n_frames: int
     scene: dict = field(default_factory=dict)
     alignment: str = "given"
+    over_range: np.ndarray | None = None
+
+    def __post_init__(self):
+        if self.over_range is None:
+            object.__setattr__(self, "over_range", np.zeros(np.shape(self.saturated), bool))
 
     def __repr__(self) -> str:
         name = getattr(self.camera, "name", type(self.camera).__name__)
@@ -105,7 +116,8 @@ class Measurement:
         return (f"<Measurement {self.shape[0]} × {self.shape[1]} px by {name}: "
                 f"{self.integration_time:g} s from {self.t_start:g} s ({self.n_frames} frames, "
                 f"{self.alignment}); reads {reading}; {int(self.saturated.sum())} saturated, "
-                f"{int(self.under_range.sum())} under range>")
+                f"{int(self.under_range.sum())} under range, "
+                f"{int(self.over_range.sum())} over range>")
 
     @property
     def peak_error(self) -> np.ndarray:
@@ -125,7 +137,7 @@ class Measurement:
     @property
     def valid(self) -> np.ndarray:
         """Pixels with an apparent temperature (neither saturated nor under range)."""
-        return ~(self.saturated | self.under_range)
+        return ~(self.saturated | self.under_range | self.over_range)
 
     @property
     def saturated_fraction(self) -> float:

@@ -61,7 +61,7 @@ def markdown_table(rows: list[dict], formats: dict | None = None) -> str:
 _NUMERIC = {"integration_time_us", "n_frames", "pixel_pitch_um", "pixel_samples",
             "sensor_area_um2", "t_start_us", "peak_scene_C", "peak_C", "peak_bias_K",
             "peak_uncertainty_K", "column_I_scene_C", "column_I_C", "column_I_bias_K",
-            "column_I_uncertainty_K", "saturated_fraction", "under_range_fraction", "time_us",
+            "column_I_uncertainty_K", "saturated_fraction", "under_range_fraction", "over_range_fraction", "time_us",
             "mean_C"}
 
 
@@ -121,19 +121,12 @@ def plot_versus(fig, rows, x_key, y_key, err_key, scene_key, xlabel, title, ylab
 
 def save_figure(fig, path, dpi: int = 110) -> Path:
     """Write ``fig`` as a PNG at ``path`` atomically (a temporary file renamed into place)."""
-    import os
-    import tempfile
+    from radiosim.files import atomic_write
 
     path = Path(path)
-    if not path.parent.is_dir():
-        raise RadiosimError(f"cannot write {path}: folder {path.parent} does not exist")
-    handle, temporary = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".partial",
-                                         dir=path.parent)
     try:
-        with os.fdopen(handle, "wb") as stream:
+        with atomic_write(path, "wb") as stream:
             fig.savefig(stream, dpi=dpi, format="png")
-        os.replace(temporary, path)
-    except BaseException:
-        Path(temporary).unlink(missing_ok=True)
-        raise
+    except OSError as exc:
+        raise RadiosimError(f"cannot write {path}: {exc.strerror or exc}") from None
     return path

@@ -29,6 +29,7 @@ is the paper's Table 2 with the linear and Planck responses, whose hooks are in
 
 from __future__ import annotations
 
+import contextlib
 import csv
 import importlib
 import itertools
@@ -41,6 +42,7 @@ from pathlib import Path
 import numpy as np
 
 from radiosim.camera import Camera, measure_many
+from radiosim.checks import check_positive, check_rng
 from radiosim.config import build_from_toml, reject_unknown
 from radiosim.errors import RadiosimError, RadiosimWarning
 from radiosim.files import atomic_write
@@ -59,9 +61,12 @@ STUDY_DIRECTORY = Path(__file__).resolve().parent / "studies"
 RESULT_COLUMNS = [
     "study", "sweep", "camera", "response", "integration_time_us", "n_frames", "pixel_pitch_um",
     "pixel_samples", "sensor_area_um2", "alignment", "t_start_us", "peak_scene_C", "peak_C",
-    "peak_bias_K", "peak_uncertainty_K", "saturated_fraction", "under_range_fraction", "exr",
+    "peak_bias_K", "peak_uncertainty_K", "saturated_fraction", "under_range_fraction",
+    "over_range_fraction", "exr",
 ]
 ALIGNMENTS = ("centred", "starting", "ending")
+#: The top-level keys of a study file.
+STUDY_KEYS = ("name", "description", "scene", "cameras", "sweeps", "hooks")
 #: The keys of a [[sweeps]] table.
 SWEEP_KEYS = ("name", "cameras", "response", "pixel_pitch_um", "pixel_samples",
               "integration_time_us", "integration_time_frames", "alignment", "kind")
@@ -126,6 +131,10 @@ class Sweep:
         data = dict(data)
         name = str(data.pop("name", "sweep"))
         reject_unknown([k for k in data if k not in SWEEP_KEYS], SWEEP_KEYS, f"sweep {name!r}")
+        for key in ("cameras", "response", "alignment"):
+            if key in data and not isinstance(data[key], list):
+                raise RadiosimError(f"sweep {name!r}: {key} must be a list, e.g. {key} = "
+                                    f"[{data[key]!r}], got {data[key]!r}")
         names = tuple(data.pop("cameras", ()))
         unknown = [c for c in names if c not in cameras]
         if not names or unknown:
@@ -201,6 +210,7 @@ def summarise(m: Measurement) -> dict:
         out.update(peak_C=math.nan, peak_bias_K=math.nan, peak_uncertainty_K=math.nan)
     out["saturated_fraction"] = m.saturated_fraction
     out["under_range_fraction"] = float(np.mean(m.under_range))
+    out["over_range_fraction"] = float(np.mean(m.over_range))
     return out
 
 
@@ -249,6 +259,7 @@ class Study:
     def from_dict(cls, data: dict, base: Path | None = None) -> Study:
         data = dict(data)
         base = base or Path.cwd()
+        reject_unknown([k for k in data if k not in STUDY_KEYS], STUDY_KEYS, "study")
         name = str(data.pop("name", "study"))
         description = str(data.pop("description", ""))
         scene = data.pop("scene", None)
@@ -258,14 +269,17 @@ class Study:
         if not isinstance(camera_tables, dict) or not camera_tables:
             raise RadiosimError("a study needs at least one [cameras.NAME] table")
         cameras = {n: _camera_from(t, n, base) for n, t in camera_tables.items()}
-        sweeps = [Sweep.from_dict(s, cameras) for s in data.pop("sweeps", [])]
+        sweep_tables = data.pop("sweeps", [])
+        if not isinstance(sweep_tables, list) or not all(isinstance(t, dict)
+                                                         for t in sweep_tables):
+            raise RadiosimError("sweeps must be an array of tables: write each as [[sweeps]] "
+                                "(two brackets), not [sweeps]")
+        sweeps = [Sweep.from_dict(s, cameras) for s in sweep_tables]
         if not sweeps:
             raise RadiosimError("a study needs at least one [[sweeps]] table")
         hooks = data.pop("hooks", {})
         if not isinstance(hooks, dict):
             raise RadiosimError(f"[hooks] must be a table, got {hooks!r}")
-        reject_unknown(list(data), ["name", "description", "scene", "cameras", "sweeps",
-                                    "hooks"], "study")
         study = cls(name, scene, cameras, sweeps, description, base, hooks)
         for name in study.hooks:
             study.hook(name)  # fail now, not after the first measurements
@@ -328,17 +342,23 @@ class Study:
         progress
             Called as ``progress(done, total, label)`` after each measurement.
         """
-        rng = np.random.default_rng(rng)
+        rng = check_rng(rng)
         plan = list(self.plan())
         summary, pick_pixel = self.hook("summary"), self.hook("pixel")
         columns = self.columns()
         out = None if out is None else Path(out)
         exr_dir = None
+        created = []
         if out is not None:
-            out.mkdir(parents=True, exist_ok=True)
-            if write_exr:
-                exr_dir = out / "exr"
-                exr_dir.mkdir(exist_ok=True)
+            try:
+                for folder in [*reversed(out.parents), out] + ([out / "exr"] if write_exr else []):
+                    if not folder.exists():
+                        folder.mkdir()
+                        created.append(folder)
+            except OSError as exc:
+                raise RadiosimError(f"cannot create {exc.filename or out}: "
+                                    f"{exc.strerror or exc}") from None
+            exr_dir = out / "exr" if write_exr else None
         result = StudyResult(rows=[], exr_directory=exr_dir, columns=columns)
         history = {}
         try:
@@ -347,6 +367,9 @@ class Study:
         except BaseException:
             if out is not None and result.rows:  # what completed, as a table of its own
                 _write_csv(out / "results.csv", columns, result.rows)
+            for folder in reversed(created):  # never an empty skeleton
+                with contextlib.suppress(OSError):
+                    folder.rmdir()
             raise
         if out is not None:
             result.table = out / "results.csv"
@@ -462,6 +485,11 @@ def _number(table: dict, key: str, what: str):
     return value
 
 
+def _fill(spec: dict) -> float:
+    value = _number(spec, "fill_K", "[scene]")
+    return 293.15 if value is None else check_positive(value, "[scene] fill_K", "K")
+
+
 def _path(spec: dict, kind: str) -> str:
     value = spec.pop("path", None)
     if not isinstance(value, str) or not value:
@@ -527,6 +555,11 @@ def _scene_from(spec: dict, base: Path) -> Scene:
         scene = SegmentedChip(params, dx=take_length("dx_um", 960 / 1440),
                               dt=take_length("dt_us", 0.2), emissivity=emissivity)
     elif kind == "frames":
+        numpy_stack = str(spec.get("path", "")).lower().endswith((".npy", ".npz"))
+        missing = [k for k in ("dt_us", "dx_um", "units") if k not in spec]
+        if numpy_stack and missing:
+            raise RadiosimError(f"[scene] of type 'frames' with a NumPy stack needs "
+                                f"{', '.join(missing)} (the file carries no grid nor unit)")
         event = take_length("event_time_us")
         scene = read_frames(base / _path(spec, kind), dt=take_length("dt_us"),
                             dx=take_length("dx_um"), units=spec.pop("units", None),
@@ -534,6 +567,6 @@ def _scene_from(spec: dict, base: Path) -> Scene:
     elif kind == "fea":
         scene = read_fea_nodes(base / _path(spec, kind), dx=take_length("dx_um"),
                                dt=take_length("dt_us"), units=spec.pop("units", None),
-                               fill=_number(spec, "fill_K", "[scene]") or 293.15,
+                               fill=_fill(spec),
                                emissivity=emissivity)
     return scene

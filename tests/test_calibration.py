@@ -137,7 +137,8 @@ def test_linear_ideal_flags_temperatures_outside_its_range():
     no = np.zeros(2, bool)
     reading = cal.read(Exposure(counts, counts, no, no))
     assert reading.under_range.tolist() == [True, False]
-    assert reading.saturated.tolist() == [False, True]
+    assert reading.over_range.tolist() == [False, True]  # above the range, well not full
+    assert not reading.saturated.any()
     assert np.isnan(reading.apparent_temperature).all()
 
 
@@ -228,7 +229,8 @@ def test_read_flags_hand_built_exposures(nist):
     top = float(forward.counts(3000.0))
     assert top < el.max_count - 10  # "above the range" is reachable without saturating
     cases = {
-        # name: (counts, exposure saturated, ADC floor) -> expected (saturated, under range)
+        # name: (counts, exposure saturated, ADC floor) -> expected (saturated, under range,
+        # over range)
         "valid": (float(forward.counts(1012.15)), False, False),
         # 1 K below the floor: inside the calibration range (> 150 K) but under the noise.
         "below noise floor": (float(forward.counts(floor - 1.0)), False, False),
@@ -240,10 +242,10 @@ def test_read_flags_hand_built_exposures(nist):
         "just above floor": (float(forward.counts(floor + 1.0)), False, False),
     }
     expected = {
-        "valid": (False, False), "below noise floor": (False, True),
-        "below range": (False, True), "code 0": (False, True), "above range": (True, False),
-        "saturated": (True, False), "full well in range": (True, False),
-        "just above floor": (False, False),
+        "valid": (False, False, False), "below noise floor": (False, True, False),
+        "below range": (False, True, False), "code 0": (False, True, False),
+        "above range": (False, False, True), "saturated": (True, False, False),
+        "full well in range": (True, False, False), "just above floor": (False, False, False),
     }
     names = list(cases)
     counts = np.array([cases[n][0] for n in names])
@@ -252,7 +254,8 @@ def test_read_flags_hand_built_exposures(nist):
                         adc_floor=np.array([cases[n][2] for n in names]))
     reading = cal.read(exposure)
     for k, name in enumerate(names):
-        assert (bool(reading.saturated[k]), bool(reading.under_range[k])) == expected[name], name
+        assert (bool(reading.saturated[k]), bool(reading.under_range[k]),
+                bool(reading.over_range[k])) == expected[name], name
         flagged = any(expected[name])
         assert np.isnan(reading.apparent_temperature[k]) == flagged, name
     k = names.index("valid")

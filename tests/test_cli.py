@@ -86,7 +86,7 @@ def test_measure_errors_are_reported_not_raised(tmp_path, capsys):
     assert main(args) == 2
     assert "needs --pixel-pitch" in capsys.readouterr().err
     assert main(args[:-6] + ["--pixel-pitch", "6um", "--dx", "1um", "--dt", "1us"]) == 2
-    assert "carry no unit" in capsys.readouterr().err
+    assert "give --units" in capsys.readouterr().err  # names the flag that supplies it
 
 
 def test_presets_lists_cameras_and_studies(capsys):

@@ -38,7 +38,7 @@ def test_uncompressed_npz_is_memory_mapped_compressed_is_loaded_with_warning(tmp
 @pytest.mark.parametrize("kwargs, message", [
     ({"units": None}, "carry no unit"),
     ({"units": "F"}, "not K or C"),
-    ({"dt": None}, "pass dt"),
+    ({"dt": None}, "carries no grid; give the frame interval"),
 ])
 def test_numpy_files_need_units_and_steps(tmp_path, stack, kwargs, message):
     np.save(tmp_path / "s.npy", stack)

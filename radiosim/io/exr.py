@@ -11,6 +11,7 @@ channel                    content [unit]
 ``electrons``              charge in the well [e-]
 ``saturated``              1 where saturated [1]
 ``under_range``            1 where under range [1]
+``over_range``             1 where above the calibration range, not saturated [1]
 ``peak_error``             tensor max − apparent temperature [K]
 ``uncertainty``            tensor standard deviation [K]
 ``tensor_max``             maximum scene temperature over footprint × window [K]
@@ -35,6 +36,7 @@ from pathlib import Path
 import numpy as np
 
 from radiosim.errors import RadiosimError
+from radiosim.files import native_output_silenced
 from radiosim.measurement import Measurement
 
 __all__ = ["CHANNELS", "write_exr", "read_exr", "write_exr_sequence", "read_exr_sequence"]
@@ -46,6 +48,7 @@ CHANNELS = {
     "electrons": "e-",
     "saturated": "1",
     "under_range": "1",
+    "over_range": "1",
     "peak_error": "K",
     "uncertainty": "K",
     "tensor_max": "K",
@@ -150,12 +153,12 @@ def read_exr(path) -> Measurement:
     if not path.is_file():
         raise RadiosimError(f"{path} does not exist")
     try:
-        with OpenEXR.File(str(path)) as exr:
+        with native_output_silenced(), OpenEXR.File(str(path)) as exr:
             header = dict(exr.header())
             pixels = {name: np.array(ch.pixels) for name, ch in exr.channels().items()}
     except Exception as exc:
         raise RadiosimError(f"cannot read EXR file {path}: {exc}") from None
-    missing = [c for c in CHANNELS if c not in pixels]
+    missing = [c for c in CHANNELS if c not in pixels and c != "over_range"]  # older files
     if missing or _PREFIX + "camera" not in header:
         raise RadiosimError(f"{path} is not a radiosim measurement (missing "
                             f"{', '.join(missing) or 'the radiosim:camera attribute'})")
@@ -171,6 +174,7 @@ def read_exr(path) -> Measurement:
         electrons=arr("electrons"),
         saturated=pixels["saturated"] > 0.5,
         under_range=pixels["under_range"] > 0.5,
+        over_range=pixels["over_range"] > 0.5 if "over_range" in pixels else None,
         tensor_max=arr("tensor_max"),
         tensor_mean=arr("tensor_mean"),
         tensor_std=arr("uncertainty"),

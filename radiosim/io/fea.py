@@ -32,15 +32,32 @@ TIME_UNITS = {unit: 10.0**exponent for unit, (exponent, _) in UNITS["time"].item
 _COLUMNS = ("time", "x", "y", "temperature")
 
 
+class _decoding:
+    """Turn a decoding error while reading ``path`` into one line naming it."""
+
+    def __init__(self, path):
+        self.path = path
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, kind, exc, trace):
+        if isinstance(exc, UnicodeDecodeError):
+            raise RadiosimError(f"{self.path} is not a UTF-8 text file (byte {exc.start}: "
+                                f"{exc.object[exc.start:exc.start + 1]!r}); save the CSV as "
+                                "UTF-8") from None
+        return False
+
+
 def _parse(path: Path):
     """Rows of (time, x, y, temperature) and the units stated in the header, if any."""
     stated = {}
     try:
-        handle = path.open(newline="", encoding="utf-8")
+        handle = path.open(newline="", encoding="utf-8-sig")  # a BOM (Excel's CSV UTF-8) too
     except OSError as exc:
         raise RadiosimError(f"cannot read FEA file {path}: {exc}") from exc
     rows = []
-    with handle:
+    with handle, _decoding(path):
         header = None
         for number, line in enumerate(csv.reader(handle), start=1):
             if not line or not "".join(line).strip():
@@ -135,6 +152,10 @@ def read_fea_nodes(path, dx, dt=None, units=None, fill=293.15, bounds=None, max_
         A scene with one frame per step.
     """
     path = Path(path)
+    fill = check_positive(fill, "fill (temperature outside the mesh)", "K")
+    dx = check_positive(dx, "dx (sample pitch; --dx on the command line)", "m")
+    if dt is not None:
+        dt = check_positive(dt, "dt (frame interval; --dt on the command line)", "s")
     data, stated = _parse(path)
     units = {**stated, **(units or {})}
     for key, table in (("time", TIME_UNITS), ("length", LENGTH_UNITS),
@@ -153,9 +174,6 @@ def read_fea_nodes(path, dx, dt=None, units=None, fill=293.15, bounds=None, max_
         line = int(np.argmax(temperature <= 0))
         raise RadiosimError(f"{path}: data row {line + 1} has temperature "
                             f"{temperature[line]:g} K ≤ 0 (wrong unit?)")
-    if fill is None or not (math.isfinite(fill) and fill > 0):
-        raise RadiosimError(f"fill must be a temperature > 0 [K], got {fill!r}")
-    dx = check_positive(dx, "dx", "m")
 
     times, inverse = np.unique(time, return_inverse=True)
     steps = []

@@ -117,16 +117,22 @@ def read_frames(path, dt=None, dx=None, units=None, key=None, channel=None, emis
         if not path.is_file():
             raise RadiosimError(f"{path} does not exist")
         if units is None:
-            raise RadiosimError(f"{path}: NumPy files carry no unit; pass units='K' or 'C'")
+            raise RadiosimError(f"{path}: NumPy files carry no unit; give --units K or C "
+                                "(units='K' or 'C' in Python)")
         units = temperature_unit(units, path)
         if dt is None or dx is None:
-            raise RadiosimError(f"{path}: pass dt [s] and dx [m] for a NumPy stack")
+            raise RadiosimError(f"{path}: a NumPy stack carries no grid; give the frame interval "
+                                "and sample pitch (--dt 0.2us --dx 0.5um; dt=, dx= [s, m] in "
+                                "Python; dt_us, dx_um in a study)")
         if path.suffix.lower() == ".npy":
             stack = _npy(path)
         else:
             stack = _npz_member(path, key)
-        return FrameStack(stack, dt, dx, emissivity=emissivity, event_time=event_time,
-                          units=units, description={"source": str(path)})
+        try:
+            return FrameStack(stack, dt, dx, emissivity=emissivity, event_time=event_time,
+                              units=units, description={"source": str(path)})
+        except RadiosimError as exc:
+            raise RadiosimError(f"{path}: {exc}") from None
     if path.is_dir():
         files = sorted(path.glob("*.exr"), key=_natural_key)
     else:

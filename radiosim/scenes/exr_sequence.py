@@ -9,6 +9,7 @@ from pathlib import Path
 import numpy as np
 
 from radiosim.errors import RadiosimError
+from radiosim.files import native_output_silenced
 from radiosim.scenes.base import Region, Scene, check_emissivity, check_grid
 from radiosim.units import TEMPERATURE_OFFSETS
 
@@ -35,6 +36,8 @@ def _attribute(header: dict, name: str, given, flag: str, path) -> float:
     if given is not None:
         return given
     value = header.get(name)
+    if isinstance(value, np.ndarray) and value.size == 1:  # a double, as radiosim writes them
+        value = value.item()
     if value is None:
         raise RadiosimError(f"{path}: the header has no attribute {name!r}; give it with "
                             f"{flag} (e.g. {flag.split(' / ')[0]} "
@@ -86,7 +89,8 @@ class ExrSequence(Scene):
             stated = next((header[a] for a in EXR_UNIT_ATTRIBUTES if a in header), None)
             if stated is None:
                 raise RadiosimError(f"{self.paths[0]}: the header states no temperature unit "
-                                    "(attribute temperature_unit); pass units='K' or 'C'")
+                                    "(attribute temperature_unit); give --units K or C "
+                                    "(units='K' or 'C' in Python)")
             units = stated
         self.units = temperature_unit(units, self.paths[0])
         self.dx, self.dt = check_grid(
@@ -100,7 +104,7 @@ class ExrSequence(Scene):
     def _open(self, k):
         path = self.paths[k]
         try:
-            with self._exr.File(str(path)) as exr:
+            with native_output_silenced(), self._exr.File(str(path)) as exr:
                 # The bindings release the pixels when the file closes: copy them out.
                 return dict(exr.header()), {name: np.array(channel.pixels)
                                             for name, channel in exr.channels().items()}

@@ -8,6 +8,7 @@ import numpy as np
 
 from radiosim.errors import RadiosimError
 from radiosim.units import TEMPERATURE_OFFSETS
+from radiosim.checks import check_non_negative
 from radiosim.scenes.base import Region, Scene, check_emissivity, check_grid, check_positive
 
 __all__ = ["FrameStack"]
@@ -58,9 +59,8 @@ class FrameStack(Scene):
                 f"temperature must be a 3-D array (frames, rows, columns), got {temperature.ndim}"
                 f"-D with shape {temperature.shape}"
             )
-        if not np.issubdtype(temperature.dtype, np.number) or np.issubdtype(
-            temperature.dtype, np.complexfloating
-        ):
+        if temperature.dtype.kind not in "fiu":  # floats and integers; no complex, bool,
+            # timedelta, datetime, strings or objects
             raise RadiosimError(f"temperature must be real numbers, got dtype {temperature.dtype}")
         if min(temperature.shape) == 0:
             raise RadiosimError(f"temperature array is empty: shape {temperature.shape}")
@@ -70,7 +70,7 @@ class FrameStack(Scene):
         self.shape = (int(temperature.shape[1]), int(temperature.shape[2]))
         self.emissivity = check_emissivity(emissivity, self.shape)
         if event_time is not None:
-            event_time = float(event_time)
+            event_time = check_non_negative(event_time, "event_time", "s")
             if not 0 <= event_time <= self.n_frames * self.dt:
                 raise RadiosimError(
                     f"event_time {event_time:g} s is outside the stack (0 to "

@@ -1,0 +1,147 @@
+"""Interrupting ``radiosim run`` (Ctrl-C, SIGTERM): exit 130, one line, no litter.
+
+Each run is a real ``python -m radiosim.cli`` process on a study long enough to be interrupted
+part way: the signal is sent as soon as the staging folder holds a finished EXR file (the run
+then still has more than a hundred to write). Afterwards no temporary file (a FILE whose name
+ends in ``.partial``) may be left anywhere, every EXR file left reads back whole, no folder is
+left empty, and the destination folder exists only if the run completed. The staging FOLDER
+``DIR.partial`` may remain as the clearly named partial result.
+"""
+
+from __future__ import annotations
+
+import csv
+import os
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from radiosim.io import read_exr
+
+# 121 measurements (1 to 4 µs in steps of 25 ns) of a 120 × 120-sample frames scene with 1 µm
+# pixels: each writes an EXR file of 14 400 pixels, so the EXR files appear over more than a
+# second whether the measurements are made one by one or in one pass over the frames. If a run
+# ends before its signal arrives, make this longer (more times, bigger frames); never skip.
+TIMES = ", ".join(f"{1 + 0.025 * i:g}" for i in range(121))
+LONG_STUDY = f"""
+name = "long"
+[scene]
+type = "frames"
+path = "frames.npy"
+dt_us = 1.0
+dx_um = 1.0
+units = "K"
+[cameras.linear]
+preset = "linear-ideal"
+pixel_pitch_um = 1.0
+[[sweeps]]
+name = "integration-time"
+cameras = ["linear"]
+integration_time_us = [{TIMES}]
+"""
+FIRST_EXR_TIMEOUT = 120.0  # s: start-up and the first measurements (slow on a loaded machine)
+SIGNALS = {"SIGINT": signal.SIGINT, "SIGTERM": signal.SIGTERM}
+
+
+def _start(root: Path) -> subprocess.Popen:
+    y, x = np.mgrid[0:120, 0:120]
+    frame = 600.0 + 200.0 * np.sin(x / 9.0) * np.cos(y / 7.0)
+    np.save(root / "frames.npy", np.stack([frame + 10.0 * k for k in range(8)]))
+    (root / "long.toml").write_text(LONG_STUDY)
+    return subprocess.Popen(
+        [sys.executable, "-m", "radiosim.cli", "run", str(root / "long.toml"), "--out",
+         str(root / "results"), "--no-figures", "--quiet"],
+        stdout=subprocess.PIPE, stderr=subprocess.PIPE, cwd=root,
+        env=dict(os.environ, PYTHONUNBUFFERED="1"))
+
+
+@pytest.fixture(scope="module")
+def interrupted(tmp_path_factory):
+    """Both runs, started together; each gets its signal the moment its first EXR file is
+    complete. Returns signal name → dict(root, proc, signalled, stdout, stderr)."""
+    runs = {}
+    for name in SIGNALS:
+        root = tmp_path_factory.mktemp(f"interrupt-{name}")
+        runs[name] = {"root": root, "proc": _start(root), "signalled": False}
+    try:
+        deadline = time.monotonic() + FIRST_EXR_TIMEOUT
+        waiting = dict(runs)
+        while waiting and time.monotonic() < deadline:
+            for name, run in list(waiting.items()):
+                if run["proc"].poll() is not None:
+                    del waiting[name]  # ended by itself: the test reports it
+                elif any((run["root"] / "results.partial" / "exr").glob("*.exr")):
+                    run["proc"].send_signal(SIGNALS[name])
+                    run["signalled"] = True
+                    del waiting[name]
+            time.sleep(0.005)
+        for run in runs.values():
+            if run["proc"].poll() is None and not run["signalled"]:
+                run["proc"].kill()  # no EXR file in time
+            run["stdout"], run["stderr"] = run["proc"].communicate(timeout=120)
+    finally:
+        for run in runs.values():
+            if run["proc"].poll() is None:
+                run["proc"].kill()
+                run["proc"].communicate()
+    return runs
+
+
+@pytest.mark.parametrize("name", list(SIGNALS))
+def test_interrupted_run_exits_130_and_leaves_no_litter(interrupted, name):
+    run = interrupted[name]
+    root, proc = run["root"], run["proc"]
+    err = run["stderr"].decode("utf-8", "replace")
+    if not run["signalled"]:
+        pytest.fail(f"the run was not interrupted: exit {proc.returncode} before any EXR file "
+                    "appeared, or none within the time-out; if it completed, make the study "
+                    f"longer.\nstderr:\n{err}")
+    out = root / "results"
+    staging = root / "results.partial"
+
+    # Exit code and message: one line saying it was interrupted, at most one more naming the
+    # partial folder; no traceback.
+    assert proc.returncode == 130, (
+        f"exit {proc.returncode} (0: the run completed before the signal arrived; make the "
+        f"study longer)\nstderr:\n{err}")
+    assert "Traceback" not in err, err
+    lines = [line for line in err.splitlines() if line.strip()]
+    interrupted_lines = [line for line in lines
+                         if "interrupt" in line.replace(str(root), "<tmp>").lower()]
+    assert len(interrupted_lines) == 1, err
+    assert len(lines) <= 2, err
+    for line in lines:
+        if line not in interrupted_lines:
+            assert staging.name in line, err
+
+    # No temporary FILE named *.partial anywhere (the partial FOLDER may stay).
+    stray = [p for p in root.rglob("*") if p.name.endswith(".partial") and not p.is_dir()]
+    assert not stray, f"temporary files left behind: {stray}"
+
+    # The destination exists only if the run completed: it did not.
+    assert not out.exists(), f"{out} exists although the run was interrupted"
+
+    # No empty folder anywhere.
+    empty = [p for p in root.rglob("*") if p.is_dir() and not any(p.iterdir())]
+    assert not empty, f"empty folders left behind: {empty}"
+
+    # Every EXR file left reads back completely; the partial table names only files that exist.
+    exr_files = sorted(root.rglob("*.exr"))
+    for path in exr_files:
+        m = read_exr(path)
+        assert m.apparent_temperature.shape == m.tensor_max.shape == (120, 120)
+        assert np.isfinite(m.apparent_temperature).all()
+    if staging.exists():
+        assert exr_files, f"{staging} was kept but holds no finished measurement"
+        table = staging / "results.csv"
+        if table.exists():
+            rows = list(csv.DictReader(table.open(encoding="utf-8")))
+            assert rows, f"{table} is empty"
+            for row in rows:
+                if row.get("exr"):
+                    assert (staging / row["exr"]).is_file(), row["exr"]
