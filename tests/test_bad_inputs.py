@@ -1378,3 +1378,13 @@ def test_cli_compressed_npz_warning_is_one_line_without_source(processes):
     assert "c.npz" in warned[0]
     assert len(lines) == 1, text  # no source line ("warnings.warn(...)") after it
     assert "warnings.warn" not in text
+
+
+def test_fea_coordinates_in_the_wrong_length_unit_are_named(tmp_path):
+    # µm coordinates declared as metres: a grid of 10¹⁸ samples, refused before any allocation.
+    rows = ["# units: time=us, length=m, temperature=C", "time,x,y,temperature"]
+    rows += [f"{t},{x},{y},{500 + x / 10}" for t in (0, 1) for x in (0, 500, 960)
+             for y in (0, 400, 742)]
+    (tmp_path / "n.csv").write_text("\n".join(rows) + "\n")
+    with pytest.raises(RadiosimError, match=r"length unit right \(µm data read as m\?\)"):
+        read_fea_nodes(tmp_path / "n.csv", dx=0.5e-6)

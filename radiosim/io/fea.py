@@ -30,6 +30,8 @@ __all__ = ["read_fea_nodes", "FeaNodes"]
 LENGTH_UNITS = {unit: 10.0**exponent for unit, (exponent, _) in UNITS["length"].items()}
 TIME_UNITS = {unit: 10.0**exponent for unit, (exponent, _) in UNITS["time"].items()}
 _COLUMNS = ("time", "x", "y", "temperature")
+#: A grid larger than this is a unit slip, not a cutting simulation (2 × 10⁸ samples).
+MAX_GRID_SAMPLES = 200_000_000
 
 
 class _decoding:
@@ -202,6 +204,11 @@ def read_fea_nodes(path, dx, dt=None, units=None, fill=293.15, bounds=None, max_
     shape = (int(math.floor((y1 - y0) / dx + 1e-9)), int(math.floor((x1 - x0) / dx + 1e-9)))
     if min(shape) < 1:
         raise RadiosimError(f"{path}: the grid {bounds} holds no {dx:g} m sample")
+    if shape[0] * shape[1] > MAX_GRID_SAMPLES:
+        raise RadiosimError(
+            f"{path}: the nodes span {x1 - x0:.3g} × {y1 - y0:.3g} m, which at dx = {dx:g} m is "
+            f"a grid of {shape[0]} × {shape[1]} samples; is the length unit right (µm data "
+            f"read as {units['length']}?)")
     if max_edge is None:
         tri = triangulate(steps[0][0], f"{path}: step 0 (t = {times[0]:g} s)")
         corners = steps[0][0][tri.simplices]
