@@ -30,6 +30,7 @@ from colour import SpectralDistribution
 
 from radiosim.checks import check_positive
 from radiosim.errors import RadiosimError
+from radiosim.kernels import RadianceKernelTable
 from radiosim.radiometry import QUANTITIES, BandRadianceTable, band_radiance
 from radiosim.scenes.base import SceneFrame
 
@@ -49,6 +50,9 @@ class Response(ABC):
     #: Name (``"linear"`` or ``"planck"``) and unit of the signal.
     name: str
     unit: str
+    #: Whether :meth:`kernel_table` describes the signal to the compiled kernels; responses
+    #: that do not are integrated by the numpy engine.
+    has_kernel: bool = False
 
     @abstractmethod
     def signal(self, frame: SceneFrame) -> np.ndarray:
@@ -61,6 +65,14 @@ class Response(ABC):
     @abstractmethod
     def temperature(self, signal, emissivity: float = 1.0) -> np.ndarray:
         """The temperature [K] of a grey body with this signal (NaN where there is none)."""
+
+    def kernel_table(self, frame: SceneFrame):
+        """
+        The compiled kernels' form of this response for ``frame``
+        (:class:`~radiosim.kernels.RadianceKernelTable` with the frame's emissivity maps), or
+        ``None`` when the signal is the temperature itself (see :attr:`has_kernel`).
+        """
+        return None
 
     @abstractmethod
     def rate_per_signal(self, etendue: float) -> float:
@@ -93,6 +105,7 @@ class LinearResponse(Response):
 
     name = "linear"
     unit = "K"
+    has_kernel = True
 
     def __init__(self, responsivity: float = 1e6):
         self.responsivity = check_positive(responsivity, "linear responsivity", "e⁻ s⁻¹ K⁻¹")
@@ -131,6 +144,7 @@ class PlanckResponse(Response):
 
     name = "planck"
     unit = QUANTITIES["photon"]
+    has_kernel = True
 
     def __init__(self, band, responsivity, temperature_range=PLANCK_TABLE_RANGE):
         self.band = tuple(band)
@@ -139,6 +153,7 @@ class PlanckResponse(Response):
         self._table_range = (max(self.temperature_range[0] - _TABLE_MARGIN,
                                  0.5 * self.temperature_range[0]), self.temperature_range[1])
         self._tables: dict[int, tuple[SpectralDistribution | None, BandRadianceTable]] = {}
+        self._kernel_tables: dict[tuple, RadianceKernelTable] = {}
 
     def table(self, emissivity=1.0) -> BandRadianceTable:
         """
@@ -148,10 +163,14 @@ class PlanckResponse(Response):
         curve = emissivity if isinstance(emissivity, SpectralDistribution) else None
         key = id(curve)
         if key not in self._tables:
-            self._tables[key] = (curve, BandRadianceTable(
-                self.band, "photon", self.responsivity, 1.0 if curve is None else curve,
-                self._table_range,
-            ))
+            table = BandRadianceTable(self.band, "photon", self.responsivity,
+                                      1.0 if curve is None else curve, self._table_range)
+            # The spline runs from 30 K below the range, clear of its end effects; the table
+            # answers (and the kernels read it) over the range only.
+            low, high = self.temperature_range
+            table.temperature_range = (low, high)
+            table.radiance_range = (float(table(low)), float(table(high)))
+            self._tables[key] = (curve, table)
         return self._tables[key][1]
 
     def _radiance(self, temperature: np.ndarray, curve) -> np.ndarray:
@@ -189,6 +208,35 @@ class PlanckResponse(Response):
 
     def grey_signal(self, temperature, emissivity: float = 1.0) -> np.ndarray:
         return self._grey_or_curve(np.asarray(temperature, dtype=float), emissivity)
+
+    def _packed(self, entries: tuple) -> RadianceKernelTable:
+        """The tables of ``entries`` (grey scalars or curves) packed for the kernels, cached."""
+        key = tuple(id(e) if isinstance(e, SpectralDistribution) else float(e) for e in entries)
+        packed = self._kernel_tables.get(key)
+        if packed is None:
+            tables, exact, grey = [], [], []
+            for value in entries:
+                curve = value if isinstance(value, SpectralDistribution) else None
+                tables.append(self.table(curve if curve is not None else 1.0))
+                exact.append(dict(band=self.band, quantity="photon",
+                                  responsivity=self.responsivity,
+                                  emissivity=1.0 if curve is None else curve))
+                grey.append(1.0 if curve is not None else float(value))
+            packed = self._kernel_tables[key] = RadianceKernelTable(tables, exact,
+                                                                    entry_grey=grey)
+        return packed
+
+    def kernel_table(self, frame: SceneFrame) -> RadianceKernelTable:
+        if frame.regions is not None:
+            codes = sorted(frame.region_emissivity)
+            if codes != list(range(len(codes))) or len(codes) > 255:
+                raise RadiosimError(f"region codes must be 0, 1, … (fewer than 256), got {codes}")
+            packed = self._packed(tuple(frame.region_emissivity[c] for c in codes))
+            return packed.with_maps(grey=1.0, index=frame.regions.astype(np.uint8, copy=False))
+        emissivity = frame.emissivity
+        if isinstance(emissivity, np.ndarray):
+            return self._packed((1.0,)).with_maps(grey=emissivity, index=None)
+        return self._packed((emissivity,)).with_maps(grey=1.0, index=None)
 
     def temperature(self, signal, emissivity: float = 1.0) -> np.ndarray:
         """Temperature [K] of a grey emitter of ``emissivity`` with this signal (NaN outside

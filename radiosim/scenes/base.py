@@ -161,6 +161,20 @@ class Scene(ABC):
         frame = self._sample(k, region)
         return dataclasses.replace(frame, temperature=self._checked(frame.temperature, k, region))
 
+    def sample_unchecked(self, k: int, region: Region | None = None) -> SceneFrame:
+        """
+        :meth:`sample` without the conversion to float64 and the sample check: the temperature
+        as the scene holds it (a float32 memory-mapped view stays one). For consumers that
+        check every sample themselves, in the same pass (the compiled kernels).
+        """
+        k, region = self._where(k, region)
+        frame = self._sample(k, region)
+        expected = tuple(s.stop - s.start for s in region)
+        if np.shape(frame.temperature) != expected:
+            raise RadiosimError(f"frame {k} has shape {np.shape(frame.temperature)}, expected "
+                                f"{expected} from the scene's shape {self.shape}")
+        return frame
+
     def frames(self, start: int, stop: int, region: Region | None = None) -> Iterator[np.ndarray]:
         """Frames ``start`` to ``stop - 1`` [K], one at a time."""
         for k in range(start, stop):

@@ -84,9 +84,11 @@ class FrameStack(Scene):
         self._extra = dict(description or {})
 
     def _read(self, k: int, region: Region) -> np.ndarray:
-        values = np.asarray(self._stack[k, region[0], region[1]], dtype=np.float64)
         offset = TEMPERATURE_OFFSETS[self.units]
-        return values + offset if offset else values
+        values = self._stack[k, region[0], region[1]]
+        if not offset and values.dtype in (np.float32, np.float64):
+            return values  # as stored (a memory-mapped view): the consumer converts or checks
+        return np.asarray(values, dtype=np.float64) + offset
 
     def describe(self) -> dict:
         return super().describe() | {"source_units": self.units} | self._extra

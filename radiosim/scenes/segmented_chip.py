@@ -19,7 +19,11 @@ terms, superposed on the initial temperature T₀, are:
 
 Everything that does not move (geometry, the primary zone, the secondary zone's mean and the
 two static fields of its travelling modulation, the tool, the workpiece) is computed once per
-grid; a frame evaluates only the moving terms, on the samples they can reach.
+grid; a frame evaluates only the moving terms, on the samples they can reach. It does so with a
+compiled kernel (numba, :func:`_moving_terms_kernel`: one row-parallel pass writing the frame,
+compiled on first use and cached on disk); the numpy implementation it replaces is kept as its
+reference (:meth:`SegmentedChip._evaluate_reference`, selected by
+``USE_COMPILED_KERNEL = False``), and the two agree to rounding.
 
 Coordinates: lab frame x to the right, y up, origin at the bottom-left corner of the field of
 view; array row 0 is the top of the field (y = height), as in an image.
@@ -42,7 +46,9 @@ import threading
 from dataclasses import dataclass, field
 from pathlib import Path
 
+import numba
 import numpy as np
+from numba import prange
 from scipy.interpolate import RegularGridInterpolator
 from scipy.signal import fftconvolve
 from scipy.special import erfc
@@ -416,6 +422,7 @@ class _RegionData:
             step = min(0.05e-6, p.band_width / 100)
             first, last = math.floor(z.min() / step) - 1, math.ceil(z.max() / step) + 2
             self.zeta_grid = np.arange(first, last) * step
+            self.zeta_step, self.zeta_first = step, first
             position = z / step - first
             self.zeta_index = np.minimum(position.astype(np.intp), self.zeta_grid.size - 2)
             self.zeta_frac = position - self.zeta_index
@@ -437,6 +444,458 @@ class _RegionData:
         t0, rise = p.initial_temperature, p.primary_rise
         self.background = lambda xi_: t0 + rise * float(
             smooth_step((xi_ - p.primary_offset) / p.primary_width))
+        self.background_at_l0 = self.background(0.0)
+        # For the compiled kernel: the region's place in the grid and its coordinates, and its
+        # run layout (built on its first compiled evaluation, see _KernelData).
+        self.shape = self.static.shape
+        self.x, self.y = g.x[cs], g.y[rs]
+        self.kernel: _KernelData | None = None
+
+
+# -- the compiled moving terms ---------------------------------------------------------------
+#
+# A frame is the static field plus the moving terms on four index sets of the region
+# (_RegionData): the travelling modulation (``periodic``), the released bands (``chip``), the
+# forming band (``forming``) and the free surface (``surface``), each stored as runs of columns
+# per row (_KernelData). The kernel writes the frame in one pass over the region's rows (blocks
+# of rows dealt to the threads in turn): each row is copied from the static field and, while it
+# is in cache, each term is applied to its runs in the reference's order (modulation, released
+# bands, forming band, surface), so every sample sees the reference's operations in the
+# reference's order. The coordinates n, ζ, ξ of a sample are recomputed from its (x, y) with
+# _Geometry's arithmetic (bitwise the same; fastmath is off: no reassociation, no FMA
+# contraction), so only the modulation's two fields are read per sample besides the static
+# field. exp is _exp below, not libm's, so that the loops vectorise (relative error < 1e-15):
+# the two implementations differ by rounding only (< 1e-15 relative in temperature, the region
+# map identical).
+
+#: Evaluate the moving terms with the compiled kernel (True, the default) or the numpy reference
+#: (False). ``SegmentedChip._evaluate(..., compiled=...)`` overrides it for one call.
+USE_COMPILED_KERNEL = True
+
+_JIT = dict(cache=True, fastmath=False, nogil=True, error_model="numpy", boundscheck=False)
+
+# Entries of the kernel's constants vector (grid constants, and per frame the four marked *).
+(_K_TIP_X, _K_TIP_Y, _K_SIN_A, _K_COS_A, _K_COS_G, _K_SIN_G, _K_TAN_TB, _K_SIN_TB,
+ _K_COS, _K_SIN,  # * cos, sin of the modulation's angle
+ _K_STEP, _K_FIRST,
+ _K_LOG_BASE, _K_REACH,  # * ln(base), |ξ| reach of the forming band
+ _K_EXP_TIP, _K_EXP_SLOPE, _K_EXP_REACH, _K_SIGMA, _K_SIGMA_SPAN, _K_AMPLITUDE,
+ _K_D,  # * chip displacement d
+ _K_PITCH, _K_MIN_T, _K_SPAN_T, _K_AMBIENT, _K_SIZE) = range(26)
+# Index sets, in the order the kernel applies them.
+_SET_PERIODIC, _SET_CHIP, _SET_FORMING, _SET_SURFACE = range(4)
+
+#: Blocks of rows per thread: dealt in turn, they even out the threads' shares.
+_BLOCKS = 8
+
+_NO_PROFILE = np.zeros(2)
+_NO_TERMS = np.zeros((0, 3))
+_NO_NODES = np.zeros((0, 2), dtype=np.int64)
+_NO_REGIONS = np.zeros((1, 1), dtype=np.uint8)
+
+# exp(x) = 2^k · exp(r), r = x − k ln 2 (Cody & Waite, with fdlibm's split of ln 2), exp(r) by
+# its Taylor polynomial of degree 13 on |r| ≤ ln(2)/2 (truncation < 5e-18): the scheme of
+# radiosim.kernels._exp, kept here so the scene does not depend on the integrator's kernels.
+_LOG2E = 1.4426950408889634
+_LN2_HI = 6.93147180369123816490e-01
+_LN2_LO = 1.90821492927058770002e-10
+(_F2, _F3, _F4, _F5, _F6, _F7, _F8, _F9, _F10, _F11, _F12, _F13) = tuple(
+    1.0 / math.factorial(n) for n in range(2, 14))
+
+
+@numba.njit(**_JIT)
+def _exp(x):
+    """exp(x) for x in [−708, 709] (clamped there), vectorisable (no libm call)."""
+    x = x if x > -708.0 else -708.0
+    x = x if x < 709.0 else 709.0
+    k = np.floor(x * _LOG2E + 0.5)
+    r = (x - k * _LN2_HI) - k * _LN2_LO
+    p = _F13
+    p = p * r + _F12
+    p = p * r + _F11
+    p = p * r + _F10
+    p = p * r + _F9
+    p = p * r + _F8
+    p = p * r + _F7
+    p = p * r + _F6
+    p = p * r + _F5
+    p = p * r + _F4
+    p = p * r + _F3
+    p = p * r + _F2
+    p = p * r + 1.0
+    p = p * r + 1.0
+    scale = np.int64((np.int64(k) + 1023) << 52).view(np.float64)
+    return p * scale
+
+
+@numba.njit(**_JIT)
+def _coordinates(xj, dyv, k):
+    """(n, ζ) of the sample at x = ``xj``, y − y_tip = ``dyv``: _Geometry's arithmetic."""
+    dxv = xj - k[_K_TIP_X]
+    s = dxv * k[_K_SIN_A] + dyv * k[_K_COS_A]
+    u = dxv * k[_K_COS_G] + dyv * k[_K_SIN_G]
+    n = -u
+    return n, s - n / k[_K_TAN_TB]
+
+
+# The spans take views of a row's run of columns and loop from 0 to their size: the index is
+# then known to be ≥ 0, which spares numba's negative-index wraparound and lets LLVM vectorise.
+# The costly loops (exp, divisions) run over a multiple of _PAD samples, writing scratch space:
+# no sample is left to the scalar remainder loop; the x coordinates are padded for them.
+_PAD = 16
+
+
+@numba.njit(**_JIT)
+def _padded(size):
+    """``size`` rounded up to a multiple of _PAD."""
+    return (size + _PAD - 1) // _PAD * _PAD
+
+
+@numba.njit(**_JIT)
+def _chip_span(row, x, dyv, k, profile, fade, faded, position):
+    """Released bands on the samples of ``row`` (x coordinates ``x``, padded): the ζ profile
+    interpolated, faded at the rake face (``faded``: by ``fade``). ``position`` is scratch."""
+    step, first = k[_K_STEP], k[_K_FIRST]
+    for j in range(_padded(row.size)):  # vectorised: the profile's fractional index
+        n, zeta = _coordinates(x[j], dyv, k)
+        position[j] = zeta / step - first  # ≥ 1: the grid starts a step before the region's ζ
+    last, one = np.uintp(profile.size - 2), np.uintp(1)  # unsigned: no wraparound
+    for j in range(row.size):  # the gather
+        index = min(np.uintp(position[j]), last)
+        frac = position[j] - index
+        left = profile[index]
+        excess = left + frac * (profile[index + one] - left)
+        if faded:
+            excess *= fade[j]
+        row[j] += excess
+
+
+@numba.njit(**_JIT)
+def _forming_values(excess, f, xi, x, dyv, k, count):
+    """The forming band's exp(ξ²/(−2σ²))·f on ``count`` samples (x coordinates ``x``) into
+    ``excess``, 0 where |ξ| is beyond its reach (so that adding it changes nothing); ``f`` and
+    ``xi`` are scratch. Two loops: each exp's latency then overlaps the next sample's."""
+    sin_tb, reach, log_base = k[_K_SIN_TB], k[_K_REACH], k[_K_LOG_BASE]
+    tip, slope, reach_n = k[_K_EXP_TIP], k[_K_EXP_SLOPE], k[_K_EXP_REACH]
+    sigma_b, span = k[_K_SIGMA], k[_K_SIGMA_SPAN]
+    for j in range(count):
+        n, zeta = _coordinates(x[j], dyv, k)
+        xi[j] = zeta * sin_tb
+        m = tip + slope * min(max(n / reach_n, 0.0), 1.0)
+        f[j] = _exp(m * log_base)
+    for j in range(count):
+        sigma = (1.0 - f[j]) * (1.0 - f[j])
+        sigma *= span
+        sigma += sigma_b
+        sigma *= sigma
+        sigma *= -2.0
+        value = _exp(xi[j] * xi[j] / sigma)
+        value *= f[j]
+        excess[j] = value if abs(xi[j]) < reach else 0.0
+
+
+@numba.njit(**_JIT)
+def _forming_values_saturated(excess, x, dyv, k, count, f, sigma):
+    """:func:`_forming_values` where every sample has n ≥ the exponent's reach: m = 1, so f
+    and σ are the same for all (``f``, ``sigma``: computed as per sample, once)."""
+    sin_tb, reach = k[_K_SIN_TB], k[_K_REACH]
+    for j in range(count):
+        n, zeta = _coordinates(x[j], dyv, k)
+        xi = zeta * sin_tb
+        value = _exp(xi * xi / sigma)
+        value *= f
+        excess[j] = value if abs(xi) < reach else 0.0
+
+
+@numba.njit(**_JIT)
+def _forming_piece(excess, scratch_f, scratch_xi, x, dyv, k, count, saturated, f, sigma):
+    """The forming band's values on a piece of a run, saturated or not."""
+    if saturated:
+        _forming_values_saturated(excess, x, dyv, k, _padded(count), f, sigma)
+    else:
+        _forming_values(excess, scratch_f, scratch_xi, x, dyv, k, _padded(count))
+
+
+@numba.njit(**_JIT)
+def _forming_add(row, excess, fade, faded, amplitude):
+    """row += A·excess (·fade where ``faded``)."""
+    for j in range(row.size):
+        value = excess[j]
+        if faded:
+            value *= fade[j]
+        row[j] += amplitude * value
+
+
+@numba.njit(**_JIT)
+def _forming_run(row, x, dyv, k, scratch, fade, a, b, f, sigma):
+    """The forming band on a run (x coordinates ``x``, padded; faded on its samples a … b − 1
+    by ``fade``). The run is split where n crosses the exponent's reach (n is monotone along a
+    row, so the samples beyond it lead or trail): f and σ are computed per sample only below
+    it. ``scratch``: three rows of space."""
+    size = row.size
+    reach_n = k[_K_EXP_REACH]
+    saturated = 0
+    for j in range(size):
+        saturated += _coordinates(x[j], dyv, k)[0] >= reach_n
+    excess, scratch_f, scratch_xi = scratch[0], scratch[1], scratch[2]
+    if saturated == 0 or saturated == size:
+        _forming_piece(excess, scratch_f, scratch_xi, x, dyv, k, size, saturated > 0, f, sigma)
+    else:
+        leading = _coordinates(x[0], dyv, k)[0] >= reach_n
+        split = saturated if leading else size - saturated
+        _forming_piece(excess, scratch_f, scratch_xi, x, dyv, k, split, leading, f, sigma)
+        _forming_piece(excess[split:], scratch_f, scratch_xi, x[split:], dyv, k, size - split,
+                       not leading, f, sigma)
+    amplitude = k[_K_AMPLITUDE]
+    _forming_add(row[:a], excess[:a], fade, False, amplitude)
+    _forming_add(row[a:b], excess[a:b], fade, True, amplitude)
+    _forming_add(row[b:], excess[b:], fade, False, amplitude)
+
+
+@numba.njit(**_JIT)
+def _surface_span(row, region_row, want_regions, x, dyv, k):
+    """The saw-tooth free surface on the samples of ``row``: beyond it, air."""
+    d, pitch, min_t, span_t = k[_K_D], k[_K_PITCH], k[_K_MIN_T], k[_K_SPAN_T]
+    ambient = k[_K_AMBIENT]
+    for j in range(row.size):
+        n, zeta = _coordinates(x[j], dyv, k)
+        a = (zeta - d) / pitch
+        frac = a - np.trunc(a)  # fmod(a, 1) exactly; then numpy.mod's sign rule
+        if frac < 0.0:
+            frac += 1.0
+        if n > min_t + span_t * (1.0 - frac):
+            row[j] = ambient
+            if want_regions:
+                region_row[j] = 0  # REGIONS["air"]
+
+
+@numba.njit(**_JIT)
+def _copy(target, source):
+    """target[:] = source (a loop from 0: vectorised, and no call into numpy's copy)."""
+    for j in range(target.size):
+        target[j] = source[j]
+
+
+@numba.njit(**_JIT)
+def _modulation_span(row, cos_field, sin_field, ca, sa):
+    """The travelling modulation on the samples of ``row``."""
+    for j in range(row.size):
+        row[j] += ca * cos_field[j] + sa * sin_field[j]
+
+
+@numba.njit(**_JIT)
+def _frame_row(i, static, regions_static, out, regions_out, want_regions, forming, x, y, k,
+               profile, cos_field, sin_field, ptr, runs, fade, fade_rows, scratch, f_saturated,
+               sigma_saturated):
+    """Row i of the frame: the static row, then the moving terms on the row's runs
+    (``scratch``: three rows of space, padded)."""
+    row = out[i]
+    _copy(row, static[i])
+    region_row = regions_out[0]
+    if want_regions:
+        region_row = regions_out[i]
+        _copy(region_row, regions_static[i])
+    dyv = y[i] - k[_K_TIP_Y]
+    # Travelling modulation of the secondary zone.
+    ca, sa = k[_K_COS], k[_K_SIN]
+    for q in range(ptr[_SET_PERIODIC, i], ptr[_SET_PERIODIC, i + 1]):
+        j0, j1, at = runs[q, 0], runs[q, 1], runs[q, 2]
+        _modulation_span(row[j0:j1], cos_field[at:at + j1 - j0], sin_field[at:at + j1 - j0],
+                         ca, sa)
+    # The row's faded columns [fade_lo, fade_hi) near the rake face, their fades from
+    # fade[f0].
+    f0 = fade_rows[i, 0]
+    fade_lo = fade_rows[i, 1]
+    fade_hi = fade_lo + fade_rows[i + 1, 0] - f0
+    # Released bands.
+    for q in range(ptr[_SET_CHIP, i], ptr[_SET_CHIP, i + 1]):
+        j0, j1 = runs[q, 0], runs[q, 1]
+        a = min(max(fade_lo, j0), j1)
+        b = min(max(fade_hi, a), j1)
+        _chip_span(row[j0:a], x[j0:], dyv, k, profile, fade, False, scratch[0])
+        _chip_span(row[a:b], x[a:], dyv, k, profile, fade[f0 + max(a - fade_lo, 0):], True,
+                   scratch[0])
+        _chip_span(row[b:j1], x[b:], dyv, k, profile, fade, False, scratch[0])
+    # The forming band.
+    if forming:
+        for q in range(ptr[_SET_FORMING, i], ptr[_SET_FORMING, i + 1]):
+            j0, j1 = runs[q, 0], runs[q, 1]
+            a = min(max(fade_lo, j0), j1)
+            b = min(max(fade_hi, a), j1)
+            _forming_run(row[j0:j1], x[j0:], dyv, k, scratch, fade[f0 + max(a - fade_lo, 0):],
+                         a - j0, b - j0, f_saturated, sigma_saturated)
+    # The free surface.
+    for q in range(ptr[_SET_SURFACE, i], ptr[_SET_SURFACE, i + 1]):
+        j0, j1 = runs[q, 0], runs[q, 1]
+        _surface_span(row[j0:j1], region_row[j0:j1] if want_regions else region_row,
+                      want_regions, x[j0:], dyv, k)
+
+
+@numba.njit(**_JIT)
+def _band_profile(grid, terms, nodes, sin_b):
+    """SegmentedChip._band_profile's arithmetic, with _exp."""
+    profile = np.zeros(grid.size)
+    for band in range(terms.shape[0]):
+        zk, sigma2, amplitude = terms[band, 0], terms[band, 1], terms[band, 2]
+        band_profile = profile[nodes[band, 0]:nodes[band, 1]]
+        band_grid = grid[nodes[band, 0]:nodes[band, 1]]
+        for j in range(band_profile.size):
+            dz = (band_grid[j] - zk) * sin_b
+            band_profile[j] += amplitude * _exp(-dz * dz / (2 * sigma2))
+    return profile
+
+
+@numba.njit(parallel=True, **_JIT)
+def _moving_terms_kernel(threads, bounds, static, regions_static, out, regions_out,
+                         want_regions, forming, x, y, k, grid, terms, nodes, cos_field, sin_field,
+                         ptr, runs, fade, fade_rows):
+    """The frame over the region: rows bounds[b] … bounds[b + 1] − 1 in block b, the blocks
+    dealt to ``threads`` threads in turn (so that each thread's work spans the frame, and the
+    threads' shares are even however the blocks' work was estimated). ``out`` (and, with
+    ``want_regions``, ``regions_out``) is written in full. ``x`` holds the columns' x
+    coordinates and _PAD more (any finite values). The released bands' profile on ``grid`` is
+    computed first, from the bands' ``terms`` (ζ_k, σ_k², amplitude) on their ``nodes``."""
+    profile = _band_profile(grid, terms, nodes, k[_K_SIN_TB])
+    # f = base^m and σ where the exponent m has saturated at 1 (n beyond its reach), with the
+    # arithmetic of _forming_values.
+    f_saturated = _exp((k[_K_EXP_TIP] + k[_K_EXP_SLOPE] * 1.0) * k[_K_LOG_BASE])
+    sigma_saturated = (1.0 - f_saturated) * (1.0 - f_saturated)
+    sigma_saturated *= k[_K_SIGMA_SPAN]
+    sigma_saturated += k[_K_SIGMA]
+    sigma_saturated *= sigma_saturated
+    sigma_saturated *= -2.0
+    n_blocks = bounds.size - 1
+    for thread in prange(threads):
+        scratch = np.empty((3, out.shape[1] + _PAD))
+        for b in range(thread, n_blocks, threads):
+            for i in range(bounds[b], bounds[b + 1]):
+                _frame_row(i, static, regions_static, out, regions_out, want_regions, forming,
+                           x, y, k, profile, cos_field, sin_field, ptr, runs, fade, fade_rows,
+                           scratch, f_saturated, sigma_saturated)
+
+
+@numba.njit(**_JIT)
+def _kernel_coordinates(x, y, k):
+    """(n, ζ) of every sample of the region as the kernel computes them (for the tests)."""
+    n = np.empty((y.size, x.size))
+    zeta = np.empty((y.size, x.size))
+    for i in range(y.size):
+        dyv = y[i] - k[_K_TIP_Y]
+        for j in range(x.size):
+            n[i, j], zeta[i, j] = _coordinates(x[j], dyv, k)
+    return n, zeta
+
+
+def _runs(flat: np.ndarray, rows: int, cols: int):
+    """Row-major flat indices (sorted) as runs of consecutive columns: per-row pointers
+    (rows + 1) into the runs, and each run's first column, end column and first position in
+    ``flat``."""
+    flat = np.asarray(flat, dtype=np.int64)
+    if flat.size == 0:
+        return np.zeros(rows + 1, dtype=np.int64), np.zeros((0, 3), dtype=np.int64)
+    row, col = np.divmod(flat, cols)
+    breaks = np.flatnonzero((np.diff(flat) != 1) | (np.diff(row) != 0)) + 1
+    first = np.concatenate([[0], breaks])
+    last = np.concatenate([breaks, [flat.size]]) - 1
+    runs = np.column_stack([col[first], col[last] + 1, first]).astype(np.int64)
+    ptr = np.searchsorted(row[first], np.arange(rows + 1)).astype(np.int64)
+    return ptr, runs
+
+
+class _KernelData:
+    """The run layout of one region for :func:`_moving_terms_kernel`: each index set of the
+    region (_RegionData) as runs of columns per row, the rake-face fade on each row's faded
+    columns, the grid constants, and the rows' work for splitting them among threads."""
+
+    def __init__(self, p: ChipParameters, g: _Geometry, region: Region, r: _RegionData):
+        rows, cols = r.shape
+        sets = [r.periodic, r.chip, np.sort(r.forming), r.surface]
+        ptr = np.zeros((len(sets), rows + 1), dtype=np.int64)
+        runs = []
+        total = 0
+        for which, flat in enumerate(sets):
+            ptr_s, runs_s = _runs(flat, rows, cols)
+            ptr[which] = ptr_s + total
+            runs.append(runs_s)
+            total += runs_s.shape[0]
+        self.ptr = ptr
+        self.runs = np.ascontiguousarray(np.concatenate(runs))
+        # Faded columns (n < 10 fade lengths) of the chip and forming samples: per row, the
+        # span from the first to the last, with the fade where n is below the threshold and 1
+        # (an exact no-op) elsewhere, as both the reference's terms have it.
+        rs, cs = region
+        n_sub = g.n[rs, cs].reshape(-1)
+        fade_sub = g.rake_fade[rs, cs].reshape(-1)
+        threshold = _FADE_REACH * p.rake_fade
+        near = np.zeros(rows * cols, dtype=bool)
+        near[r.chip] = near[r.forming] = True
+        near = np.flatnonzero(near & (n_sub < threshold))
+        fade_rows = np.zeros((rows + 1, 2), dtype=np.int64)
+        values = []
+        if near.size:
+            row_of = near // cols
+            starts = np.searchsorted(row_of, np.arange(rows + 1))
+            offset = 0
+            for i in range(rows):
+                fade_rows[i, 0] = offset
+                if starts[i + 1] > starts[i]:
+                    lo = int(near[starts[i]] - i * cols)
+                    hi = int(near[starts[i + 1] - 1] - i * cols) + 1
+                    span = slice(i * cols + lo, i * cols + hi)
+                    values.append(np.where(n_sub[span] < threshold, fade_sub[span], 1.0))
+                    fade_rows[i, 1] = lo
+                    offset += hi - lo
+            fade_rows[rows, 0] = offset
+        self.fade = np.concatenate(values) if values else np.ones(1)
+        self.fade_rows = fade_rows
+        # Grid constants (the per-frame entries are set by each evaluation).
+        k = np.zeros(_K_SIZE)
+        a, gamma, tb = p.rake_angle, p.clearance_angle, p.band_angle
+        k[_K_TIP_X], k[_K_TIP_Y] = p.tool_tip_x, p.tool_tip_y
+        k[_K_SIN_A], k[_K_COS_A] = math.sin(a), math.cos(a)
+        k[_K_COS_G], k[_K_SIN_G] = math.cos(gamma), math.sin(gamma)
+        k[_K_TAN_TB], k[_K_SIN_TB] = math.tan(tb), math.sin(tb)
+        if r.chip.size:
+            k[_K_STEP], k[_K_FIRST] = r.zeta_step, r.zeta_first
+        k[_K_EXP_TIP] = p.band_exponent_tip
+        k[_K_EXP_SLOPE] = 1 - p.band_exponent_tip
+        k[_K_EXP_REACH] = p.band_exponent_reach * p.chip_thickness
+        k[_K_SIGMA], k[_K_SIGMA_SPAN] = p.band_width, p.band_initial_width - p.band_width
+        k[_K_AMPLITUDE] = p.band_amplitude
+        k[_K_PITCH], k[_K_AMBIENT] = p.segment_pitch, p.ambient_temperature
+        k[_K_MIN_T], k[_K_SPAN_T] = p.min_thickness, p.max_thickness - p.min_thickness
+        self.constants = k
+        self.x = np.concatenate([r.x, np.full(_PAD, r.x[-1] if r.x.size else 0.0)])  # padded
+        # Work per row, summed, for blocks of rows of equal work: relative costs (fitted to
+        # timings of row blocks on one core) of a copied sample 1, and of a sample of the
+        # modulation 8 (its two fields come from memory), of the released bands 6, of the
+        # forming band 6 where its exponent has saturated and 19 elsewhere, of the free surface
+        # 2. Two sums: with and without the forming band (absent during the slip).
+        def per_row(flat):
+            return np.bincount(np.asarray(flat, dtype=np.int64) // cols, minlength=rows)
+
+        forming_n = n_sub[r.forming]
+        saturated = r.forming[forming_n >= k[_K_EXP_REACH]]
+        free = r.forming[~(forming_n >= k[_K_EXP_REACH])]
+        work = (cols + 8 * per_row(r.periodic) + 6 * per_row(r.chip) + 2 * per_row(r.surface))
+        forming_work = 6 * per_row(saturated) + 19 * per_row(free)
+        self.work = {False: np.concatenate([[0], np.cumsum(work)]),
+                     True: np.concatenate([[0], np.cumsum(work + forming_work)])}
+        self._bounds: dict[tuple[int, bool], np.ndarray] = {}
+
+    def blocks(self, forming: bool) -> tuple[int, np.ndarray]:
+        """The number of threads (numba's, at most one per row) and the row bounds of blocks of
+        about equal work, _BLOCKS per thread (with one thread, one block)."""
+        work = self.work[forming]
+        rows = work.size - 1
+        threads = max(1, min(numba.get_num_threads(), rows))
+        bounds = self._bounds.get((threads, forming))
+        if bounds is None:
+            count = max(1, min(threads * _BLOCKS, rows)) if threads > 1 else 1
+            inner = np.searchsorted(work, work[-1] * np.arange(1, count) / count)
+            bounds = np.concatenate([[0], inner, [rows]]).astype(np.int64)
+            self._bounds[threads, forming] = bounds = np.maximum.accumulate(bounds)
+        return threads, bounds
 
 
 class SegmentedChip(Scene):
@@ -535,7 +994,59 @@ class SegmentedChip(Scene):
                 data = self._regions[key] = _RegionData(self.params, self.geometry, region)
             return data
 
-    def _evaluate(self, t: float, region: Region, want_regions: bool = False):
+    def _evaluate(self, t: float, region: Region, want_regions: bool = False,
+                  compiled: bool | None = None):
+        """Frame at time t over ``region``: temperature [K] (and, with ``want_regions``, the
+        region map). ``compiled`` picks the implementation of the moving terms: the numba
+        kernel (True), the numpy reference (False) or, by default, :data:`USE_COMPILED_KERNEL`."""
+        if compiled is None:
+            compiled = USE_COMPILED_KERNEL
+        if compiled:
+            return self._evaluate_compiled(t, region, want_regions)
+        return self._evaluate_reference(t, region, want_regions)
+
+    def _band_terms(self, r: _RegionData, tau: float, d: float):
+        """The released bands, carried with the chip and diffusing: per band k, its ζ_k, σ_k²
+        and amplitude, and the range of nodes of the region's ``zeta_grid`` within its reach
+        (shared by both implementations)."""
+        p = self.params
+        sin_b = math.sin(p.band_angle)
+        terms = np.empty((int(p.released_bands), 3))
+        nodes = np.empty((int(p.released_bands), 2), dtype=np.int64)
+        for k in range(int(p.released_bands)):
+            zk = d + k * p.segment_pitch
+            sigma2 = p.band_width**2 + 2 * p.chip_diffusivity * (tau + k * p.period)
+            amplitude = (p.band_amplitude + r.background_at_l0
+                         - r.background(zk * sin_b)) * math.sqrt(p.band_width**2 / sigma2)
+            reach = _reach(amplitude) * math.sqrt(sigma2) / sin_b
+            terms[k] = zk, sigma2, amplitude
+            nodes[k] = np.searchsorted(r.zeta_grid, (zk - reach, zk + reach))
+        return terms, nodes
+
+    def _band_profile(self, r: _RegionData, tau: float, d: float) -> np.ndarray:
+        """The released bands' profile along ζ on the region's ``zeta_grid`` [K]."""
+        sin_b = math.sin(self.params.band_angle)
+        profile = np.zeros(r.zeta_grid.size)
+        for (zk, sigma2, amplitude), (lo, hi) in zip(*self._band_terms(r, tau, d)):
+            dz = (r.zeta_grid[lo:hi] - zk) * sin_b
+            profile[lo:hi] += amplitude * np.exp(-dz * dz / (2 * sigma2))
+        return profile
+
+    def _forming_base(self, theta: float) -> float:
+        """The forming band's growth, 0 during the slip, rising to 1 at the end of the cycle."""
+        p = self.params
+        return min(max((theta - p.slip_time / p.period) / (1 - p.slip_time / p.period), 0.0),
+                   1.0)
+
+    def _forming_reach(self, base: float) -> float:
+        """|ξ| beyond which the forming band is below 1 mK [m]."""
+        p = self.params
+        widest = p.band_width + (p.band_initial_width - p.band_width) * (1 - base) ** 2
+        return _reach(p.band_amplitude * base) * max(widest, p.band_width)
+
+    def _evaluate_reference(self, t: float, region: Region, want_regions: bool = False):
+        """The moving terms in numpy, term by term over their index sets: the reference the
+        compiled kernel is tested against (and selected by ``USE_COMPILED_KERNEL = False``)."""
         p, r = self.params, self._prepared(region)
         tau, theta, d = self._phase(t)
         temperature = r.static.copy()
@@ -546,28 +1057,16 @@ class SegmentedChip(Scene):
 
         # Released bands, carried with the chip and diffusing: a profile along ζ [K].
         if r.chip.size:
-            sin_b = math.sin(p.band_angle)
-            profile = np.zeros(r.zeta_grid.size)
-            for k in range(int(p.released_bands)):
-                zk = d + k * p.segment_pitch
-                sigma2 = p.band_width**2 + 2 * p.chip_diffusivity * (tau + k * p.period)
-                amplitude = (p.band_amplitude + r.background(0.0)
-                             - r.background(zk * sin_b)) * math.sqrt(p.band_width**2 / sigma2)
-                reach = _reach(amplitude) * math.sqrt(sigma2) / sin_b
-                lo, hi = np.searchsorted(r.zeta_grid, (zk - reach, zk + reach))
-                dz = (r.zeta_grid[lo:hi] - zk) * sin_b
-                profile[lo:hi] += amplitude * np.exp(-dz * dz / (2 * sigma2))
+            profile = self._band_profile(r, tau, d)
             left = profile[r.zeta_index]
             excess = left + r.zeta_frac * (profile[r.zeta_index + 1] - left)
             excess[r.chip_faded] *= r.chip_fade
             flat[r.chip] += excess
 
         # The forming band on L0, on the samples within reach of its current width [K].
-        base = min(max((theta - p.slip_time / p.period) / (1 - p.slip_time / p.period), 0.0),
-                   1.0)
+        base = self._forming_base(theta)
         if base > 0 and r.forming.size:
-            widest = p.band_width + (p.band_initial_width - p.band_width) * (1 - base) ** 2
-            reach = _reach(p.band_amplitude * base) * max(widest, p.band_width)
+            reach = self._forming_reach(base)
             n = np.searchsorted(r.forming_abs_xi, reach)
             f = np.exp(r.forming_exponent[:n] * math.log(base))
             sigma = (1 - f) ** 2
@@ -593,6 +1092,38 @@ class SegmentedChip(Scene):
         regions = r.regions.copy()
         if air is not None:
             regions.reshape(-1)[air] = REGIONS["air"]
+        return temperature, regions
+
+    def _evaluate_compiled(self, t: float, region: Region, want_regions: bool = False):
+        """The moving terms in one fused, row-parallel pass of :func:`_moving_terms_kernel`
+        over the region's rows, writing into a fresh copy of the static field (same results as
+        :meth:`_evaluate_reference` to rounding; the region map exactly)."""
+        p, r = self.params, self._prepared(region)
+        with self._lock:
+            kd = r.kernel
+            if kd is None:
+                kd = r.kernel = _KernelData(p, self.geometry, region, r)
+        tau, theta, d = self._phase(t)
+        angle = 2 * np.pi * (theta - p.modulation_phase)
+        base = self._forming_base(theta)
+        forming = base > 0 and r.forming.size > 0
+        if r.chip.size:
+            grid, (terms, nodes) = r.zeta_grid, self._band_terms(r, tau, d)
+        else:
+            grid, terms, nodes = _NO_PROFILE, _NO_TERMS, _NO_NODES
+        frame = np.array(kd.constants)
+        frame[_K_COS], frame[_K_SIN] = math.cos(angle), math.sin(angle)
+        frame[_K_D] = d
+        if forming:
+            frame[_K_LOG_BASE] = math.log(base)
+            frame[_K_REACH] = self._forming_reach(base)
+        temperature = np.empty(r.shape)
+        regions = np.empty(r.shape, dtype=np.uint8) if want_regions else _NO_REGIONS
+        _moving_terms_kernel(*kd.blocks(forming), r.static, r.regions, temperature, regions,
+                             want_regions, forming, kd.x, r.y, frame, grid, terms, nodes,
+                             r.cos_field, r.sin_field, kd.ptr, kd.runs, kd.fade, kd.fade_rows)
+        if not want_regions:
+            return temperature
         return temperature, regions
 
     def _full(self) -> Region:

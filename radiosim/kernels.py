@@ -1,0 +1,1197 @@
+"""
+Compiled one-pass streaming kernels for the integrator's hot loop, with their numpy oracles.
+
+Each frame of an integration window is read once: in one pass over its footprint pieces the
+kernel :func:`accumulate` adds, per pixel, the time-weighted area means of T − c, of (T − c)²
+and (optionally) of the response signal S(T) = ε·L(T), raises the per-pixel maximum of T, and
+checks every sample it reads (finite, > 0 K, inside the radiance table). :func:`pixel_mean`
+gives the per-pixel reference c from the first frame. The layout is the one of
+:mod:`radiosim.integrator`: pieces of each axis (:class:`~radiosim.integrator.AxisFootprints`),
+2-D piece weight = row weight × column weight, the frame region starting at each axis' first
+piece sample (``span.start``).
+
+Every kernel has a plain numpy implementation beside it (:func:`pixel_mean_reference`,
+:func:`accumulate_reference`), written like the integrator's own arithmetic; they are the
+tests' oracle (agreement to 1e-12 relative, the maximum exactly) and the path the kernel falls
+back to for a frame holding samples colder than the radiance table, which get the exact
+quadrature (:func:`~radiosim.radiometry.band_radiance`).
+
+How the kernels are fast (see ``benchmarks/bench_kernels.py``):
+
+-   pixel rows are split in one contiguous block per thread (``numba.prange``); a pixel row
+    writes only its own output row, so there are no races, and the result does not depend on
+    the number of threads;
+-   within a pixel row, the sample rows of its pieces are swept 4 at a time (then 1) along the
+    columns, in sample space: one accumulator slot per sample (holding the first column piece
+    that reads it), plus a slot per "duplicate" piece (a pixel edge inside a sample: the
+    second piece reading it, filled from a small gathered row). The loops are contiguous and
+    vectorised; float32 frames are read as float32 and widened per sample, never copied. The
+    slots are reduced to pixels once per pixel row;
+-   the checks are fused: NaN propagates into the sums, +inf into the maximum, and a running
+    minimum per slot catches T ≤ 0 and T below the table, so a clean frame costs one vector
+    max and one min per sample;
+-   ln L is the table's cubic in u = (T − Tᵢ)/step, evaluated once per sample (the interval
+    lookup stays a scalar gather: LLVM does not vectorise it on AMD Zen), and exp is an
+    inline vectorisable evaluation (Cody–Waite reduction, degree-12 Taylor polynomial with
+    fused multiply-adds; relative error < 4e-16);
+-   ``fastmath`` is off: no reassociation, no automatic contraction into FMA, IEEE semantics
+    (the exp polynomial uses explicit fused multiply-adds).
+
+Nothing is compiled at import (importing costs numba's own import). The first call with a new
+frame dtype (float32, float64) or index-map dtype (uint8, intp) compiles the one kernel that
+serves linear, Planck and every emissivity form (about 10 s) and caches it on disk
+(``cache=True``, in ``radiosim/__pycache__`` or ``NUMBA_CACHE_DIR``); later processes load it in
+about 0.3 s.
+"""
+
+from __future__ import annotations
+
+import math
+import threading
+import weakref
+from collections.abc import Mapping
+from dataclasses import dataclass
+
+import numba
+import numpy as np
+from llvmlite import ir as llvm_ir
+from numba import prange
+from numba.core import types
+from numba.extending import intrinsic
+
+from radiosim.errors import RadiosimError
+from radiosim.radiometry import BandRadianceTable, band_radiance
+
+__all__ = [
+    "STATUS_OK",
+    "STATUS_BAD_SAMPLE",
+    "STATUS_BELOW_TABLE",
+    "STATUS_ABOVE_TABLE",
+    "STATUS_BAD_INDEX",
+    "RadianceKernelTable",
+    "pixel_mean",
+    "pixel_mean_reference",
+    "accumulate",
+    "accumulate_reference",
+]
+
+#: Status bits the compiled kernels return (OR-ed over pixel rows).
+STATUS_OK = 0
+#: A sample is NaN, ±inf or ≤ 0 K: :func:`accumulate` raises (the message of ``check_frame``).
+STATUS_BAD_SAMPLE = 1
+#: A sample is below its radiance table: :func:`accumulate` redoes those pixel rows with the
+#: numpy reference, which integrates them exactly (the frame is still accumulated).
+STATUS_BELOW_TABLE = 2
+#: A sample is above its radiance table: :func:`accumulate` raises, naming value and range.
+STATUS_ABOVE_TABLE = 4
+#: A table-index map value is not an entry of the :class:`RadianceKernelTable`: raises.
+STATUS_BAD_INDEX = 8
+
+# Signal modes of the kernel.
+_SIGNAL_NONE, _SIGNAL_SCALAR, _SIGNAL_MAP, _SIGNAL_INDEX = 0, 1, 2, 3
+
+_JIT = dict(cache=True, fastmath=False, nogil=True, error_model="numpy")
+_INF = np.inf
+
+# exp(x) = 2^k · exp(r), r = x − k ln 2 (Cody & Waite, with fdlibm's split of ln 2: k·LN2_HI is
+# exact for |k| < 2^20), exp(r) by its Taylor polynomial of degree 12 on |r| ≤ ln(2)/2
+# (truncation < 2e-16), evaluated with fused multiply-adds.
+_LOG2E = 1.4426950408889634
+_LN2_HI = 6.93147180369123816490e-01
+_LN2_LO = 1.90821492927058770002e-10
+_F2, _F3, _F4, _F5, _F6, _F7, _F8, _F9, _F10, _F11, _F12 = (
+    1.0 / math.factorial(n) for n in range(2, 13))
+
+
+# -- compiled kernels --------------------------------------------------------------------------
+
+
+@intrinsic
+def _fma(typingctx, a, b, c):
+    """a·b + c rounded once (llvm.fma: vectorisable, exact to one rounding)."""
+    signature = types.float64(types.float64, types.float64, types.float64)
+
+    def codegen(context, builder, sig, args):
+        double = llvm_ir.DoubleType()
+        fn = builder.module.declare_intrinsic(
+            "llvm.fma", [double], llvm_ir.FunctionType(double, [double] * 3))
+        return builder.call(fn, args)
+
+    return signature, codegen
+
+
+@numba.njit(**_JIT)
+def _exp(x):
+    """exp(x) for x in [−708, 709] (clamped there), vectorisable (no libm call): relative
+    error below 4e-16 (two roundings and the 2e-16 truncation of the polynomial)."""
+    x = x if x > -708.0 else -708.0  # also maps NaN (rejected samples) to a finite value
+    x = x if x < 709.0 else 709.0
+    k = np.floor(x * _LOG2E + 0.5)
+    r = _fma(-k, _LN2_LO, _fma(-k, _LN2_HI, x))
+    p = _fma(_F12, r, _F11)
+    p = _fma(p, r, _F10)
+    p = _fma(p, r, _F9)
+    p = _fma(p, r, _F8)
+    p = _fma(p, r, _F7)
+    p = _fma(p, r, _F6)
+    p = _fma(p, r, _F5)
+    p = _fma(p, r, _F4)
+    p = _fma(p, r, _F3)
+    p = _fma(p, r, _F2)
+    p = _fma(p, r, 1.0)
+    p = _fma(p, r, 1.0)
+    return p * np.int64((np.int64(k) + 1023) << 52).view(np.float64)
+
+
+# Columns are swept in sample space: the helpers run along contiguous rows of samples (the
+# region's columns 0 … extent − 1), accumulating into one slot per sample, which holds the first
+# column piece reading that sample. A sample read by a second piece (a pixel edge inside it)
+# gets a second slot after the samples' ("duplicate" slots), filled from rows of those samples
+# gathered into small per-thread buffers. Samples no piece reads (gaps of a fill factor < 1)
+# have slots of weight 0, which nothing reads. Index arrays are unsigned (uintp), so that
+# indexing skips numba's negative-index wraparound.
+
+
+@numba.njit(**_JIT)
+def _gather(row, cols, out):
+    """out[q] = row[cols[q]]."""
+    for q in range(out.size):
+        out[q] = row[cols[q]]
+
+
+@numba.njit(**_JIT)
+def _lin4(x0, x1, x2, x3, w0, w1, w2, w3, ce, a1, a2, am, an):
+    """Four sample rows (weights w0..w3) into the column-piece accumulators:
+    a1 += w (T − c), a2 += w (T − c)², am = max(am, T), an = min(an, T)."""
+    for q in range(ce.size):
+        t0 = np.float64(x0[q])
+        t1 = np.float64(x1[q])
+        t2 = np.float64(x2[q])
+        t3 = np.float64(x3[q])
+        c = ce[q]
+        d0 = t0 - c
+        d1 = t1 - c
+        d2 = t2 - c
+        d3 = t3 - c
+        e0 = w0 * d0
+        e1 = w1 * d1
+        e2 = w2 * d2
+        e3 = w3 * d3
+        a1[q] += ((e0 + e1) + e2) + e3
+        a2[q] += ((e0 * d0 + e1 * d1) + e2 * d2) + e3 * d3
+        m = am[q]
+        m = t0 if t0 > m else m
+        m = t1 if t1 > m else m
+        m = t2 if t2 > m else m
+        m = t3 if t3 > m else m
+        am[q] = m
+        n = an[q]
+        n = t0 if t0 < n else n
+        n = t1 if t1 < n else n
+        n = t2 if t2 < n else n
+        n = t3 if t3 < n else n
+        an[q] = n
+
+
+@numba.njit(**_JIT)
+def _lin1(x0, w0, ce, a1, a2, am, an):
+    """One sample row into the column-piece accumulators (as :func:`_lin4`)."""
+    for q in range(ce.size):
+        t0 = np.float64(x0[q])
+        d0 = t0 - ce[q]
+        e0 = w0 * d0
+        a1[q] += e0
+        a2[q] += e0 * d0
+        m = am[q]
+        am[q] = t0 if t0 > m else m
+        n = an[q]
+        an[q] = t0 if t0 < n else n
+
+
+@numba.njit(**_JIT)
+def _locate(t, t0, inverse, last):
+    """Interval index and position u in it, as :meth:`BandRadianceTable._locate`:
+    x = (t − T₀)/step, i = min(⌊x⌋, last), u = x − i. Out-of-table samples (flagged by the
+    checks) are clamped to a valid interval."""
+    x = (t - t0) * inverse
+    xc = x if x > 0.0 else 0.0
+    xc = xc if xc < last else last
+    i = np.uint64(xc)
+    return i, x - np.float64(i)
+
+
+@numba.njit(**_JIT)
+def _signal_row(x, g, e, used, w, mode, grey, use_map, coef, t0, inverse, last, t_min, t_max,
+                entry_table, entry_grey, interval, u, log_l, factor, a3):
+    """a3 += w · S(T) along one row of pieces ``x`` (grey map row ``g``, index map row ``e``),
+    with S = L(T) · grey (mode 1), L(T) · (grey · map) (mode 2) or L_e(T) · grey_e (· map)
+    with e from the index map (mode 3); L = exp(((a u + b) u + c) u + d) with the table's
+    coefficients of the sample's interval. Three loops: locate (vectorised), coefficients and
+    ln L (scalar: a gather), exp and accumulation (vectorised). Returns the status bits of the
+    row's per-sample checks (mode 3: table range and index; modes 1–2 check the range from the
+    row's min and max instead; ``used`` > 0 marks the slots a piece reads, the only ones
+    checked). ``interval``, ``u``, ``log_l``, ``factor``: scratch."""
+    nq = a3.size
+    status = 0
+    if mode == 1 or mode == 2:
+        j = entry_table[0]
+        c = coef[j]
+        s, v, n = t0[j], inverse[j], np.float64(last[j])
+        for q in range(nq):
+            interval[q], u[q] = _locate(np.float64(x[q]), s, v, n)
+        for q in range(nq):
+            i = interval[q]
+            r = u[q]
+            log_l[q] = ((c[i, 0] * r + c[i, 1]) * r + c[i, 2]) * r + c[i, 3]
+        for q in range(nq):  # mode 1: g is a row of ones (grey · 1 is grey, exactly)
+            a3[q] += w * (_exp(log_l[q]) * (grey * g[q]))
+        return status
+    else:
+        n_entries = entry_table.size
+        n_low = 0
+        n_high = 0
+        n_index = 0
+        for q in range(nq):
+            t = np.float64(x[q])
+            h = np.int64(e[q])
+            checked = np.int64(used[q] > 0.0)
+            n_index += checked * (np.int64(h < 0) + np.int64(h >= n_entries))
+            h = h if h >= 0 else 0
+            h = np.uint64(h if h < n_entries else 0)
+            j = np.uint64(entry_table[h])
+            n_low += checked * np.int64(t < t_min[j])
+            n_high += checked * np.int64(t > t_max[j])
+            factor[q] = entry_grey[h] * g[q] if use_map else entry_grey[h] * grey
+            i, r = _locate(t, t0[j], inverse[j], np.float64(last[j]))
+            log_l[q] = (((coef[j, i, 0] * r + coef[j, i, 1]) * r + coef[j, i, 2]) * r
+                        + coef[j, i, 3])
+        if n_low:
+            status |= 2
+        if n_high:
+            status |= 4
+        if n_index:
+            status |= 8
+        for q in range(nq):
+            a3[q] += w * (_exp(log_l[q]) * factor[q])
+        return status
+
+
+@numba.njit(**_JIT)
+def _setup_row(reference_row, slot_pixel, with_signal, ce, a1, a2, a3, am, an):
+    """Start a pixel row: ce = the reference c of each slot's pixel, accumulators cleared."""
+    for k in range(ce.size):
+        ce[k] = reference_row[slot_pixel[k]]
+    for k in range(ce.size):
+        a1[k] = 0.0
+        a2[k] = 0.0
+        am[k] = -_INF
+        an[k] = _INF
+    if with_signal:
+        for k in range(ce.size):
+            a3[k] = 0.0
+
+
+@numba.njit(**_JIT)
+def _commit_row(a1, a2, a3, am, an, slot_weight, slot_of_piece, col_bounds, identity,
+                time_weight, with_signal, t_low, t_high, dev, sq, tmax, signal, s1, s2, s3, sm,
+                status):
+    """Check the row's slots that pieces read (NaN propagates into a1, +inf into am, T ≤ 0 and
+    T below the table show in an), then add the pieces to the row's pixels, unless the row has
+    a status (``status``: bits found so far). Returns the row's status. ``identity``: slot q is
+    piece q (the pieces are the samples); s1, s2, s3, sm: per-pixel scratch."""
+    n_bad = 0
+    n_low = 0
+    n_high = 0
+    for k in range(a1.size):
+        w = slot_weight[k]
+        checked = np.int64(w > 0.0)
+        n_bad += checked * (np.int64(an[k] <= 0.0) + np.int64(am[k] == _INF)
+                            + np.int64(a1[k] != a1[k]))
+        n_low += checked * np.int64(an[k] < t_low)
+        n_high += checked * np.int64(am[k] > t_high)
+        a1[k] *= w
+        a2[k] *= w
+    if n_bad:
+        status |= 1
+    if n_low:
+        status |= 2
+    if n_high:
+        status |= 4
+    if status:
+        return status
+    n_pixels = col_bounds.size - 1
+    for j in range(n_pixels):
+        v1 = 0.0
+        v2 = 0.0
+        m = tmax[j]
+        for q in range(col_bounds[j], col_bounds[j + 1]):
+            k = q if identity else slot_of_piece[q]
+            v1 += a1[k]
+            v2 += a2[k]
+            a = am[k]
+            m = a if a > m else m
+        s1[j] = v1
+        s2[j] = v2
+        sm[j] = m
+    for j in range(n_pixels):
+        dev[j] += time_weight * s1[j]
+        sq[j] += time_weight * s2[j]
+        tmax[j] = sm[j]
+    if with_signal:
+        for k in range(a3.size):
+            a3[k] *= slot_weight[k]
+        for j in range(n_pixels):
+            v3 = 0.0
+            for q in range(col_bounds[j], col_bounds[j + 1]):
+                v3 += a3[q if identity else slot_of_piece[q]]
+            s3[j] = v3
+        for j in range(n_pixels):
+            signal[j] += time_weight * s3[j]
+    return 0
+
+
+@numba.njit(**_JIT)
+def _accumulate_rows(i_start, i_stop, base, row_length, row_source, row_weight, row_bounds,
+                     n_samples, slot_pixel, slot_weight, slot_of_piece, dup_source, col_bounds,
+                     identity, time_weight, reference, dev, sq, tmax, signal, mode, coef, t0,
+                     inverse, last, t_min, t_max, entry_table, entry_grey, grey, grey_map,
+                     index_map, map_length, use_map, rows_w, rows_r, grey_w, grey_r, index_w,
+                     index_r, status):
+    """Pixel rows i_start to i_stop − 1 of :func:`_accumulate_kernel` (one thread's block).
+    rows_w/rows_r, grey_w/grey_r, index_w/index_r: this thread's buffers for the duplicate
+    slots' samples, each written through the first array and read through the second (a
+    read-only view of the same memory, so that the gathered rows have the type of the frame's
+    rows: one compilation serves both)."""
+    n_slots = slot_pixel.size
+    ns = n_samples
+    n_dups = dup_source.size
+    n_pixels = col_bounds.size - 1
+    with_signal = mode != 0
+    a1 = np.empty(n_slots)
+    a2 = np.empty(n_slots)
+    a3 = np.empty(n_slots)
+    am = np.empty(n_slots)
+    an = np.empty(n_slots)
+    ce = np.empty(n_slots)
+    log_l = np.empty(n_slots)
+    factor = np.empty(n_slots)
+    interval = np.empty(n_slots, dtype=np.uint64)
+    u = np.empty(n_slots)
+    s1 = np.empty(n_pixels)
+    s2 = np.empty(n_pixels)
+    s3 = np.empty(n_pixels)
+    sm = np.empty(n_pixels)
+    table = entry_table[0]
+    t_low = t_min[table] if (mode == 1 or mode == 2) else -_INF
+    t_high = t_max[table] if (mode == 1 or mode == 2) else _INF
+    for i in range(i_start, i_stop):
+        _setup_row(reference[i], slot_pixel, with_signal, ce, a1, a2, a3, am, an)
+        row_status = np.int64(0)  # not a literal: one compilation of _commit_row
+        p = row_bounds[i]
+        stop = row_bounds[i + 1]
+        while p < stop:
+            n = min(4, stop - p)
+            w0 = row_weight[p]
+            w1 = row_weight[p + 1] if n > 1 else 0.0
+            w2 = row_weight[p + 2] if n > 2 else 0.0
+            w3 = row_weight[p + 3] if n > 3 else 0.0
+            # Part 0: the sample slots, along the frame's rows; part 1: the duplicate slots,
+            # along rows gathered into the buffers. One call site per helper (compile time).
+            for part in range(2 if n_dups else 1):
+                lo, hi = (0, ns) if part == 0 else (ns, n_slots)
+                if part == 0:
+                    x0 = base[row_source[p] * row_length:]
+                    x1 = base[row_source[p + 1] * row_length:] if n > 1 else x0
+                    x2 = base[row_source[p + 2] * row_length:] if n > 2 else x1
+                    x3 = base[row_source[p + 3] * row_length:] if n > 3 else x2
+                else:
+                    for h in range(n):
+                        _gather(base[row_source[p + h] * row_length:], dup_source, rows_w[h])
+                    x0 = rows_r[0]
+                    x1 = rows_r[1] if n > 1 else x0
+                    x2 = rows_r[2] if n > 2 else x1
+                    x3 = rows_r[3] if n > 3 else x2
+                # Rows of a group of 2 or 3: the last one repeated with weight 0 (adds nothing).
+                if n == 1:
+                    _lin1(x0, w0, ce[lo:hi], a1[lo:hi], a2[lo:hi], am[lo:hi], an[lo:hi])
+                else:
+                    _lin4(x0, x1, x2, x3, w0, w1, w2, w3, ce[lo:hi], a1[lo:hi], a2[lo:hi],
+                          am[lo:hi], an[lo:hi])
+                if with_signal:
+                    for h in range(n):
+                        x = x0 if h == 0 else (x1 if h == 1 else (x2 if h == 2 else x3))
+                        o = row_source[p + h] * map_length
+                        if part == 0:
+                            g = grey_map[o:]
+                            e = index_map[o:]
+                        else:
+                            if use_map or mode != 3:  # mode 1: the row of ones
+                                _gather(grey_map[o:], dup_source, grey_w)
+                            if mode == 3:
+                                _gather(index_map[o:], dup_source, index_w)
+                            g = grey_r
+                            e = index_r
+                        row_status |= _signal_row(
+                            x, g, e, slot_weight[lo:hi], row_weight[p + h], mode, grey, use_map,
+                            coef, t0, inverse, last, t_min, t_max, entry_table, entry_grey,
+                            interval, u, log_l, factor, a3[lo:hi])
+            p += n
+        status[i] = _commit_row(a1, a2, a3, am, an, slot_weight, slot_of_piece, col_bounds,
+                                identity, time_weight, with_signal, t_low, t_high, dev[i],
+                                sq[i], tmax[i], signal[i] if with_signal else signal[0], s1,
+                                s2, s3, sm, row_status)
+
+
+@numba.njit(parallel=True, **_JIT)
+def _accumulate_kernel(n_blocks, base, row_length, row_source, row_weight, row_bounds,
+                       n_samples, slot_pixel, slot_weight, slot_of_piece, dup_source,
+                       col_bounds, identity, time_weight, reference, dev, sq, tmax, signal, mode,
+                       coef, t0, inverse, last, t_min, t_max, entry_table, entry_grey, grey,
+                       grey_map, index_map, map_length, use_map, rows_w, rows_r, grey_w, grey_r,
+                       index_w, index_r, status):
+    """The frame's pixel rows in ``n_blocks`` contiguous blocks, one per thread (block b uses
+    buffers [b]); returns the OR of the rows' status bits (``status`` holds each row's)."""
+    n_rows = row_bounds.size - 1
+    for b in prange(n_blocks):
+        _accumulate_rows(b * n_rows // n_blocks, (b + 1) * n_rows // n_blocks, base,
+                         row_length, row_source, row_weight, row_bounds, n_samples, slot_pixel,
+                         slot_weight, slot_of_piece, dup_source, col_bounds, identity,
+                         time_weight, reference, dev, sq, tmax, signal, mode, coef, t0, inverse,
+                         last, t_min, t_max, entry_table, entry_grey, grey, grey_map, index_map,
+                         map_length, use_map, rows_w[b], rows_r[b], grey_w[b], grey_r[b],
+                         index_w[b], index_r[b], status)
+    result = 0
+    for i in range(n_rows):
+        result |= status[i]
+    return result
+
+
+# -- layouts ------------------------------------------------------------------------------------
+
+
+@dataclass(frozen=True)
+class _Axis:
+    """The pieces of one axis as the kernels take them (region-relative sample indices)."""
+
+    source: np.ndarray  # intp, sample index of each piece minus ``offset``
+    weight: np.ndarray  # float64, piece length / active width
+    bounds: np.ndarray  # intp, n_pixels + 1: pieces of pixel j are bounds[j]:bounds[j + 1]
+    pixel: np.ndarray  # intp, the pixel of each piece
+    offset: int  # scene sample index of the region's first sample (span.start)
+    identity: bool  # the pieces are the region's samples, in order, each once
+
+    @property
+    def slots(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """The kernels' column layout (see the comment on the compiled kernels): pixel and
+        weight of each slot (samples 0 … extent − 1, then the duplicate pieces; weight 0 for a
+        sample no piece reads), the slot of each piece, the sample of each duplicate slot, and
+        the piece bounds of the pixels, the index arrays as uintp."""
+        cached = self.__dict__.get("_slots")
+        if cached is None:
+            n = self.extent
+            first = np.ones(self.source.size, dtype=bool)  # first piece reading its sample
+            first[1:] = self.source[1:] != self.source[:-1]
+            duplicate = np.flatnonzero(~first)
+            slot_of_piece = np.where(first, self.source,
+                                     n + np.cumsum(~first) - 1).astype(np.uintp)
+            slot_pixel = np.zeros(n + duplicate.size, dtype=np.uintp)
+            slot_weight = np.zeros(n + duplicate.size)
+            slot_pixel[self.source[first]] = self.pixel[first]
+            slot_weight[self.source[first]] = self.weight[first]
+            slot_pixel[n:] = self.pixel[duplicate]
+            slot_weight[n:] = self.weight[duplicate]
+            cached = (slot_pixel, slot_weight, slot_of_piece,
+                      self.source[duplicate].astype(np.uintp), self.bounds.astype(np.uintp))
+            object.__setattr__(self, "_slots", cached)
+        return cached
+
+    @property
+    def n_pixels(self) -> int:
+        return self.bounds.size - 1
+
+    @property
+    def starts(self) -> np.ndarray:
+        return self.bounds[:-1]
+
+    @property
+    def extent(self) -> int:
+        """Samples of the region the pieces need (the last piece's sample + 1)."""
+        return int(self.source[-1]) + 1
+
+    def pixels(self, start: int, stop: int) -> "_Axis":
+        """The pieces of pixels ``start`` to ``stop - 1`` only (same region)."""
+        a, b = int(self.bounds[start]), int(self.bounds[stop])
+        return _Axis(self.source[a:b], self.weight[a:b], self.bounds[start:stop + 1] - a,
+                     self.pixel[a:b] - start, self.offset, False)
+
+    @classmethod
+    def of(cls, axis, name: str) -> "_Axis":
+        source = np.asarray(axis.source, dtype=np.intp)
+        weight = np.ascontiguousarray(axis.weight, dtype=np.float64)
+        starts = np.asarray(axis.starts, dtype=np.intp)
+        if source.ndim != 1 or source.size == 0 or weight.shape != source.shape:
+            raise RadiosimError(f"{name} footprints must have one weight per piece and at least "
+                                f"one piece, got {source.size} pieces and {weight.size} weights")
+        if starts.ndim != 1 or starts.size == 0 or starts[0] != 0 or np.any(
+                np.diff(starts) <= 0) or starts[-1] >= source.size:
+            raise RadiosimError(f"{name} footprints: starts must begin at 0 and increase "
+                                f"strictly inside the {source.size} pieces")
+        offset = int(source[0])
+        relative = np.ascontiguousarray(source - offset)
+        if np.any(relative < 0):
+            raise RadiosimError(f"{name} footprints: the first piece must lie on the region's "
+                                "first sample (span.start)")
+        bounds = np.append(starts, source.size).astype(np.intp)
+        pixel = np.repeat(np.arange(starts.size, dtype=np.intp), np.diff(bounds))
+        if np.any(np.diff(relative) < 0):
+            raise RadiosimError(f"{name} footprints: pieces must read non-decreasing samples")
+        identity = bool(np.array_equal(relative, np.arange(relative.size)))
+        return cls(relative, weight, bounds, pixel, offset, identity)
+
+
+_LAYOUTS: dict[int, tuple[weakref.ref, _Axis]] = {}
+
+
+def _axis(axis, name: str) -> _Axis:
+    """The kernel layout of an AxisFootprints, prepared once per object."""
+    if isinstance(axis, _Axis):
+        return axis
+    key = id(axis)
+    cached = _LAYOUTS.get(key)
+    if cached is not None and cached[0]() is axis:
+        return cached[1]
+    layout = _Axis.of(axis, name)
+    try:
+        ref = weakref.ref(axis, lambda _, key=key: _LAYOUTS.pop(key, None))
+    except TypeError:  # not weak-referenceable: prepare it every call
+        return layout
+    _LAYOUTS[key] = (ref, layout)
+    return layout
+
+
+def _rows_of(array: np.ndarray, name: str) -> tuple[np.ndarray, int]:
+    """A 2-D array whose rows are contiguous, as a read-only 1-D view and its row stride
+    [elements], without copying (a region of a larger C-contiguous frame or memmap included)."""
+    a = np.asarray(array)
+    item = a.itemsize
+    if a.flags.c_contiguous:
+        flat, row_length = a.reshape(-1), a.shape[1]
+    elif (a.shape[0] > 0 and a.strides[1] == item and a.strides[0] >= a.shape[1] * item
+          and a.strides[0] % item == 0):
+        row_length = a.strides[0] // item
+        size = (a.shape[0] - 1) * row_length + a.shape[1]
+        flat = np.lib.stride_tricks.as_strided(a, shape=(size,), strides=(item,),
+                                               writeable=False)
+    else:  # rows not contiguous (a transposed view, a column step): one copy, same dtype
+        a = np.ascontiguousarray(a)
+        flat, row_length = a.reshape(-1), a.shape[1]
+    flat = flat.view()
+    flat.flags.writeable = False
+    return flat, int(row_length)
+
+
+def _frame(frame, rows: _Axis, cols: _Axis) -> np.ndarray:
+    """The frame region as a 2-D float32 or float64 array covering the pieces (not copied)."""
+    a = np.asarray(frame)
+    if a.ndim != 2:
+        raise RadiosimError(f"a frame region must be 2-D, got shape {a.shape}")
+    if a.dtype not in (np.float32, np.float64):
+        a = a.astype(np.float64)
+    if a.shape[0] < rows.extent or a.shape[1] < cols.extent:
+        raise RadiosimError(
+            f"frame region has shape {a.shape}, but the footprints need at least "
+            f"({rows.extent}, {cols.extent}) samples from sample ({rows.offset}, {cols.offset})"
+        )
+    return a
+
+
+def _per_pixel(array, shape, name: str):
+    """Check a per-pixel array: float64, C-contiguous, ``shape``, writeable unless it is the
+    reference."""
+    writeable = name != "reference"
+    if (not isinstance(array, np.ndarray) or array.dtype != np.float64
+            or array.shape != shape or not array.flags.c_contiguous
+            or (writeable and not array.flags.writeable)):
+        raise RadiosimError(f"{name} must be a {'writeable ' if writeable else ''}C-contiguous "
+                            f"float64 array of shape {shape} (one value per pixel)")
+    return array
+
+
+def _read_only(array: np.ndarray) -> np.ndarray:
+    view = array.view()
+    view.flags.writeable = False
+    return view
+
+
+# -- radiance tables ----------------------------------------------------------------------------
+
+_UNCHANGED = object()
+
+
+class RadianceKernelTable:
+    """
+    One or more :class:`~radiosim.radiometry.BandRadianceTable` packed for the kernels, with the
+    emissivity of every sample: S(T) = L_e(T) · grey_e · grey, where e is the sample's *entry*.
+
+    Emissivity forms:
+
+    -   one entry, ``grey`` a scalar: a grey body (or a spectral curve, tabulated in the entry's
+        table, with ``grey`` 1);
+    -   one entry, ``grey`` a 2-D map on the frame region's sample grid: a grey map;
+    -   several entries (e.g. per scene region: each a table and a grey factor) and ``index``,
+        the entry of every sample (2-D integer map on the region grid), optionally with a
+        ``grey`` map as well.
+
+    Parameters
+    ----------
+    tables
+        A table, or one table per entry (the same table object may serve several entries; it is
+        packed once). All are evaluated exactly as :meth:`BandRadianceTable.__call__` does.
+    exact
+        The exact radiance of each entry for samples below its table: ``None`` (such samples
+        raise), a mapping of :func:`~radiosim.radiometry.band_radiance` keyword arguments
+        (``band``, ``quantity``, ``responsivity``, ``emissivity``), or a callable T [K] →
+        radiance; one, or one per entry.
+    grey
+        Grey factor of every sample: a scalar, or a float map shaped like the frame region.
+    index
+        Entry of every sample, an integer map shaped like the frame region (needed, by
+        :func:`accumulate`, with more than one entry). uint8 maps are used as they are; other
+        integer types are converted to intp (a copy).
+    entry_grey
+        Grey factor of each entry (default 1).
+
+    Examples
+    --------
+    >>> from radiosim.radiometry import BandRadianceTable
+    >>> table = BandRadianceTable(temperature_range=(200.0, 1500.0), step=4.0)
+    >>> packed = RadianceKernelTable(table, exact={"band": table.band}, grey=0.9)
+    >>> packed.n_entries, packed.coefficients.shape
+    (1, (1, 325, 4))
+    """
+
+    def __init__(self, tables, exact=None, grey=1.0, index=None, entry_grey=None):
+        if isinstance(tables, BandRadianceTable):
+            tables = [tables]
+        tables = list(tables)
+        if not tables or not all(isinstance(t, BandRadianceTable) for t in tables):
+            raise RadiosimError("tables must be one or more BandRadianceTable")
+        n = len(tables)
+        self.tables = tables
+        unique: list[BandRadianceTable] = []
+        entry_table = []
+        for t in tables:
+            for j, u in enumerate(unique):
+                if u is t:
+                    entry_table.append(j)
+                    break
+            else:
+                entry_table.append(len(unique))
+                unique.append(t)
+        self.entry_table = np.array(entry_table, dtype=np.intp)
+        if entry_grey is None:
+            entry_grey = np.ones(n)
+        self.entry_grey = np.array(entry_grey, dtype=np.float64).reshape(-1)
+        if self.entry_grey.size != n or not np.all(np.isfinite(self.entry_grey)):
+            raise RadiosimError(f"entry_grey must hold {n} finite values, got {entry_grey!r}")
+        if exact is None or callable(exact) or isinstance(exact, Mapping):
+            exact = [exact] * n
+        exact = list(exact)
+        if len(exact) != n:
+            raise RadiosimError(f"exact must be one specification or {n}, got {len(exact)}")
+        self.exact = exact
+        n_intervals = max(t.temperatures.size - 1 for t in unique)
+        self.coefficients = np.zeros((len(unique), n_intervals, 4))
+        for j, t in enumerate(unique):
+            self.coefficients[j, : t.temperatures.size - 1] = np.stack(t._coefficients, axis=1)
+        self.t0 = np.array([t.temperatures[0] for t in unique])
+        self.inverse = np.array([1.0 / t.step for t in unique])
+        self.last = np.array([t.temperatures.size - 2 for t in unique], dtype=np.intp)
+        self.t_min = np.array([t.temperature_range[0] for t in unique])
+        self.t_max = np.array([t.temperature_range[1] for t in unique])
+        self._set_maps(grey, index)
+
+    @classmethod
+    def build(cls, band=(3.8e-6, 5.1e-6), quantity: str = "photon", responsivity=None,
+              emissivity=(1.0,), temperature_range=(150.0, 3000.0), step: float = 2.0,
+              grey=1.0, index=None) -> "RadianceKernelTable":
+        """
+        Tables and exact radiances for a band and responsivity, one entry per emissivity
+        (scalar: the blackbody table with that grey factor; spectral: its own table).
+        """
+        if not isinstance(emissivity, (list, tuple)):
+            emissivity = [emissivity]
+        tables, exact, entry_grey = [], [], []
+        blackbody = None
+        for value in emissivity:
+            if np.isscalar(value):
+                if blackbody is None:
+                    blackbody = BandRadianceTable(band, quantity, responsivity, 1.0,
+                                                  temperature_range, step)
+                tables.append(blackbody)
+                exact.append(dict(band=band, quantity=quantity, responsivity=responsivity))
+                entry_grey.append(float(value))
+            else:
+                tables.append(BandRadianceTable(band, quantity, responsivity, value,
+                                                temperature_range, step))
+                exact.append(dict(band=band, quantity=quantity, responsivity=responsivity,
+                                  emissivity=value))
+                entry_grey.append(1.0)
+        return cls(tables, exact, grey, index, entry_grey)
+
+    def _set_maps(self, grey, index):
+        if isinstance(grey, np.ndarray) and grey.ndim == 2:
+            self.grey = np.ascontiguousarray(grey, dtype=np.float64)
+            self.grey_scalar = None
+        else:
+            try:
+                value = float(grey)
+            except (TypeError, ValueError):
+                raise RadiosimError(f"grey must be a number or a 2-D map, got {grey!r}") from None
+            if not math.isfinite(value):
+                raise RadiosimError(f"grey must be finite, got {grey!r}")
+            self.grey, self.grey_scalar = value, value
+        if index is None:
+            self.index = None
+        else:
+            index = np.asarray(index)
+            if index.ndim != 2 or not np.issubdtype(index.dtype, np.integer):
+                raise RadiosimError(f"index must be a 2-D integer map, got {index.dtype} "
+                                    f"shape {index.shape}")
+            if index.dtype != np.uint8:
+                index = index.astype(np.intp, copy=False)
+            self.index = np.ascontiguousarray(index)
+            if self.grey_scalar is None and self.grey.shape != self.index.shape:
+                raise RadiosimError(f"grey map shape {self.grey.shape} and index map shape "
+                                    f"{self.index.shape} differ")
+
+    def with_maps(self, grey=_UNCHANGED, index=_UNCHANGED) -> "RadianceKernelTable":
+        """The same tables with other grey and/or index maps (e.g. those of the next frame)."""
+        other = object.__new__(type(self))
+        other.__dict__.update(self.__dict__)
+        other._set_maps(self.grey if grey is _UNCHANGED else grey,
+                        self.index if index is _UNCHANGED else index)
+        return other
+
+    @property
+    def n_entries(self) -> int:
+        return int(self.entry_table.size)
+
+    def _mode(self) -> int:
+        if self.index is not None:
+            return _SIGNAL_INDEX
+        return _SIGNAL_SCALAR if self.grey_scalar is not None else _SIGNAL_MAP
+
+    def _check_maps(self, shape):
+        if self.index is None and self.n_entries > 1:
+            raise RadiosimError(f"{self.n_entries} radiance table entries need an index map "
+                                "(the entry of every sample): see with_maps")
+        for name, value in (("grey map", None if self.grey_scalar is not None else self.grey),
+                            ("index map", self.index)):
+            if value is not None and value.shape != tuple(shape):
+                raise RadiosimError(f"{name} has shape {value.shape}, expected the frame "
+                                    f"region's shape {tuple(shape)}")
+
+    def _exact(self, entry: int, t: np.ndarray) -> np.ndarray:
+        spec = self.exact[entry]
+        if spec is None:
+            lo = self.tables[entry].temperature_range[0]
+            raise RadiosimError(
+                f"temperature {t.min():g} K is below the radiance table's range (from {lo:g} K) "
+                "and no exact radiance was given for it"
+            )
+        if isinstance(spec, Mapping):
+            return band_radiance(t, **spec)
+        return np.asarray(spec(t), dtype=float)
+
+    def signal(self, temperature: np.ndarray, grey=None, index=None) -> np.ndarray:
+        """
+        S = L_e(T) · grey_e · grey of samples (numpy, the reference): the table inside its
+        range, the exact radiance below it. ``grey`` and ``index`` are the values of the maps at
+        those samples (default: the scalar grey, entry 0).
+        """
+        t = np.asarray(temperature, dtype=np.float64)
+        out = np.empty(t.shape)
+        entries = np.zeros(t.shape, dtype=np.intp) if index is None else np.asarray(index)
+        factor_map = self.grey_scalar if grey is None else np.asarray(grey, dtype=np.float64)
+        for e in np.unique(entries):
+            here = entries == e
+            te = t[here]
+            table = self.tables[e]
+            lo, hi = table.temperature_range
+            radiance = np.empty(te.shape)
+            cold = te < lo
+            radiance[~cold] = table(te[~cold])
+            if cold.any():
+                radiance[cold] = self._exact(int(e), te[cold])
+            if np.ndim(factor_map) == 0:
+                factor = self.entry_grey[e] * factor_map
+            else:
+                factor = self.entry_grey[e] * factor_map[here]
+            out[here] = radiance * factor
+        return out
+
+
+# -- checks and messages ------------------------------------------------------------------------
+
+
+def _touched(frame2d: np.ndarray, rows: _Axis, cols: _Axis):
+    """The samples the pieces read (unique rows × unique columns), as float64, with their
+    region-relative row and column indices."""
+    r = np.unique(rows.source)
+    c = np.unique(cols.source)
+    return np.asarray(frame2d[np.ix_(r, c)], dtype=np.float64), r, c
+
+
+def _raise_bad_sample(frame2d, rows: _Axis, cols: _Axis, k: int):
+    """The error of the first non-finite or ≤ 0 K sample the pieces read, in the format of
+    :func:`radiosim.checks.check_frame` (row and column in full-scene coordinates)."""
+    values, r, c = _touched(frame2d, rows, cols)
+    bad = ~((values > 0) & (values < np.inf))
+    if not bad.any():  # the samples are fine: the NaN came from the reference c
+        raise RadiosimError(f"frame {k}: the per-pixel reference (pixel_mean of the first "
+                            "frame) must be finite")
+    i, j = (int(v) for v in np.argwhere(bad)[0])
+    value = float(values[i, j])
+    if np.isnan(value):
+        what, expected = "NaN", "finite"
+    elif np.isinf(value):
+        what, expected = f"{value:g}", "finite"
+    else:
+        what, expected = f"{value:g} K", "> 0 K (°C passed as kelvin?)"
+    raise RadiosimError(
+        f"frame {k}: temperature at row {r[i] + rows.offset}, column {c[j] + cols.offset} is "
+        f"{what}; temperatures must be {expected} ({int(bad.sum())} bad sample(s) in this frame)"
+    )
+
+
+def _entries(response: RadianceKernelTable, r, c):
+    if response.index is None:
+        return np.zeros((r.size, c.size), dtype=np.intp)
+    return np.asarray(response.index[np.ix_(r, c)], dtype=np.intp)
+
+
+def _raise_bad_index(frame2d, rows: _Axis, cols: _Axis, k: int, response):
+    r, c = np.unique(rows.source), np.unique(cols.source)
+    entries = _entries(response, r, c)
+    bad = (entries < 0) | (entries >= response.n_entries)
+    i, j = (int(v) for v in np.argwhere(bad)[0])
+    raise RadiosimError(
+        f"frame {k}: table index {entries[i, j]} at row {r[i] + rows.offset}, column "
+        f"{c[j] + cols.offset} is not an entry of the radiance table (0–"
+        f"{response.n_entries - 1}; {int(bad.sum())} such sample(s) in this frame)"
+    )
+
+
+def _raise_above_table(frame2d, rows: _Axis, cols: _Axis, k: int, response):
+    values, r, c = _touched(frame2d, rows, cols)
+    table_of = response.entry_table[_entries(response, r, c)]
+    above = values > response.t_max[table_of]
+    i, j = (int(v) for v in np.argwhere(above)[0])
+    lo, hi = response.t_min[table_of[i, j]], response.t_max[table_of[i, j]]
+    raise RadiosimError(
+        f"frame {k}: temperature {values[i, j]:g} K at row {r[i] + rows.offset}, column "
+        f"{c[j] + cols.offset} is outside the radiance table's range {lo:g}–{hi:g} K (above "
+        f"it; {int(above.sum())} such sample(s) in this frame)"
+    )
+
+
+def _check_samples(frame2d, rows: _Axis, cols: _Axis, k: int, response) -> bool:
+    """Raise for bad samples, indices or samples above the table (the reference path's
+    checks); True if some samples are below their table."""
+    values, r, c = _touched(frame2d, rows, cols)
+    if not np.all((values > 0) & (values < np.inf)):
+        _raise_bad_sample(frame2d, rows, cols, k)
+    if response is None:
+        return False
+    entries = _entries(response, r, c)
+    if np.any((entries < 0) | (entries >= response.n_entries)):
+        _raise_bad_index(frame2d, rows, cols, k, response)
+    table_of = response.entry_table[entries]
+    if np.any(values > response.t_max[table_of]):
+        _raise_above_table(frame2d, rows, cols, k, response)
+    return bool(np.any(values < response.t_min[table_of]))
+
+
+# -- numpy references ---------------------------------------------------------------------------
+
+
+def _pieces(field: np.ndarray, rows: _Axis, cols: _Axis, dtype=np.float64) -> np.ndarray:
+    """A field on the region grid, on the piece grid (a copy, in ``dtype``)."""
+    return np.asarray(np.asarray(field)[rows.source][:, cols.source], dtype=dtype)
+
+
+def _weighted_mean(values: np.ndarray, rows: _Axis, cols: _Axis) -> np.ndarray:
+    """Area-weighted mean of piece values over each pixel (the integrator's pixel_mean)."""
+    weighted = np.add.reduceat(values * rows.weight[:, None], rows.starts, axis=0)
+    return np.add.reduceat(weighted * cols.weight[None, :], cols.starts, axis=1)
+
+
+def pixel_mean_reference(frame, rows, cols, *, frame_index: int = 0) -> np.ndarray:
+    """:func:`pixel_mean` in plain numpy (float64 throughout): the oracle."""
+    rows, cols = _axis(rows, "row"), _axis(cols, "column")
+    frame2d = _frame(frame, rows, cols)
+    _check_samples(frame2d, rows, cols, frame_index, None)
+    return _weighted_mean(_pieces(frame2d, rows, cols), rows, cols)
+
+
+def _accumulate_numpy(frame2d, rows: _Axis, cols: _Axis, time_weight, reference, dev, sq, tmax,
+                      signal_acc, response):
+    t = _pieces(frame2d, rows, cols)  # [K], float64, on the piece grid
+    deviation = t - np.repeat(np.repeat(reference, np.diff(rows.bounds), axis=0),
+                              np.diff(cols.bounds), axis=1)
+    dev += time_weight * _weighted_mean(deviation, rows, cols)
+    sq += time_weight * _weighted_mean(deviation * deviation, rows, cols)
+    peak = np.maximum.reduceat(np.maximum.reduceat(t, rows.starts, axis=0), cols.starts, axis=1)
+    np.maximum(tmax, peak, out=tmax)
+    if response is not None:
+        grey = None if response.grey_scalar is not None else _pieces(response.grey, rows, cols)
+        index = None if response.index is None else _pieces(response.index, rows, cols, np.intp)
+        signal_acc += time_weight * _weighted_mean(response.signal(t, grey, index), rows, cols)
+
+
+def accumulate_reference(frame, rows, cols, time_weight: float, reference: np.ndarray,
+                         dev: np.ndarray, sq: np.ndarray, tmax: np.ndarray,
+                         signal_acc: np.ndarray | None = None,
+                         response: RadianceKernelTable | None = None, *,
+                         frame_index: int = 0) -> int:
+    """:func:`accumulate` in plain numpy (float64, the integrator's reduceat arithmetic): the
+    oracle, and the path for frames with samples below the radiance table. Same arguments,
+    checks, errors and return value."""
+    rows, cols = _axis(rows, "row"), _axis(cols, "column")
+    frame2d = _frame(frame, rows, cols)
+    shape = (rows.n_pixels, cols.n_pixels)
+    for name, array in (("reference", reference), ("dev", dev), ("sq", sq), ("tmax", tmax)):
+        _per_pixel(array, shape, name)
+    if response is not None:
+        _per_pixel(signal_acc, shape, "signal_acc")
+        response._check_maps(frame2d.shape)
+    below = _check_samples(frame2d, rows, cols, frame_index, response)
+    _accumulate_numpy(frame2d, rows, cols, float(time_weight), reference, dev, sq, tmax,
+                      signal_acc, response)
+    return STATUS_BELOW_TABLE if below else STATUS_OK
+
+
+# -- compiled entry points ----------------------------------------------------------------------
+
+_DUMMY_MAP = _read_only(np.zeros(1))
+_DUMMY_INDEX = _read_only(np.zeros(1, dtype=np.uint8))
+_DUMMY_SIGNAL = np.zeros((1, 1))
+# Table arguments of the kernel without a response (coefficients, T₀, 1/step, last interval,
+# T_min, T_max, entry tables, entry grey factors).
+_NO_TABLE = (np.zeros((1, 1, 4)), np.zeros(1), np.ones(1), np.zeros(1, dtype=np.intp),
+             np.zeros(1), np.full(1, np.inf), np.zeros(1, dtype=np.intp), np.ones(1))
+
+
+_BUFFERS = threading.local()
+
+
+def _buffers(n_blocks: int, size: int, dtype, index_dtype) -> tuple:
+    """Per-thread buffers for the duplicate slots' samples (frame rows, grey map row, index map
+    row), each as a writeable array and a read-only view of it."""
+    key = (n_blocks, size, np.dtype(dtype), np.dtype(index_dtype))
+    cache = _BUFFERS.__dict__.setdefault("cache", {})  # per calling thread
+    cached = cache.get(key)
+    if cached is None:
+        rows = np.empty((n_blocks, 4, size), dtype=dtype)
+        grey = np.empty((n_blocks, size))
+        index = np.empty((n_blocks, size), dtype=index_dtype)
+        cached = (rows, _read_only(rows), grey, _read_only(grey), index, _read_only(index))
+        if len(cache) > 8:
+            cache.clear()
+        cache[key] = cached
+    return cached
+
+
+def _blocks(n_rows: int, threads: int | None = None) -> int:
+    """Blocks of pixel rows: one per thread."""
+    if threads is None:
+        threads = numba.get_num_threads()
+    elif not 1 <= int(threads) <= numba.config.NUMBA_NUM_THREADS:
+        raise RadiosimError(f"threads must be in 1–{numba.config.NUMBA_NUM_THREADS}, got "
+                            f"{threads!r}")
+    return max(1, min(n_rows, int(threads)))
+
+
+def pixel_mean(frame, rows, cols, *, frame_index: int = 0,
+               threads: int | None = None) -> np.ndarray:
+    """
+    Area-weighted mean of a frame region over each pixel's footprint [K] (the per-pixel
+    reference c of an integration, from its first frame), checking every sample it reads.
+
+    It is :func:`accumulate` with c = 0 and time weight 1 (the same compiled kernel).
+
+    Parameters
+    ----------
+    frame
+        The frame region (float32 or float64, 2-D; read in place), starting at each axis'
+        first piece sample.
+    rows, cols
+        :class:`~radiosim.integrator.AxisFootprints` of the row and column axes.
+    frame_index
+        Frame index k, for error messages.
+    threads
+        As for :func:`accumulate`.
+
+    Returns
+    -------
+    numpy.ndarray
+        (pixel rows, pixel columns), float64.
+    """
+    rows, cols = _axis(rows, "row"), _axis(cols, "column")
+    shape = (rows.n_pixels, cols.n_pixels)
+    mean, sq, tmax = np.zeros(shape), np.zeros(shape), np.full(shape, -np.inf)
+    accumulate(frame, rows, cols, 1.0, _zeros(shape), mean, sq, tmax, frame_index=frame_index,
+               threads=threads)
+    return mean
+
+
+_ZEROS: dict[tuple[int, int], np.ndarray] = {}
+_ONES: dict[int, np.ndarray] = {}
+
+
+def _ones(n: int) -> np.ndarray:
+    """A read-only row of n ones (the grey map row of a scalar grey factor)."""
+    ones = _ONES.get(n)
+    if ones is None:
+        _ONES.clear()
+        ones = _ONES[n] = _read_only(np.ones(n))
+    return ones
+
+
+
+def _zeros(shape: tuple[int, int]) -> np.ndarray:
+    """A read-only per-pixel array of zeros (kept per shape)."""
+    zeros = _ZEROS.get(shape)
+    if zeros is None:
+        _ZEROS.clear()
+        zeros = _ZEROS[shape] = _read_only(np.zeros(shape))
+    return zeros
+
+
+def accumulate(frame, rows, cols, time_weight: float, reference: np.ndarray, dev: np.ndarray,
+               sq: np.ndarray, tmax: np.ndarray, signal_acc: np.ndarray | None = None,
+               response: RadianceKernelTable | None = None, *, frame_index: int = 0,
+               threads: int | None = None) -> int:
+    """
+    Accumulate one frame into the per-pixel tensor statistics, in one pass over its pieces.
+
+    Per pixel: ``dev += w_t Σ w (T − c)``, ``sq += w_t Σ w (T − c)²``,
+    ``tmax = max(tmax, max T)`` and, with a ``response``, ``signal_acc += w_t Σ w S(T)``, where
+    w are the pieces' area weights and w_t is ``time_weight``.
+
+    Parameters
+    ----------
+    frame
+        The frame region (float32 or float64, 2-D; read in place, never copied to float64).
+    rows, cols
+        :class:`~radiosim.integrator.AxisFootprints` of the row and column axes.
+    time_weight
+        The frame's weight in the window.
+    reference
+        Per-pixel reference c [K] (:func:`pixel_mean` of the window's first frame).
+    dev, sq, tmax, signal_acc
+        Per-pixel accumulators, float64 C-contiguous (pixel rows, pixel columns), updated in
+        place; ``signal_acc`` only with a ``response``.
+    response
+        :class:`RadianceKernelTable` (with the frame's emissivity maps), or ``None`` for no
+        signal (the linear response: the signal is T).
+    frame_index
+        Frame index k, for error messages.
+    threads
+        Threads (blocks of pixel rows) for this call; ``None``: numba's current number
+        (``numba.get_num_threads()``). On a machine whose cores are busy with other work
+        (e.g. a thread preparing the next frame), one thread can be faster: a descheduled
+        thread stalls the whole parallel region.
+
+    Returns
+    -------
+    int
+        :data:`STATUS_OK`, or :data:`STATUS_BELOW_TABLE` if some pixel rows held samples below
+        the radiance table and were accumulated by the numpy reference instead (exact
+        quadrature for those samples).
+
+    Raises
+    ------
+    RadiosimError
+        A sample is NaN, infinite or ≤ 0 K (message as ``check_frame``: frame, row and column
+        in full-scene coordinates, value, count), above its table, or has an index that is no
+        entry. The accumulators are then partly updated: discard them.
+    """
+    rows, cols = _axis(rows, "row"), _axis(cols, "column")
+    frame2d = _frame(frame, rows, cols)
+    shape = (rows.n_pixels, cols.n_pixels)
+    for name, array in (("reference", reference), ("dev", dev), ("sq", sq), ("tmax", tmax)):
+        _per_pixel(array, shape, name)
+    base, row_length = _rows_of(frame2d, "frame")
+    if response is None:
+        mode, signal, table = _SIGNAL_NONE, _DUMMY_SIGNAL, None
+        grey_map, index_map, map_length, use_map, grey = _DUMMY_MAP, _DUMMY_INDEX, 0, False, 1.0
+        coef, t0, inverse, last, t_min, t_max, entry_table, entry_grey = _NO_TABLE
+    else:
+        if not isinstance(response, RadianceKernelTable):
+            raise RadiosimError(f"response must be a RadianceKernelTable or None, got "
+                                f"{type(response).__name__}")
+        signal = _per_pixel(signal_acc, shape, "signal_acc")
+        response._check_maps(frame2d.shape)
+        mode = response._mode()
+        table = response
+        use_map = response.grey_scalar is None
+        # The kernel's grey factor: S = L · grey (mode 1), L · (grey · map) (mode 2),
+        # L · grey_e · grey or L · grey_e · map (mode 3), as RadianceKernelTable.signal.
+        if mode == _SIGNAL_SCALAR:
+            grey = response.entry_grey[0] * response.grey_scalar
+        elif mode == _SIGNAL_MAP:
+            grey = response.entry_grey[0]
+        else:
+            grey = 1.0 if use_map else response.grey_scalar
+        grey_map, map_length = (_rows_of(response.grey, "grey map") if use_map
+                                else (_ones(frame2d.shape[1]), 0))
+        if response.index is not None:
+            index_map, map_length = _rows_of(response.index, "index map")
+        else:
+            index_map = _DUMMY_INDEX
+        coef, t0, inverse, last = (response.coefficients, response.t0, response.inverse,
+                                   response.last)
+        t_min, t_max = response.t_min, response.t_max
+        entry_table, entry_grey = response.entry_table, response.entry_grey
+    status = np.zeros(rows.n_pixels, dtype=np.int64)
+    slot_pixel, slot_weight, slot_of_piece, dup_source, col_bounds = cols.slots
+    n_blocks = _blocks(rows.n_pixels, threads)
+    buffers = _buffers(n_blocks, max(1, dup_source.size), base.dtype, index_map.dtype)
+    previous = numba.get_num_threads()
+    if n_blocks != previous and n_blocks <= numba.config.NUMBA_NUM_THREADS:
+        numba.set_num_threads(n_blocks)
+    try:
+        result = _accumulate_kernel(
+            n_blocks, base, row_length, rows.source, rows.weight, rows.bounds, cols.extent,
+            slot_pixel, slot_weight, slot_of_piece, dup_source, col_bounds, cols.identity,
+            float(time_weight), _read_only(reference), dev, sq, tmax, signal, mode, coef, t0,
+            inverse, last, t_min, t_max, entry_table, entry_grey, float(grey), grey_map,
+            index_map, map_length, use_map, *buffers, status)
+    finally:
+        if numba.get_num_threads() != previous:
+            numba.set_num_threads(previous)
+    if result == STATUS_OK:
+        return STATUS_OK
+    if result & STATUS_BAD_SAMPLE:
+        _raise_bad_sample(frame2d, rows, cols, frame_index)
+    if result & STATUS_BAD_INDEX:
+        _raise_bad_index(frame2d, rows, cols, frame_index, table)
+    if result & STATUS_ABOVE_TABLE:
+        _raise_above_table(frame2d, rows, cols, frame_index, table)
+    # Samples below the table: those pixel rows were left untouched; redo them in numpy.
+    flagged = np.flatnonzero(status)
+    start, stop = int(flagged[0]), int(flagged[-1]) + 1
+    part = rows.pixels(start, stop)
+    n = stop - start
+    part_dev, part_sq, part_signal = (np.zeros((n, shape[1])) for _ in range(3))
+    part_max = np.full((n, shape[1]), -np.inf)
+    _accumulate_numpy(frame2d, part, cols, float(time_weight), reference[start:stop], part_dev,
+                      part_sq, part_max, part_signal, response)
+    local = flagged - start
+    dev[flagged] += part_dev[local]
+    sq[flagged] += part_sq[local]
+    signal_acc[flagged] += part_signal[local]
+    tmax[flagged] = np.maximum(tmax[flagged], part_max[local])
+    return STATUS_BELOW_TABLE

@@ -1,0 +1,331 @@
+"""The compiled streaming kernels against their numpy references (and those against the
+integrator's arithmetic, the radiance table and the exact quadrature)."""
+
+import numpy as np
+import pytest
+
+from radiosim import kernels
+from radiosim.errors import RadiosimError
+from radiosim.integrator import axis_footprints
+from radiosim.kernels import (
+    STATUS_BELOW_TABLE,
+    STATUS_OK,
+    RadianceKernelTable,
+    accumulate,
+    accumulate_reference,
+    pixel_mean,
+    pixel_mean_reference,
+)
+from radiosim.radiometry import BandRadianceTable, band_radiance
+from radiosim.spectral import spectral_distribution
+
+COMPILED_AT_IMPORT = sum(len(f.signatures) for f in (
+    kernels._accumulate_kernel, kernels._accumulate_rows, kernels._lin4, kernels._lin1,
+    kernels._signal_row, kernels._commit_row, kernels._setup_row, kernels._exp))
+
+SCENE = (70, 90)  # scene samples (rows, columns)
+T_SCALE = 1500.0  # [K], the scale of the temperatures below
+WEIGHTS = (0.15, 0.35, 0.3, 0.2)  # a window with fractional first and last frames
+RANGE = (200.0, 3000.0)  # radiance table range [K]
+STEP = 10.0  # coarse table step [K]: fast to build, evaluated exactly all the same
+
+# (pitch [samples], fill factor, origin [samples]): integer and fractional footprints.
+FOOTPRINTS = {
+    "9 samples": (9.0, 1.0, 0.0),
+    "3 samples": (3.0, 1.0, 0.0),
+    "1 sample": (1.0, 1.0, 0.0),
+    "7.3 samples": (7.3, 1.0, 0.0),
+    "7.3 samples, fill 0.8": (7.3, 0.8, 0.0),
+    "4.5 samples, fill 0.8, origin 2.7": (4.5, 0.8, 2.7),
+}
+
+
+def footprints(pitch, fill, origin, max_pixels=10**6):
+    rows = axis_footprints(SCENE[0], 1.0, pitch, fill, max_pixels, origin)
+    cols = axis_footprints(SCENE[1], 1.0, pitch, fill, max_pixels, origin)
+    return rows, cols
+
+
+def region_of(frame, rows, cols):
+    """The frame region the integrator reads (a view: rows strided when columns are cut)."""
+    return frame[rows.span, cols.span]
+
+
+def scene_frames(dtype, n=len(WEIGHTS), seed=0, low=300.0, high=T_SCALE):
+    rng = np.random.default_rng(seed)
+    return rng.uniform(low, high, (n, *SCENE)).astype(dtype)
+
+
+@pytest.fixture(scope="module")
+def tables():
+    """Radiance tables: the blackbody one, and one of a spectral emissivity."""
+    curve = spectral_distribution([3e-6, 4.5e-6, 6e-6], [0.3, 0.8, 0.5], "test curve")
+    return RadianceKernelTable.build(emissivity=[1.0, 0.6, curve], temperature_range=RANGE,
+                                     step=STEP)
+
+
+def responses(tables, shape, seed=1):
+    """Every emissivity form, on a region of ``shape``."""
+    rng = np.random.default_rng(seed)
+    grey_map = rng.uniform(0.2, 1.0, shape)
+    index = rng.integers(0, 3, shape).astype(np.uint8)
+    blackbody = RadianceKernelTable(tables.tables[0], tables.exact[0])
+    return {
+        "none": None,
+        "grey scalar": blackbody.with_maps(grey=0.85),
+        "grey map": blackbody.with_maps(grey=grey_map),
+        "spectral": RadianceKernelTable(tables.tables[2], tables.exact[2]),
+        "tables + index": tables.with_maps(index=index),
+        "tables + index, grey 0.7": tables.with_maps(index=index, grey=0.7),
+        "tables + index + grey map": tables.with_maps(index=index, grey=grey_map),
+    }
+
+
+def integrate(frames, rows, cols, response, mean_fn, accumulate_fn):
+    """One window, as the integrator streams it: reference from the first frame, then one
+    accumulate per frame."""
+    region = region_of(frames[0], rows, cols)
+    reference = mean_fn(region, rows, cols)
+    shape = reference.shape
+    dev, sq, signal = np.zeros(shape), np.zeros(shape), np.zeros(shape)
+    tmax = np.full(shape, -np.inf)
+    statuses = []
+    for k, (frame, weight) in enumerate(zip(frames, WEIGHTS)):
+        statuses.append(accumulate_fn(region_of(frame, rows, cols), rows, cols, weight,
+                                      reference, dev, sq, tmax,
+                                      None if response is None else signal, response,
+                                      frame_index=k))
+    return reference, dev, sq, tmax, signal, statuses
+
+
+def assert_same_statistics(kernel, numpy):
+    reference, dev, sq, tmax, signal, _ = kernel
+    reference0, dev0, sq0, tmax0, signal0, _ = numpy
+    np.testing.assert_allclose(reference, reference0, rtol=1e-12, atol=0)
+    # dev is a small correction of a mean of order T: it agrees to 1e-12 of T, and the mean
+    # c + dev to 1e-12 relative.
+    np.testing.assert_allclose(dev, dev0, rtol=0, atol=1e-12 * T_SCALE)
+    np.testing.assert_allclose(reference + dev, reference0 + dev0, rtol=1e-12, atol=0)
+    np.testing.assert_allclose(sq, sq0, rtol=1e-12, atol=0)
+    np.testing.assert_array_equal(tmax, tmax0)
+    np.testing.assert_allclose(signal, signal0, rtol=1e-12, atol=0)
+
+
+@pytest.mark.parametrize("dtype", [np.float32, np.float64])
+@pytest.mark.parametrize("name", FOOTPRINTS)
+def test_kernels_agree_with_the_numpy_reference(name, dtype, tables):
+    rows, cols = footprints(*FOOTPRINTS[name])
+    frames = scene_frames(dtype)
+    shape = region_of(frames[0], rows, cols).shape
+    forms = responses(tables, shape)
+    # Every footprint with the linear response and a grey body; every emissivity form on the
+    # integer and the fractional paper-like footprints.
+    chosen = forms if name in ("9 samples", "7.3 samples, fill 0.8") else {
+        k: forms[k] for k in ("none", "grey scalar")}
+    for form, response in chosen.items():
+        kernel = integrate(frames, rows, cols, response, pixel_mean, accumulate)
+        numpy = integrate(frames, rows, cols, response, pixel_mean_reference,
+                          accumulate_reference)
+        assert kernel[-1] == numpy[-1] == [STATUS_OK] * len(WEIGHTS), form
+        assert_same_statistics(kernel, numpy)
+        if response is None:
+            assert not kernel[4].any()
+
+
+def test_reference_is_the_integrators_arithmetic():
+    """The numpy reference against FootprintIntegrator (and the naive p × p × n tensor)."""
+    from radiosim.integrator import FootprintIntegrator
+
+    for pitch, fill, origin in FOOTPRINTS.values():
+        rows, cols = footprints(pitch, fill, origin)
+        integrator = FootprintIntegrator(rows, cols)
+        frames = scene_frames(np.float64)
+        reference, dev, sq, tmax, _, _ = integrate(frames, rows, cols, None,
+                                                   pixel_mean_reference, accumulate_reference)
+        pieces = [integrator.expand(f[integrator.region]) for f in frames]
+        c = integrator.pixel_mean(pieces[0])
+        np.testing.assert_allclose(reference, c, rtol=1e-13)
+        mean = sum(w * integrator.pixel_mean(p) for w, p in zip(WEIGHTS, pieces))
+        np.testing.assert_allclose(reference + dev, mean, rtol=1e-12)
+        peak = np.max([integrator.pixel_max(p) for p in pieces], axis=0)
+        np.testing.assert_array_equal(tmax, peak)
+    # 9 × 9 pixels, equal frame weights: the paper's tensors.
+    rows, cols = footprints(9.0, 1.0, 0.0)
+    frames = scene_frames(np.float64)
+    sums = integrate(frames, rows, cols, None, pixel_mean, accumulate)
+    block = frames[:, :63, :90].reshape(len(WEIGHTS), 7, 9, 10, 9)
+    weights = np.asarray(WEIGHTS)[:, None, None, None, None]
+    mean = (block * weights).sum(axis=0).mean(axis=(1, 3))
+    np.testing.assert_allclose(sums[0] + sums[1], mean, rtol=1e-12)
+    np.testing.assert_array_equal(sums[3], block.max(axis=(0, 2, 4)))
+
+
+def test_signal_is_the_table_times_the_emissivity(tables):
+    """One-sample pixels: the kernel's signal is the table's radiance × the grey factors."""
+    rows, cols = footprints(1.0, 1.0, 0.0)
+    frame = scene_frames(np.float64, n=1)[0]
+    forms = responses(tables, frame.shape)
+    table = tables.tables[0]
+    for form, expected in (("grey scalar", 0.85 * table(frame)),
+                           ("grey map", table(frame) * forms["grey map"].grey),
+                           ("spectral", tables.tables[2](frame))):
+        reference = pixel_mean(frame, rows, cols)
+        shape = reference.shape
+        dev, sq, signal, tmax = np.zeros(shape), np.zeros(shape), np.zeros(shape), np.zeros(shape)
+        accumulate(frame, rows, cols, 1.0, reference, dev, sq, tmax, signal, forms[form])
+        np.testing.assert_allclose(signal, expected, rtol=1e-14, err_msg=form)
+
+
+def test_memory_mapped_frames(tmp_path, tables):
+    """A read-only memmap of float32 frames, integrated over a region (a strided view)."""
+    path = tmp_path / "stack.npy"
+    np.save(path, scene_frames(np.float32))
+    frames = np.load(path, mmap_mode="r")
+    rows, cols = footprints(4.5, 0.8, 2.7)
+    response = responses(tables, region_of(frames[0], rows, cols).shape)["grey map"]
+    kernel = integrate(frames, rows, cols, response, pixel_mean, accumulate)
+    numpy = integrate(np.asarray(frames), rows, cols, response, pixel_mean_reference,
+                      accumulate_reference)
+    assert_same_statistics(kernel, numpy)
+
+
+def test_thread_count_does_not_change_the_result():
+    rows, cols = footprints(7.3, 1.0, 0.0)
+    frames = scene_frames(np.float32)
+    one = integrate(frames, rows, cols, None, lambda *a, **k: pixel_mean(*a, **k, threads=1),
+                    lambda *a, **k: accumulate(*a, **k, threads=1))
+    every = integrate(frames, rows, cols, None, pixel_mean, accumulate)
+    for a, b in zip(one[:5], every[:5]):
+        np.testing.assert_array_equal(a, b)
+
+
+def test_float32_frames_are_read_in_place():
+    frame = scene_frames(np.float32, n=1)[0]
+    rows, cols = footprints(7.3, 0.8, 0.0)
+    region = region_of(frame, rows, cols)
+    assert not region.flags.c_contiguous
+    flat, row_length = kernels._rows_of(region, "frame")
+    assert flat.dtype == np.float32 and np.shares_memory(flat, frame)
+    assert row_length == SCENE[1]
+
+
+@pytest.mark.parametrize("bad, what", [(np.nan, "is NaN; temperatures must be finite"),
+                                       (0.0, "is 0 K; temperatures must be > 0 K"),
+                                       (-12.5, "is -12.5 K; temperatures must be > 0 K"),
+                                       (np.inf, "is inf; temperatures must be finite")])
+@pytest.mark.parametrize("dtype", [np.float32, np.float64])
+def test_bad_samples_raise_naming_frame_row_and_column(bad, what, dtype, tables):
+    rows, cols = footprints(4.5, 0.8, 2.7)
+    frames = scene_frames(dtype)
+    (r0, r1), (c0, c1) = (rows.source[[5, 20]], cols.source[[7, 30]])
+    frames[2, r0, c0] = bad
+    frames[2, r1, c1] = bad
+    response = responses(tables, region_of(frames[0], rows, cols).shape)["tables + index"]
+    message = (f"frame 2: temperature at row {r0}, column {c0} {what}")
+    for mean_fn, accumulate_fn in ((pixel_mean, accumulate),
+                                   (pixel_mean_reference, accumulate_reference)):
+        for signal in (None, response):
+            with pytest.raises(RadiosimError, match="2 bad sample") as error:
+                integrate(frames, rows, cols, signal, mean_fn, accumulate_fn)
+            assert message in str(error.value)
+    with pytest.raises(RadiosimError, match=f"frame 9: temperature at row {r0}, column {c0}"):
+        pixel_mean(region_of(frames[2], rows, cols), rows, cols, frame_index=9)
+
+
+@pytest.mark.parametrize("name", ["3 samples", "4.5 samples, fill 0.8, origin 2.7"])
+def test_frames_with_samples_below_the_table_match_the_reference(name, tables):
+    """Cold samples do not raise: their pixel rows go through the numpy path, which integrates
+    them exactly (band_radiance), and the other pixel rows keep the kernel's values."""
+    rows, cols = footprints(*FOOTPRINTS[name])
+    frames = scene_frames(np.float32)
+    frames[1, 6:9, 9:12] = 150.0  # below the table (200 K)
+    frames[1, 30, 40] = 120.0
+    frames[3, 50:52, 20] = 199.0
+    shape = region_of(frames[0], rows, cols).shape
+    for form in ("grey scalar", "tables + index + grey map"):
+        response = responses(tables, shape)[form]
+        kernel = integrate(frames, rows, cols, response, pixel_mean, accumulate)
+        numpy = integrate(frames, rows, cols, response, pixel_mean_reference,
+                          accumulate_reference)
+        assert kernel[-1] == numpy[-1] == [0, STATUS_BELOW_TABLE, 0, STATUS_BELOW_TABLE]
+        assert_same_statistics(kernel, numpy)
+
+
+def test_samples_below_the_table_get_the_exact_quadrature(tables):
+    rows, cols = footprints(3.0, 1.0, 0.0)
+    frames = scene_frames(np.float32)
+    frames[1, 6:9, 9:12] = 150.0  # one whole pixel, (2, 3), below the table (200 K)
+    frames[1, 30, 40] = 120.0  # one sample of pixel (10, 13)
+    shape = region_of(frames[0], rows, cols).shape
+    # Frame 1's share of the cold pixel is the exact in-band radiance of 150 K × 0.85.
+    response = responses(tables, shape)["grey scalar"]
+    region = region_of(frames[1], rows, cols)
+    reference = pixel_mean(region, rows, cols)
+    dev, sq, signal, tmax = (np.zeros(reference.shape) for _ in range(4))
+    assert accumulate(region, rows, cols, 0.5, reference, dev, sq, tmax, signal,
+                      response) == STATUS_BELOW_TABLE
+    exact = band_radiance(150.0, **tables.exact[0])
+    assert signal[2, 3] == pytest.approx(0.5 * 0.85 * exact, rel=1e-12)
+    cold_pixel = frames[1, 30:33, 39:42].astype(float)
+    radiance = np.where(cold_pixel < RANGE[0], band_radiance(cold_pixel, **tables.exact[0]),
+                        tables.tables[0](np.maximum(cold_pixel, RANGE[0])))
+    assert signal[10, 13] == pytest.approx(0.5 * 0.85 * radiance.mean(), rel=1e-12)
+
+
+def test_a_nan_reference_raises():
+    rows, cols = footprints(9.0, 1.0, 0.0)
+    frame = scene_frames(np.float32, n=1)[0]
+    reference = pixel_mean(frame, rows, cols)
+    reference[2, 3] = np.nan
+    out = [np.zeros(reference.shape) for _ in range(3)]
+    with pytest.raises(RadiosimError, match="reference .* must be finite"):
+        accumulate(frame, rows, cols, 1.0, reference, *out)
+
+
+def test_samples_above_the_table_raise(tables):
+    rows, cols = footprints(9.0, 1.0, 0.0)
+    frames = scene_frames(np.float32)
+    frames[3, 40, 50] = 3500.0
+    response = responses(tables, region_of(frames[0], rows, cols).shape)["grey map"]
+    for mean_fn, accumulate_fn in ((pixel_mean, accumulate),
+                                   (pixel_mean_reference, accumulate_reference)):
+        with pytest.raises(RadiosimError, match="frame 3: temperature 3500 K at row 40, column "
+                           "50 is outside the radiance table's range 200–3000 K"):
+            integrate(frames, rows, cols, response, mean_fn, accumulate_fn)
+    # Without a signal, hot samples are fine.
+    integrate(frames, rows, cols, None, pixel_mean, accumulate)
+
+
+def test_bad_table_index_raises(tables):
+    rows, cols = footprints(9.0, 1.0, 0.0)
+    frames = scene_frames(np.float32)
+    response = responses(tables, region_of(frames[0], rows, cols).shape)["tables + index"]
+    index = response.index.copy()
+    index[12, 34] = 7
+    for accumulate_fn in (accumulate, accumulate_reference):
+        with pytest.raises(RadiosimError, match="table index 7 at row 12, column 34 is not an "
+                           "entry"):
+            integrate(frames, rows, cols, response.with_maps(index=index), pixel_mean,
+                      accumulate_fn)
+
+
+def test_table_packing(tables):
+    assert tables.n_entries == 3
+    assert tables.coefficients.shape == (2, 280, 4)  # the blackbody table is packed once
+    assert tables.entry_table.tolist() == [0, 0, 1]
+    assert tables.entry_grey.tolist() == [1.0, 0.6, 1.0]
+    table = BandRadianceTable(temperature_range=RANGE, step=STEP)
+    rows, cols = footprints(9.0, 1.0, 0.0)
+    frames = scene_frames(np.float64)
+    with pytest.raises(RadiosimError, match="2 radiance table entries need an index map"):
+        integrate(frames, rows, cols, RadianceKernelTable([table, table]), pixel_mean,
+                  accumulate)
+    packed = RadianceKernelTable(table)  # no exact radiance: cold samples raise
+    frames[:, 0, 0] = 150.0
+    with pytest.raises(RadiosimError, match="no exact radiance"):
+        integrate(frames, rows, cols, packed, pixel_mean, accumulate)
+
+
+def test_importing_compiles_nothing():
+    # Counted when this module was imported (collection), before any test ran.
+    assert COMPILED_AT_IMPORT == 0
