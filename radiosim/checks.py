@@ -13,7 +13,8 @@ import numpy as np
 
 from radiosim.errors import RadiosimError
 
-__all__ = ["check_positive", "check_non_negative", "check_fraction", "check_frame", "check_rng"]
+__all__ = ["check_positive", "check_non_negative", "check_fraction", "check_frame", "check_rng",
+           "bad_sample_message"]
 
 
 def check_rng(rng) -> np.random.Generator:
@@ -88,14 +89,17 @@ def check_frame(frame: np.ndarray, k: int, origin: tuple[int, int] = (0, 0)) -> 
         return frame
     bad = ~((frame > 0) & (frame < np.inf))
     i, j = (int(v) for v in np.argwhere(bad)[0])
-    value = frame[i, j]
+    raise RadiosimError(bad_sample_message(float(frame[i, j]), k, i + origin[0], j + origin[1],
+                                           int(bad.sum())))
+
+
+def bad_sample_message(value: float, k: int, row: int, column: int, count: int) -> str:
+    """The one line that names a bad temperature sample: frame, row, column, value, count."""
     if np.isnan(value):
         what, expected = "NaN", "finite"
     elif np.isinf(value):
         what, expected = f"{value:g}", "finite"
     else:
         what, expected = f"{value:g} K", "> 0 K (°C passed as kelvin?)"
-    raise RadiosimError(
-        f"frame {k}: temperature at row {i + origin[0]}, column {j + origin[1]} is {what}; "
-        f"temperatures must be {expected} ({int(bad.sum())} bad sample(s) in this frame)"
-    )
+    return (f"frame {k}: temperature at row {row}, column {column} is {what}; temperatures "
+            f"must be {expected} ({count} bad sample(s) in this frame)")

@@ -59,10 +59,12 @@ from numba import prange
 from numba.core import types
 from numba.extending import intrinsic
 
+from radiosim.checks import bad_sample_message
 from radiosim.errors import RadiosimError
 from radiosim.radiometry import BandRadianceTable, band_radiance
 
 __all__ = [
+    "fast_exp",
     "STATUS_OK",
     "STATUS_BAD_SAMPLE",
     "STATUS_BELOW_TABLE",
@@ -141,6 +143,10 @@ def _exp(x):
     p = _fma(p, r, 1.0)
     p = _fma(p, r, 1.0)
     return p * np.int64((np.int64(k) + 1023) << 52).view(np.float64)
+
+
+#: exp(x) for the compiled kernels of other modules (the chip scene's moving terms).
+fast_exp = _exp
 
 
 # Columns are swept in sample space: the helpers run along contiguous rows of samples (the
@@ -852,17 +858,8 @@ def _raise_bad_sample(frame2d, rows: _Axis, cols: _Axis, k: int):
         raise RadiosimError(f"frame {k}: the per-pixel reference (pixel_mean of the first "
                             "frame) must be finite")
     i, j = (int(v) for v in np.argwhere(bad)[0])
-    value = float(values[i, j])
-    if np.isnan(value):
-        what, expected = "NaN", "finite"
-    elif np.isinf(value):
-        what, expected = f"{value:g}", "finite"
-    else:
-        what, expected = f"{value:g} K", "> 0 K (°C passed as kelvin?)"
-    raise RadiosimError(
-        f"frame {k}: temperature at row {r[i] + rows.offset}, column {c[j] + cols.offset} is "
-        f"{what}; temperatures must be {expected} ({int(bad.sum())} bad sample(s) in this frame)"
-    )
+    raise RadiosimError(bad_sample_message(float(values[i, j]), k, int(r[i]) + rows.offset,
+                                           int(c[j]) + cols.offset, int(bad.sum())))
 
 
 def _entries(response: RadianceKernelTable, r, c):

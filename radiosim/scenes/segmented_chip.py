@@ -55,6 +55,7 @@ from scipy.special import erfc
 
 from radiosim.config import build_from_toml, dumps_toml, edge_field, from_table, to_table
 from radiosim.errors import RadiosimError
+from radiosim.kernels import fast_exp
 from radiosim.scenes.base import Region, Scene, SceneFrame, check_emissivity, check_grid
 from radiosim.units import CELSIUS_OFFSET
 
@@ -493,39 +494,9 @@ _NO_TERMS = np.zeros((0, 3))
 _NO_NODES = np.zeros((0, 2), dtype=np.int64)
 _NO_REGIONS = np.zeros((1, 1), dtype=np.uint8)
 
-# exp(x) = 2^k · exp(r), r = x − k ln 2 (Cody & Waite, with fdlibm's split of ln 2), exp(r) by
-# its Taylor polynomial of degree 13 on |r| ≤ ln(2)/2 (truncation < 5e-18): the scheme of
-# radiosim.kernels._exp, kept here so the scene does not depend on the integrator's kernels.
-_LOG2E = 1.4426950408889634
-_LN2_HI = 6.93147180369123816490e-01
-_LN2_LO = 1.90821492927058770002e-10
-(_F2, _F3, _F4, _F5, _F6, _F7, _F8, _F9, _F10, _F11, _F12, _F13) = tuple(
-    1.0 / math.factorial(n) for n in range(2, 14))
-
-
-@numba.njit(**_JIT)
-def _exp(x):
-    """exp(x) for x in [−708, 709] (clamped there), vectorisable (no libm call)."""
-    x = x if x > -708.0 else -708.0
-    x = x if x < 709.0 else 709.0
-    k = np.floor(x * _LOG2E + 0.5)
-    r = (x - k * _LN2_HI) - k * _LN2_LO
-    p = _F13
-    p = p * r + _F12
-    p = p * r + _F11
-    p = p * r + _F10
-    p = p * r + _F9
-    p = p * r + _F8
-    p = p * r + _F7
-    p = p * r + _F6
-    p = p * r + _F5
-    p = p * r + _F4
-    p = p * r + _F3
-    p = p * r + _F2
-    p = p * r + 1.0
-    p = p * r + 1.0
-    scale = np.int64((np.int64(k) + 1023) << 52).view(np.float64)
-    return p * scale
+# exp(x) inline and vectorisable: the integrator kernels' (Cody–Waite reduction, Taylor
+# polynomial), shared so both evaluate it alike.
+_exp = fast_exp
 
 
 @numba.njit(**_JIT)
