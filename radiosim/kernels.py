@@ -46,6 +46,7 @@ about 0.3 s.
 
 from __future__ import annotations
 
+import contextlib
 import math
 import threading
 import weakref
@@ -65,6 +66,7 @@ from radiosim.radiometry import BandRadianceTable, band_radiance
 
 __all__ = [
     "fast_exp",
+    "parallel_launch",
     "STATUS_OK",
     "STATUS_BAD_SAMPLE",
     "STATUS_BELOW_TABLE",
@@ -147,6 +149,27 @@ def _exp(x):
 
 #: exp(x) for the compiled kernels of other modules (the chip scene's moving terms).
 fast_exp = _exp
+
+_LAUNCH = threading.Lock()
+
+
+@contextlib.contextmanager
+def parallel_launch():
+    """
+    Around every launch of a parallel kernel. numba's OpenMP and TBB threading layers take
+    launches from several threads at once (the integrator on the main thread, the chip scene on
+    the prefetch thread); its fallback layer, workqueue (e.g. on a machine without OpenMP),
+    aborts the process if two launches overlap, so there they are serialised.
+    """
+    try:
+        serialise = numba.threading_layer() == "workqueue"
+    except ValueError:  # no parallel kernel has run yet: the first launch picks the layer
+        serialise = True
+    if serialise:
+        with _LAUNCH:
+            yield
+    else:
+        yield
 
 
 # Columns are swept in sample space: the helpers run along contiguous rows of samples (the
@@ -1160,12 +1183,13 @@ def accumulate(frame, rows, cols, time_weight: float, reference: np.ndarray, dev
     if n_blocks != previous and n_blocks <= numba.config.NUMBA_NUM_THREADS:
         numba.set_num_threads(n_blocks)
     try:
-        result = _accumulate_kernel(
-            n_blocks, base, row_length, rows.source, rows.weight, rows.bounds, cols.extent,
-            slot_pixel, slot_weight, slot_of_piece, dup_source, col_bounds, cols.identity,
-            float(time_weight), _read_only(reference), dev, sq, tmax, signal, mode, coef, t0,
-            inverse, last, t_min, t_max, entry_table, entry_grey, float(grey), grey_map,
-            index_map, map_length, use_map, *buffers, status)
+        with parallel_launch():
+            result = _accumulate_kernel(
+                n_blocks, base, row_length, rows.source, rows.weight, rows.bounds, cols.extent,
+                slot_pixel, slot_weight, slot_of_piece, dup_source, col_bounds, cols.identity,
+                float(time_weight), _read_only(reference), dev, sq, tmax, signal, mode, coef,
+                t0, inverse, last, t_min, t_max, entry_table, entry_grey, float(grey), grey_map,
+                index_map, map_length, use_map, *buffers, status)
     finally:
         if numba.get_num_threads() != previous:
             numba.set_num_threads(previous)

@@ -55,7 +55,7 @@ from scipy.special import erfc
 
 from radiosim.config import build_from_toml, dumps_toml, edge_field, from_table, to_table
 from radiosim.errors import RadiosimError
-from radiosim.kernels import fast_exp
+from radiosim.kernels import fast_exp, parallel_launch
 from radiosim.scenes.base import Region, Scene, SceneFrame, check_emissivity, check_grid
 from radiosim.units import CELSIUS_OFFSET
 
@@ -1090,9 +1090,10 @@ class SegmentedChip(Scene):
             frame[_K_REACH] = self._forming_reach(base)
         temperature = np.empty(r.shape)
         regions = np.empty(r.shape, dtype=np.uint8) if want_regions else _NO_REGIONS
-        _moving_terms_kernel(*kd.blocks(forming), r.static, r.regions, temperature, regions,
-                             want_regions, forming, kd.x, r.y, frame, grid, terms, nodes,
-                             r.cos_field, r.sin_field, kd.ptr, kd.runs, kd.fade, kd.fade_rows)
+        with parallel_launch():
+            _moving_terms_kernel(*kd.blocks(forming), r.static, r.regions, temperature, regions,
+                                 want_regions, forming, kd.x, r.y, frame, grid, terms, nodes,
+                                 r.cos_field, r.sin_field, kd.ptr, kd.runs, kd.fade, kd.fade_rows)
         if not want_regions:
             return temperature
         return temperature, regions
