@@ -175,6 +175,9 @@ def _measure(args) -> int:
     if args.pixel_pitch is not None and args.camera != "linear-ideal":
         camera = camera.with_pixel_pitch(args.pixel_pitch)
     path = Path(args.scene)
+    if not any(c in args.scene for c in "*?[") and not path.exists():
+        raise RadiosimError(f"{path} does not exist (expected a .npy/.npz stack, a folder or "
+                            "glob of .exr frames, or an FEA nodal .csv)")
     suffix = path.suffix.lower()
     needed = {".csv": ("dx",), ".npy": ("dt", "dx", "units"), ".npz": ("dt", "dx", "units")}
     missing = [f"--{flag}" for flag in needed.get(suffix, ()) if getattr(args, flag) is None]
