@@ -60,7 +60,7 @@ class Reading:
     apparent_temperature : numpy.ndarray
         Temperature [K]; NaN where flagged.
     saturated : numpy.ndarray of bool
-        Full well, converter top code, or above the calibration range.
+        Full well or converter top code.
     under_range : numpy.ndarray of bool
         Converter code 0, below the calibration range, or below the noise floor.
     over_range : numpy.ndarray of bool

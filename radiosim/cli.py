@@ -25,7 +25,7 @@ from pathlib import Path
 
 from radiosim import __version__
 from radiosim.camera import Camera, available_presets
-from radiosim.errors import RadiosimError, RadiosimWarning
+from radiosim.errors import RadiosimError, RadiosimIOError, RadiosimWarning
 from radiosim.units import parse_quantity
 
 __all__ = ["main", "parse_time", "parse_length", "parse_temperature", "EXIT_INPUT",
@@ -360,7 +360,7 @@ def main(argv=None) -> int:
         if args.debug:
             raise
         print(f"radiosim: error: {exc}", file=sys.stderr)
-        return EXIT_INPUT
+        return EXIT_FAILURE if isinstance(exc, RadiosimIOError) else EXIT_INPUT
     except OSError as exc:
         if args.debug:
             raise

@@ -4,11 +4,16 @@ The library never prints: it raises :class:`RadiosimError` (a :class:`ValueError
 naming the offending value and what was expected, and warns with :class:`RadiosimWarning`.
 """
 
-__all__ = ["RadiosimError", "RadiosimWarning"]
+__all__ = ["RadiosimError", "RadiosimIOError", "RadiosimWarning"]
 
 
 class RadiosimError(ValueError):
     """Invalid input or configuration: the message names the value and what was expected."""
+
+
+class RadiosimIOError(RadiosimError):
+    """The system refused a read or write (a full disk, a read-only folder): not the user's
+    input, so the command exits with 1, not 2. The message names the file."""
 
 
 class RadiosimWarning(UserWarning):

@@ -24,7 +24,7 @@ import tempfile
 import threading
 from pathlib import Path
 
-from radiosim.errors import RadiosimError
+from radiosim.errors import RadiosimError, RadiosimIOError
 
 __all__ = ["atomic_write", "write_text", "OutputFolder", "MANIFEST", "native_output_silenced"]
 
@@ -88,7 +88,7 @@ def atomic_write(path, mode: str = "w", **kwargs):
         handle, temporary = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".partial",
                                              dir=path.parent)
     except OSError as exc:
-        raise RadiosimError(f"cannot write {path}: {exc.strerror or exc}") from None
+        raise RadiosimIOError(f"cannot write {path}: {exc.strerror or exc}") from None
     temporary = Path(temporary)
     try:
         with os.fdopen(handle, mode, **kwargs) as stream:
@@ -143,6 +143,11 @@ class OutputFolder:
                     f"--out {self.path} is not empty; choose a new or empty folder, or pass "
                     "--overwrite to replace the files of radiosim's previous run there "
                     f"(those listed in {MANIFEST})")
+            if not manifest.is_file():
+                raise RadiosimError(
+                    f"--out {self.path} is not empty and radiosim did not write it (it holds no "
+                    f"{MANIFEST}); --overwrite replaces only radiosim's own files: choose a new "
+                    "or empty folder")
             if manifest.is_file():
                 try:
                     self.previous = [str(f) for f in json.loads(manifest.read_text())["files"]]
@@ -155,6 +160,10 @@ class OutputFolder:
                     if Path(name).is_absolute() or root not in target.parents:
                         raise RadiosimError(f"{manifest} lists {name!r}, outside {self.path}; "
                                             "--overwrite will not touch that folder")
+                    if target.exists() and not target.is_file():
+                        raise RadiosimError(f"{manifest} lists {name!r}, which is a folder, "
+                                            "not a file radiosim wrote; --overwrite will not "
+                                            "touch that folder")
         parent = self.path.parent
         self.created: list[Path] = []  # parent folders made for this run, removed if it fails
         try:
@@ -163,8 +172,8 @@ class OutputFolder:
                     folder.mkdir()
                     self.created.append(folder)
         except OSError as exc:
-            raise RadiosimError(f"cannot create {exc.filename or parent}: "
-                                f"{exc.strerror or exc}") from None
+            raise RadiosimIOError(f"cannot create {exc.filename or parent}: "
+                                  f"{exc.strerror or exc}") from None
         self.staging = parent / f"{self.path.name}.partial"
         if self.staging.exists():
             raise RadiosimError(f"{self.staging} exists (an earlier run's partial result); move "
@@ -173,7 +182,7 @@ class OutputFolder:
             self.staging.mkdir()
         except OSError as exc:
             self._remove_created()
-            raise RadiosimError(f"cannot write in {parent}: {exc.strerror or exc}") from None
+            raise RadiosimIOError(f"cannot write in {parent}: {exc.strerror or exc}") from None
 
     def _remove_created(self):
         for folder in reversed(self.created):

@@ -13,7 +13,7 @@ from pathlib import Path
 
 import numpy as np
 
-from radiosim.errors import RadiosimError
+from radiosim.errors import RadiosimError, RadiosimIOError
 
 __all__ = ["figure", "markdown_table", "load_results", "select", "plot_versus", "save_figure"]
 
@@ -128,5 +128,5 @@ def save_figure(fig, path, dpi: int = 110) -> Path:
         with atomic_write(path, "wb") as stream:
             fig.savefig(stream, dpi=dpi, format="png")
     except OSError as exc:
-        raise RadiosimError(f"cannot write {path}: {exc.strerror or exc}") from None
+        raise RadiosimIOError(f"cannot write {path}: {exc.strerror or exc}") from None
     return path

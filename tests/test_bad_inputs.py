@@ -390,7 +390,7 @@ def test_cli_measure_into_an_unwritable_folder(tmp_path, unwritable, capsys):
 def test_cli_preview_into_an_unwritable_folder(tmp_path, unwritable, capsys):
     before = snapshot(tmp_path)
     code, _, err = cli(["scene", "preview", "--out", unwritable / "x.png"], capsys)
-    assert code in (1, 2)
+    assert code == 1  # the system refused the write: a runtime failure, not an input mistake
     one_line(err, unwritable / "x.png")
     assert_unchanged(before, tmp_path)
 
@@ -1388,3 +1388,40 @@ def test_fea_coordinates_in_the_wrong_length_unit_are_named(tmp_path):
     (tmp_path / "n.csv").write_text("\n".join(rows) + "\n")
     with pytest.raises(RadiosimError, match=r"length unit right \(µm data read as m\?\)"):
         read_fea_nodes(tmp_path / "n.csv", dx=0.5e-6)
+
+
+def test_region_emissivity_map_is_refused_naming_the_region():
+    from radiosim.scenes import SegmentedChip
+
+    scene = SegmentedChip(dx=8e-6, dt=1e-6)
+    with pytest.raises(RadiosimError, match="emissivity of region 'chip' must be a number or"):
+        SegmentedChip(dx=8e-6, dt=1e-6, emissivity={"chip": np.full(scene.shape, 0.3)})
+
+
+def test_overwrite_refuses_a_folder_radiosim_did_not_write(tmp_path, capsys):
+    study = tmp_path / "s.toml"
+    write_frames_npy(tmp_path / "frames.npy")
+    study.write_text(VALID_STUDY)
+    out = tmp_path / "theirs"
+    out.mkdir()
+    (out / "notes.txt").write_text("mine")
+    before = snapshot(tmp_path)
+    code, _, err = cli(["run", study, "--out", out, "--overwrite", "--quiet", "--no-figures"],
+                       capsys)
+    assert code == 2 and "did not write it" in err
+    assert_unchanged(before, tmp_path)
+
+
+def test_overwrite_refuses_a_manifest_that_lists_a_folder(tmp_path, capsys):
+    study = tmp_path / "s.toml"
+    write_frames_npy(tmp_path / "frames.npy")
+    study.write_text(VALID_STUDY)
+    out = tmp_path / "out"
+    assert cli(["run", study, "--out", out, "--quiet", "--no-figures"], capsys)[0] == 0
+    (out / "sub").mkdir()
+    (out / "radiosim-manifest.json").write_text(json.dumps({"files": ["sub", "results.csv"]}))
+    before = snapshot(tmp_path)
+    code, _, err = cli(["run", study, "--out", out, "--overwrite", "--quiet", "--no-figures"],
+                       capsys)
+    assert code == 2 and "which is a folder" in err
+    assert_unchanged(before, tmp_path)

@@ -927,6 +927,11 @@ class SegmentedChip(Scene):
             if unknown:
                 raise RadiosimError(f"unknown region(s) {sorted(unknown)} in emissivity; "
                                     f"regions are {', '.join(REGIONS)}")
+            for name, value in emissivity.items():
+                if isinstance(value, np.ndarray) and value.ndim >= 1:
+                    raise RadiosimError(f"emissivity of region {name!r} must be a number or a "
+                                        "spectral curve, not a map (a grey map is given for "
+                                        "the whole scene: emissivity=map)")
             self._region_emissivity = {name: check_emissivity(emissivity.get(name, 1.0),
                                                                self.shape) for name in REGIONS}
             emissivity = 1.0
