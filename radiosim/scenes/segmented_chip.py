@@ -55,6 +55,7 @@ from scipy.special import erfc
 
 from radiosim.config import build_from_toml, dumps_toml, edge_field, from_table, to_table
 from radiosim.errors import RadiosimError
+from radiosim.files import write_text
 from radiosim.kernels import fast_exp, parallel_launch
 from radiosim.scenes.base import Region, Scene, SceneFrame, check_emissivity, check_grid
 from radiosim.units import CELSIUS_OFFSET
@@ -247,7 +248,7 @@ class ChipParameters:
         text = dumps_toml({"chip": self.to_dict()}, tables=("chip",), comments=comments,
                           header="radiosim segmented-chip scene parameters (units in the keys)")
         if path is not None:
-            Path(path).write_text(text, encoding="utf-8")
+            write_text(path, text)  # atomically
         return text
 
     def replace(self, **changes) -> ChipParameters:
