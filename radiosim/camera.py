@@ -23,7 +23,6 @@ from dataclasses import dataclass, field
 from functools import cached_property
 from pathlib import Path
 
-import numpy as np
 
 from radiosim.calibration import Calibration
 from radiosim.checks import check_fraction, check_positive, check_rng

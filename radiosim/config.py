@@ -27,7 +27,9 @@ __all__ = [
     "edge_field",
     "edge_value",
     "si_value",
+    "fields_from_table",
     "from_table",
+    "read_number",
     "to_table",
     "load_toml",
     "build_from_toml",
@@ -139,26 +141,43 @@ def reject_unknown(keys, known, what: str):
     raise RadiosimError(f"{what}: unknown key(s) {', '.join(parts)}{listing}")
 
 
-def from_table(cls, table: dict, what: str, converters: dict | None = None,
-               required=(), extra: dict | None = None):
+def fields_from_table(cls, table: dict, what: str, converters: dict | None = None,
+                      required=(), ignore=()) -> dict:
     """
-    An instance of dataclass ``cls`` from a TOML table in edge units.
-
-    Fields without a TOML key are taken from ``extra``; missing keys take the defaults;
-    ``required`` keys must be present; unknown keys raise naming the likely typo.
+    The keyword arguments (field name → SI value) of dataclass ``cls`` that a TOML table in
+    edge units gives; ``required`` keys must be present; keys neither declared nor in
+    ``ignore`` raise naming the likely typo.
     """
     converters = converters or {}
-    table = dict(table)
     by_key = {f.metadata["toml"]: f for f in dataclasses.fields(cls) if "toml" in f.metadata}
     for key in required:
         if key not in table:
             raise RadiosimError(f"{what}: needs {key} ({by_key[key].metadata['doc']})")
-    reject_unknown([k for k in table if k not in by_key], by_key, what)
-    kwargs = dict(extra or {})
-    for key, value in table.items():
-        f = by_key[key]
-        kwargs[f.name] = _read_value(key, value, f.metadata, what, converters)
-    return cls(**kwargs)
+    reject_unknown([k for k in table if k not in by_key and k not in ignore],
+                   [*by_key, *ignore], what)
+    return {by_key[key].name: _read_value(key, value, by_key[key].metadata, what, converters)
+            for key, value in table.items() if key in by_key}
+
+
+def from_table(cls, table: dict, what: str, converters: dict | None = None,
+               required=(), extra: dict | None = None):
+    """
+    An instance of dataclass ``cls`` from a TOML table in edge units (see
+    :func:`fields_from_table`); fields without a TOML key are taken from ``extra``, missing keys
+    take the defaults.
+    """
+    return cls(**(dict(extra or {}) | fields_from_table(cls, table, what, converters, required)))
+
+
+def read_number(table: dict, key: str, what: str, scale: float = 1.0):
+    """
+    ``table[key]`` (removed from it) as a finite number converted by ``scale`` (edge unit →
+    SI), ``None`` if absent; strings and booleans are refused naming the key.
+    """
+    if key not in table:
+        return None
+    meta = {"kind": "number", "scale": scale, "offset": 0.0}
+    return _read_value(key, table.pop(key), meta, what, {})
 
 
 def to_table(obj, converters: dict | None = None, skip_defaults_none: bool = True) -> dict:

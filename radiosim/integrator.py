@@ -343,13 +343,16 @@ class FootprintIntegrator:
     ----------
     rows, cols
         The :class:`AxisFootprints` of the y (row) and x (column) axes.
+    pixel_pitch
+        Pixel pitch in object space [m], for the unit-slip check (:func:`check_scale`).
     """
 
-    def __init__(self, rows: AxisFootprints, cols: AxisFootprints):
+    def __init__(self, rows: AxisFootprints, cols: AxisFootprints,
+                 pixel_pitch: float = math.inf):
         self.rows, self.cols = rows, cols
         self.shape = (rows.n_pixels, cols.n_pixels)
-        #: Pixel pitch in object space [m], when built for a scene (:meth:`for_scene`).
-        self.pixel_pitch = math.inf
+        #: Pixel pitch in object space [m] (∞ when unknown: no scale check).
+        self.pixel_pitch = pixel_pitch
         #: The region of the scene the pieces touch; frames are read over it only.
         self.region: Region = (rows.span, cols.span)
         self._row_index = None if rows.is_identity else rows.source - rows.span.start
@@ -372,9 +375,7 @@ class FootprintIntegrator:
                                array_shape[0], origin[0], axis="y (rows)")
         cols = axis_footprints(scene.shape[1], scene.dx, pixel_pitch, fill_factor,
                                array_shape[1], origin[1], axis="x (columns)")
-        integrator = cls(rows, cols)
-        integrator.pixel_pitch = pixel_pitch
-        return integrator
+        return cls(rows, cols, pixel_pitch)
 
     def expand(self, field: np.ndarray) -> np.ndarray:
         """Values of a field over :attr:`region` on the piece grid (a view when possible)."""
@@ -561,11 +562,11 @@ class _Group:
 
     def __init__(self, integrator: FootprintIntegrator):
         self.integrator = integrator
-        self.members: list[_Accumulator] = []
+        self.members: list = []
         self.reference = None
 
     def responses(self, k: int) -> list:
-        """The distinct responses of the members active at frame k (signal-less first)."""
+        """The distinct responses of the members active at frame k, in order of appearance."""
         out = {}
         for acc in self.members:
             if acc.first <= k < acc.stop:
@@ -584,12 +585,9 @@ def _integrate_compiled(scene, accumulators, frames, region, progress):
     from radiosim import kernels
 
     groups: dict[int, _Group] = {}
-    for acc in accumulators:
-        group = groups.setdefault(id(acc.job.integrator), _Group(acc.job.integrator))
-        group.members.append(acc)
-        shape = acc.job.integrator.shape
-        acc.n, acc.mean, acc.m2 = 0.0, np.zeros(shape), np.zeros(shape)
-        acc.signal_mean, acc.t_max = np.zeros(shape), np.full(shape, -np.inf)
+    merged = [_Merged(acc) for acc in accumulators]
+    for m in merged:
+        groups.setdefault(id(m.job.integrator), _Group(m.job.integrator)).members.append(m)
     for done, frame in enumerate(_prefetched(scene, frames, region, checked=False), start=1):
         k = frame.index
         for group in groups.values():
@@ -622,29 +620,42 @@ def _integrate_compiled(scene, accumulators, frames, region, progress):
             frame_mean = group.reference + dev  # [K]
             frame_var = np.maximum(sq - dev * dev, 0.0)  # [K²], within the footprint
             group.reference = frame_mean  # the next frame's deviations stay small
-            for acc in group.members:
-                if not acc.first <= k < acc.stop:
-                    continue
-                weight = acc.weights[k - acc.first]
-                total = acc.n + weight
-                delta = frame_mean - acc.mean
-                acc.m2 += weight * frame_var + delta * delta * (acc.n * weight / total)
-                acc.mean += delta * (weight / total)
-                acc.n = total
-                np.maximum(acc.t_max, t_max, out=acc.t_max)
-                signal = signals[id(acc.job.response)]
-                if signal is not None:
-                    acc.signal_is_temperature = False
-                    acc.signal_mean += weight * signal
+            for m in group.members:
+                if m.first <= k < m.stop:
+                    m.merge(k, frame_mean, frame_var, t_max, signals[id(m.job.response)])
         if progress is not None:
             progress(done, len(frames))
-    out = []
-    for acc in accumulators:
-        out.append(TensorStatistics(
-            signal_mean=acc.mean if acc.signal_is_temperature else acc.signal_mean,
-            mean=acc.mean, std=np.sqrt(acc.m2 / acc.n), max=acc.t_max,
-            n_frames=int(acc.weights.size)))
-    return out
+    return [m.statistics() for m in merged]
+
+
+class _Merged:
+    """One job's moments in the compiled engine, merged frame by frame (Chan et al. 1979)."""
+
+    def __init__(self, acc: _Accumulator):
+        self.job, self.first, self.stop, self.weights = acc.job, acc.first, acc.stop, acc.weights
+        shape = acc.job.integrator.shape
+        self.n, self.mean, self.m2 = 0.0, np.zeros(shape), np.zeros(shape)
+        self.t_max = np.full(shape, -np.inf)
+        self.signal_mean = None  # stays None while the signal is the temperature
+
+    def merge(self, k, frame_mean, frame_var, t_max, signal):
+        weight = self.weights[k - self.first]
+        total = self.n + weight
+        delta = frame_mean - self.mean
+        self.m2 += weight * frame_var + delta * delta * (self.n * weight / total)
+        self.mean += delta * (weight / total)
+        self.n = total
+        np.maximum(self.t_max, t_max, out=self.t_max)
+        if signal is not None:
+            if self.signal_mean is None:
+                self.signal_mean = np.zeros(self.mean.shape)
+            self.signal_mean += weight * signal
+
+    def statistics(self) -> TensorStatistics:
+        return TensorStatistics(
+            signal_mean=self.mean if self.signal_mean is None else self.signal_mean,
+            mean=self.mean, std=np.sqrt(self.m2 / self.n), max=self.t_max,
+            n_frames=int(self.weights.size))
 
 
 def integrate(

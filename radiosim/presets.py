@@ -13,13 +13,12 @@ Presets live in ``radiosim/presets`` (:func:`available_presets`).
 
 from __future__ import annotations
 
-import dataclasses
 from pathlib import Path
 
 import numpy as np
 from colour import SpectralDistribution
 
-from radiosim.config import from_table, reject_unknown, to_table
+from radiosim.config import fields_from_table, from_table, to_table
 from radiosim.electronics import Electronics
 from radiosim.errors import RadiosimError
 from radiosim.fpa import FocalPlaneArray
@@ -95,28 +94,8 @@ def camera_fields(camera_class, data: dict, base: Path | None = None) -> dict:
             raise RadiosimError(f"[{name}] must be a table, got {table!r}")
         required = ("pixel_pitch_um",) if name == "fpa" else ()
         components[name] = from_table(component, table, f"[{name}]", converters, required)
-    known = [f.metadata["toml"] for f in dataclasses.fields(camera_class)
-             if "toml" in f.metadata]
-    reject_unknown([k for k in data if k not in known], known + list(SECTIONS) + ["description"],
-                   "camera")
-    return dataclasses.asdict(from_table(_TopLevel(camera_class), data, "camera")) | components
-
-
-class _TopLevel:
-    """The top-level fields of a camera class, as a dataclass of their own (for
-    :func:`from_table`): a factory that returns the converted keyword arguments."""
-
-    def __new__(cls, camera_class):
-        fields = []
-        for f in dataclasses.fields(camera_class):
-            if "toml" not in f.metadata:
-                continue
-            if f.default_factory is not dataclasses.MISSING:
-                copy = dataclasses.field(default_factory=f.default_factory, metadata=f.metadata)
-            else:
-                copy = dataclasses.field(default=f.default, metadata=f.metadata)
-            fields.append((f.name, f.type, copy))
-        return dataclasses.make_dataclass("CameraSettings", fields)
+    return fields_from_table(camera_class, data, "camera",
+                             ignore=(*SECTIONS, "description")) | components
 
 
 def camera_table(camera) -> dict:

@@ -43,7 +43,7 @@ import numpy as np
 
 from radiosim.camera import Camera, measure_many
 from radiosim.checks import check_positive, check_rng
-from radiosim.config import build_from_toml, reject_unknown
+from radiosim.config import build_from_toml, read_number, reject_unknown
 from radiosim.errors import RadiosimError, RadiosimWarning
 from radiosim.files import atomic_write
 from radiosim.measurement import Measurement
@@ -475,14 +475,7 @@ def _write_csv(path: Path, columns: list[str], rows: list[dict]):
 
 def _number(table: dict, key: str, what: str):
     """A number of a study table (None if absent); strings and booleans are refused."""
-    value = table.pop(key, None)
-    if value is None:
-        return None
-    if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(
-            value):
-        hint = " (a number written as a string? drop the quotes)" if isinstance(value, str) else ""
-        raise RadiosimError(f"{what}: {key} must be a finite number, got {value!r}{hint}")
-    return value
+    return read_number(table, key, what)
 
 
 def _fill(spec: dict) -> float:

@@ -27,7 +27,6 @@ __all__ = [
     "to_si",
     "to_kelvin",
     "to_celsius",
-    "unit_suffix",
 ]
 
 #: 0 °C in kelvin [K] (exact, by the definition of the Celsius scale).
@@ -44,9 +43,6 @@ UNITS = {
 #: Temperature units of files and their offset to kelvin [K].
 TEMPERATURE_OFFSETS = {unit: offset for unit, (_, offset) in UNITS["temperature"].items()
                        if unit != "°C"}
-
-#: Kept for compatibility: the same table as :data:`UNITS`.
-QUANTITY_UNITS = UNITS
 
 
 def shift(value: float, exponent: int) -> float:
@@ -101,22 +97,6 @@ def to_celsius(kelvin):
     if isinstance(kelvin, (float, int, np.floating, np.integer)):
         return float(kelvin) - CELSIUS_OFFSET
     return np.asarray(kelvin) - CELSIUS_OFFSET
-
-
-def unit_suffix(name: str, kind: str) -> tuple[str, str | None]:
-    """
-    Split a name with a unit suffix (``x_um``, ``time_s``, ``temperature_C``) into the bare
-    name and the unit (``None`` if the name carries no unit of ``kind``).
-
-    Examples
-    --------
-    >>> unit_suffix("x_um", "length"), unit_suffix("temperature", "temperature")
-    (('x', 'um'), ('temperature', None))
-    """
-    stem, _, suffix = name.rpartition("_")
-    if stem and suffix in UNITS[kind]:
-        return stem, suffix
-    return name, None
 
 
 def parse_quantity(text: str, kind: str) -> float:

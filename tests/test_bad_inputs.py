@@ -39,6 +39,7 @@ import radiosim
 from radiosim import Camera, FrameStack
 from radiosim.cli import main
 from radiosim.errors import RadiosimError, RadiosimWarning
+from conftest import frames_study
 from radiosim.io import read_exr, read_fea_nodes, read_frames
 from radiosim.study import Study
 
@@ -127,21 +128,7 @@ def write_frames_npy(path, shape=(20, 24, 24), value=500.0):
     return Path(path)
 
 
-VALID_STUDY = """name = "small"
-[scene]
-type = "frames"
-path = "frames.npy"
-dt_us = 1.0
-dx_um = 1.0
-units = "K"
-[cameras.lin]
-preset = "linear-ideal"
-pixel_pitch_um = 3.0
-[[sweeps]]
-name = "t"
-cameras = ["lin"]
-integration_time_us = [2, 4]
-"""
+VALID_STUDY = frames_study([2, 4], 3.0)
 
 
 def write_study(folder, text=VALID_STUDY, name="study.toml", frames=None) -> Path:
@@ -316,42 +303,6 @@ def processes(tmp_path_factory):
 # =================================================================================================
 
 
-def test_cli_readonly_output_folder_for_run(tmp_path, readonly, capsys):
-    study = write_study(tmp_path)
-    before = snapshot(tmp_path)
-    code, _, err = cli(["run", study, "--out", readonly / "out", "--quiet", "--no-figures"],
-                       capsys)
-    assert code in (1, 2)
-    one_line(err, readonly)
-    assert_unchanged(before, tmp_path)
-
-
-def test_cli_readonly_folder_itself_as_out(tmp_path, readonly, capsys):
-    study = write_study(tmp_path)
-    before = snapshot(tmp_path)
-    code, _, err = cli(["run", study, "--out", readonly, "--quiet", "--no-figures"], capsys)
-    assert code in (1, 2)
-    one_line(err, readonly)
-    assert_unchanged(before, tmp_path)
-
-
-def test_cli_preview_into_readonly_folder(tmp_path, readonly, capsys):
-    before = snapshot(tmp_path)
-    code, _, err = cli(["scene", "preview", "--out", readonly / "x.png"], capsys)
-    assert code in (1, 2)
-    one_line(err, readonly / "x.png")
-    assert_unchanged(before, tmp_path)
-
-
-def test_cli_measure_out_into_readonly_folder(tmp_path, readonly, capsys):
-    npy = write_frames_npy(tmp_path / "s.npy")
-    before = snapshot(tmp_path)
-    code, _, err = cli(measure_args(npy, "--out", readonly / "m.exr"), capsys)
-    assert code in (1, 2)
-    one_line(err, readonly / "m.exr")
-    assert_unchanged(before, tmp_path)
-
-
 @pytest.fixture
 def unwritable():
     """A folder that even root cannot write in: /proc (nothing can be created there)."""
@@ -367,31 +318,46 @@ def unwritable():
     pytest.skip("/proc is writable here")
 
 
-def test_cli_run_into_an_unwritable_folder(tmp_path, unwritable, capsys):
+@pytest.fixture(params=["readonly", "unwritable"])
+def blocked(request):
+    """A folder nothing can be written in: a chmod 0o500 one (skipped as root, which writes
+    anyway) or /proc (even root cannot)."""
+    return request.getfixturevalue(request.param)
+
+
+# A write the system refuses is a failure while running (exit 1), not an input mistake.
+
+
+def test_cli_run_into_a_blocked_folder(tmp_path, blocked, capsys):
     study = write_study(tmp_path)
     before = snapshot(tmp_path)
-    out = unwritable / "radiosim-test-out"
+    out = blocked / "radiosim-test-out"
     code, _, err = cli(["run", study, "--out", out, "--quiet", "--no-figures"], capsys)
-    assert code in (1, 2)
-    one_line(err, unwritable)
+    assert code == 1
+    one_line(err, blocked)
     assert_unchanged(before, tmp_path)
     assert not out.exists()
 
 
-def test_cli_measure_into_an_unwritable_folder(tmp_path, unwritable, capsys):
-    npy = write_frames_npy(tmp_path / "s.npy")
+def test_cli_readonly_folder_itself_as_out(tmp_path, readonly, capsys):
+    study = write_study(tmp_path)
     before = snapshot(tmp_path)
-    code, _, err = cli(measure_args(npy, "--out", unwritable / "m.exr"), capsys)
+    code, _, err = cli(["run", study, "--out", readonly, "--quiet", "--no-figures"], capsys)
     assert code in (1, 2)
-    one_line(err, unwritable / "m.exr")
+    one_line(err, readonly)
     assert_unchanged(before, tmp_path)
 
 
-def test_cli_preview_into_an_unwritable_folder(tmp_path, unwritable, capsys):
+@pytest.mark.parametrize("command, name", [
+    (lambda npy, out: ["scene", "preview", "--out", out], "x.png"),
+    (lambda npy, out: measure_args(npy, "--out", out), "m.exr"),
+], ids=["preview", "measure"])
+def test_cli_write_into_a_blocked_folder(tmp_path, blocked, capsys, command, name):
+    npy = write_frames_npy(tmp_path / "s.npy")
     before = snapshot(tmp_path)
-    code, _, err = cli(["scene", "preview", "--out", unwritable / "x.png"], capsys)
-    assert code == 1  # the system refused the write: a runtime failure, not an input mistake
-    one_line(err, unwritable / "x.png")
+    code, _, err = cli(command(npy, blocked / name), capsys)
+    assert code == 1
+    one_line(err, blocked / name)
     assert_unchanged(before, tmp_path)
 
 

@@ -19,8 +19,7 @@ from radiosim.config import dumps_toml, from_table, to_table
 from radiosim.electronics import Electronics
 from radiosim.errors import RadiosimError
 from radiosim.scenes import ChipParameters
-from radiosim.units import (CELSIUS_OFFSET, parse_quantity, to_celsius, to_kelvin, to_si,
-                            unit_suffix)
+from radiosim.units import (CELSIUS_OFFSET, parse_quantity, to_celsius, to_kelvin, to_si)
 
 PACKAGE = Path(radiosim.__file__).resolve().parent
 
@@ -207,15 +206,6 @@ def test_temperature_conversions():
 
 def test_celsius_offset_is_exact():
     assert CELSIUS_OFFSET == 273.15
-
-
-def test_unit_suffix():
-    assert unit_suffix("pixel_pitch_um", "length") == ("pixel_pitch", "um")
-    assert unit_suffix("period_us", "time") == ("period", "us")
-    assert unit_suffix("initial_temperature_C", "temperature") == ("initial_temperature", "C")
-    assert unit_suffix("period_us", "length") == ("period_us", None)  # not a length unit
-    assert unit_suffix("temperature", "temperature") == ("temperature", None)
-    assert unit_suffix("_um", "length") == ("_um", None)  # no bare name before the unit
 
 
 @pytest.mark.parametrize("text, kind, expected", [

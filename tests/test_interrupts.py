@@ -21,29 +21,15 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from conftest import frames_study
 from radiosim.io import read_exr
 
 # 121 measurements (1 to 4 µs in steps of 25 ns) of a 120 × 120-sample frames scene with 1 µm
 # pixels: each writes an EXR file of 14 400 pixels, so the EXR files appear over more than a
 # second whether the measurements are made one by one or in one pass over the frames. If a run
 # ends before its signal arrives, make this longer (more times, bigger frames); never skip.
-TIMES = ", ".join(f"{1 + 0.025 * i:g}" for i in range(121))
-LONG_STUDY = f"""
-name = "long"
-[scene]
-type = "frames"
-path = "frames.npy"
-dt_us = 1.0
-dx_um = 1.0
-units = "K"
-[cameras.linear]
-preset = "linear-ideal"
-pixel_pitch_um = 1.0
-[[sweeps]]
-name = "integration-time"
-cameras = ["linear"]
-integration_time_us = [{TIMES}]
-"""
+LONG_STUDY = frames_study([1 + 0.025 * i for i in range(121)], 1.0, name="long",
+                          camera="linear", sweep="integration-time")
 FIRST_EXR_TIMEOUT = 120.0  # s: start-up and the first measurements (slow on a loaded machine)
 SIGNALS = {"SIGINT": signal.SIGINT, "SIGTERM": signal.SIGTERM}
 

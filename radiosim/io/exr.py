@@ -35,7 +35,7 @@ from pathlib import Path
 
 import numpy as np
 
-from radiosim.errors import RadiosimError
+from radiosim.errors import RadiosimError, RadiosimIOError
 from radiosim.files import native_output_silenced
 from radiosim.measurement import Measurement
 
@@ -134,7 +134,7 @@ def write_exr(path, measurement: Measurement) -> Path:
         temporary.unlink(missing_ok=True)
         if not isinstance(exc, Exception) or isinstance(exc, RadiosimError):
             raise
-        raise RadiosimError(f"cannot write {path}: {exc}") from exc
+        raise RadiosimIOError(f"cannot write {path}: {exc}") from exc
     return path
 
 

@@ -22,7 +22,7 @@ import numpy as np
 from radiosim.checks import check_positive
 from radiosim.errors import RadiosimError
 from radiosim.scenes.fea_nodes import FeaNodes, triangulate
-from radiosim.units import TEMPERATURE_OFFSETS, UNITS
+from radiosim.units import TEMPERATURE_OFFSETS, UNITS, to_kelvin
 
 __all__ = ["read_fea_nodes", "FeaNodes"]
 
@@ -171,7 +171,7 @@ def read_fea_nodes(path, dx, dt=None, units=None, fill=293.15, bounds=None, max_
                                 f"{', '.join(table)}")
     time = data[:, 0] * TIME_UNITS[units["time"]]
     xy = data[:, 1:3] * LENGTH_UNITS[units["length"]]
-    temperature = data[:, 3] + TEMPERATURE_OFFSETS[units["temperature"]]
+    temperature = to_kelvin(data[:, 3], units["temperature"])
     if np.any(temperature <= 0):
         line = int(np.argmax(temperature <= 0))
         raise RadiosimError(f"{path}: data row {line + 1} has temperature "

@@ -11,7 +11,7 @@ import numpy as np
 from radiosim.errors import RadiosimError
 from radiosim.files import native_output_silenced
 from radiosim.scenes.base import Region, Scene, check_emissivity, check_grid
-from radiosim.units import TEMPERATURE_OFFSETS
+from radiosim.units import to_kelvin
 
 __all__ = ["ExrSequence", "EXR_TEMPERATURE_CHANNELS", "EXR_UNIT_ATTRIBUTES", "temperature_unit"]
 
@@ -125,7 +125,7 @@ class ExrSequence(Scene):
         if pixels.shape != self.shape:
             raise RadiosimError(f"frame {k}: {self.paths[k]} is {pixels.shape}, the first frame "
                                 f"is {self.shape}")
-        return pixels[region[0], region[1]].astype(np.float64) + TEMPERATURE_OFFSETS[self.units]
+        return to_kelvin(pixels[region[0], region[1]].astype(np.float64), self.units)
 
     def describe(self) -> dict:
         return super().describe() | {"source": str(self.paths[0].parent),

@@ -7,9 +7,9 @@ from __future__ import annotations
 import numpy as np
 
 from radiosim.errors import RadiosimError
-from radiosim.units import TEMPERATURE_OFFSETS
+from radiosim.units import TEMPERATURE_OFFSETS, to_kelvin
 from radiosim.checks import check_non_negative
-from radiosim.scenes.base import Region, Scene, check_emissivity, check_grid, check_positive
+from radiosim.scenes.base import Region, Scene, check_emissivity, check_grid
 
 __all__ = ["FrameStack"]
 
@@ -84,11 +84,10 @@ class FrameStack(Scene):
         self._extra = dict(description or {})
 
     def _read(self, k: int, region: Region) -> np.ndarray:
-        offset = TEMPERATURE_OFFSETS[self.units]
         values = self._stack[k, region[0], region[1]]
-        if not offset and values.dtype in (np.float32, np.float64):
+        if self.units == "K" and values.dtype in (np.float32, np.float64):
             return values  # as stored (a memory-mapped view): the consumer converts or checks
-        return np.asarray(values, dtype=np.float64) + offset
+        return to_kelvin(np.asarray(values, dtype=np.float64), self.units)
 
     def describe(self) -> dict:
         return super().describe() | {"source_units": self.units} | self._extra
