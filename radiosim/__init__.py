@@ -8,7 +8,8 @@ Heigel & Ivester, MSEC2009-84319, exactly.
 
 The chain, one module per stage, imports flowing one way (:data:`CHAIN`):
 :mod:`radiosim.scenes` → :mod:`radiosim.response` (:mod:`radiosim.radiometry`,
-:mod:`radiosim.spectral`) → :mod:`radiosim.integrator` → :mod:`radiosim.optics` →
+:mod:`radiosim.spectral`) → :mod:`radiosim.integrator` → :mod:`radiosim.optics` (its
+point-spread functions in :mod:`radiosim.psf`; the image they form in :mod:`radiosim.imaging`) →
 :mod:`radiosim.electronics` → :mod:`radiosim.calibration` → :mod:`radiosim.measurement`,
 orchestrated by :class:`radiosim.camera.Camera`. Files in and out are in :mod:`radiosim.io`,
 studies in :mod:`radiosim.study`, and everything specific to the paper in
@@ -30,8 +31,8 @@ __version__ = "0.1.0"
 #: The package's modules in the order of the chain: a module imports only modules before it
 #: (tests/test_architecture.py checks this with ``ast``).
 CHAIN = (
-    "errors", "units", "checks", "config", "files", "spectral", "radiometry", "kernels", "scenes", "response",
-    "fpa", "integrator", "optics", "electronics", "calibration", "measurement", "presets",
+    "errors", "units", "checks", "config", "files", "spectral", "radiometry", "kernels", "scenes",
+    "response", "fpa", "integrator", "psf", "optics", "imaging", "electronics", "calibration", "measurement", "presets",
     "camera", "characterization", "io", "study", "plotting", "paper", "cli",
 )
 

@@ -3,16 +3,20 @@ Calibration: the camera's own inversion of digital numbers to apparent temperatu
 flags of what it cannot invert.
 
 Like a real radiometric camera, the calibration is built for one camera and one integration
-time from its noise-free response to a grey body of the *assumed* emissivity (the camera's
-emissivity setting, which may differ from the scene's true one). Its forward model is the
-electronics' own mean-count function applied to the response's grey-body signal:
+time from its noise-free response to a grey body under the camera's *settings*: the assumed
+emissivity ε_a, reflected temperature T_r, path (transmission τ_a, temperature T_p) and the
+optics' emission at the assumed instrument temperature, I (which may all differ from the
+scene's truth). Its forward model is the thermography equation
+(:func:`radiosim.response.observed_signal`) through the electronics' own mean-count function::
 
-    DN(T) = Electronics.mean_counts(S(T; ε_a) · rate_per_signal · t_int, t_int)
-          = K · (ε_a-signal · G · t_int + I_dark · t_int) + offset
+    S(T)  = τ_a · (ε_a L(T) + (1 − ε_a) L(T_r)) + (1 − τ_a) · L(T_p) + I
+    DN(T) = Electronics.mean_counts(S(T) · rate_per_signal · t_int, t_int)
+          = K · (S(T) · G · t_int + I_dark · t_int) + offset
 
-with S the response signal (in-band photon radiance for the Planck response, T for the linear
-one) and G the optics' electron rate per unit of signal (the étendue). The inversion solves it
-for T on the response's monotonic curve.
+with L the response signal of a blackbody (in-band photon radiance for the Planck response; the
+linear response's signal is T itself, with no reflection, path or emission) and G the optics'
+electron rate per unit of signal (the étendue). The inversion solves it for T: it subtracts the
+emission, the path and the reflection, and inverts ε_a L(T) on the response's monotonic curve.
 
 Flags (a flagged pixel has no apparent temperature, NaN):
 
@@ -40,7 +44,7 @@ import numpy as np
 from radiosim.checks import check_fraction, check_positive
 from radiosim.electronics import Electronics, Exposure
 from radiosim.errors import RadiosimError, RadiosimWarning
-from radiosim.response import Response
+from radiosim.response import Response, object_signal, observed_signal
 
 __all__ = ["Calibration", "Reading", "MIN_CALIBRATION_SPAN_DN"]
 
@@ -92,6 +96,12 @@ class Calibration:
         The camera's emissivity setting (dimensionless).
     temperature_range
         Temperatures the calibration covers [K].
+    reflected_temperature
+        The camera's reflected-temperature setting [K]; ``None``: nothing reflected.
+    path_transmission, path_temperature
+        The camera's path setting: transmission [1] and temperature [K] (``None`` with τ = 1).
+    background_signal
+        The optics' own emission at the assumed instrument temperature [signal unit].
 
     Examples
     --------
@@ -103,7 +113,9 @@ class Calibration:
 
     def __init__(self, response: Response, electronics: Electronics, rate_per_signal: float,
                  integration_time: float, assumed_emissivity: float = 1.0,
-                 temperature_range=(150.0, 3000.0)):
+                 temperature_range=(150.0, 3000.0), reflected_temperature: float | None = None,
+                 path_transmission: float = 1.0, path_temperature: float | None = None,
+                 background_signal: float = 0.0):
         self.integration_time = check_positive(integration_time, "integration time", "s")
         self.response = response
         self.electronics = electronics
@@ -115,13 +127,41 @@ class Calibration:
             raise RadiosimError(f"calibration range must be (T_min, T_max) with 0 < T_min < "
                                 f"T_max [K], got {temperature_range!r}")
         self.temperature_range = (low, high)
+        if not 0 < path_transmission <= 1 or (path_transmission < 1 and path_temperature is None):
+            raise RadiosimError(f"assumed path transmission must be in (0, 1] (with a path "
+                                f"temperature below 1), got {path_transmission!r}")
+        radiometric = response.radiometric
+        self.path_transmission = float(path_transmission) if radiometric else 1.0
+        # The terms of the thermography equation that do not depend on T [signal unit].
+        self.reflected_signal = (0.0 if reflected_temperature is None or not radiometric else
+                                 (1 - self.emissivity) * float(response.grey_signal(
+                                     check_positive(reflected_temperature,
+                                                    "assumed reflected temperature", "K"))))
+        self.path_signal = (0.0 if path_temperature is None or not radiometric else float(
+            response.grey_signal(check_positive(path_temperature, "assumed path temperature",
+                                                "K"))))
+        self.background_signal = float(background_signal) if radiometric else 0.0
 
     # -- forward model ---------------------------------------------------------------------
 
+    def signal(self, temperature) -> np.ndarray:
+        """Noise-free signal [signal unit] from a grey body at ``temperature`` [K] under the
+        camera's settings (the thermography equation and the optics' emission)."""
+        emitted = self.response.grey_signal(np.asarray(temperature, dtype=float),
+                                            self.emissivity)
+        return observed_signal(emitted, self.reflected_signal, self.path_transmission,
+                               self.path_signal) + self.background_signal
+
     def photoelectrons(self, temperature) -> np.ndarray:
         """Noise-free photo-charge [e⁻] from a grey body at ``temperature`` [K]."""
-        signal = self.response.grey_signal(np.asarray(temperature, dtype=float),
-                                           self.emissivity)
+        return self.signal(temperature) * self.rate_per_signal * self.integration_time
+
+    @property
+    def background_photoelectrons(self) -> float:
+        """Photo-charge [e⁻] with no emission from the object (a body at 0 K): reflection,
+        path and the optics' emission."""
+        signal = observed_signal(0.0, self.reflected_signal, self.path_transmission,
+                                 self.path_signal) + self.background_signal
         return signal * self.rate_per_signal * self.integration_time
 
     def electrons(self, temperature) -> np.ndarray:
@@ -152,7 +192,8 @@ class Calibration:
         below, above : numpy.ndarray of bool
             Counts under the lowest or over the highest temperature of the range.
         """
-        signal = self._signal(counts)
+        signal = object_signal(self._signal(counts) - self.background_signal,
+                               self.reflected_signal, self.path_transmission, self.path_signal)
         low, high = (self.response.grey_signal(t, self.emissivity)
                      for t in self.temperature_range)
         # The range is closed: its ends survive the counts round trip within a few ulp.
@@ -191,14 +232,16 @@ class Calibration:
 
     def lowest_measurable_temperature(self, snr: float = 1.0) -> float:
         """
-        Lowest grey-body temperature [K] of the calibration range whose photo-signal is ``snr``
-        times its temporal noise (the noise floor at ``snr`` = 1); NaN if none below
-        saturation.
+        Lowest grey-body temperature [K] of the calibration range whose photo-signal (above
+        the background of reflection, path and optics) is ``snr`` times its temporal noise (the
+        noise floor at ``snr`` = 1); NaN if none below saturation.
         """
         from scipy.optimize import brentq
 
+        background = self.background_photoelectrons
+
         def margin(t):
-            return float(self.photoelectrons(t) - snr * self.noise(t))
+            return float(self.photoelectrons(t) - background - snr * self.noise(t))
 
         low, top = self.temperature_range
         saturation = self.saturation_temperature

@@ -7,7 +7,11 @@ The camera, and the measurement chain that runs a scene through it.
 2. response (:mod:`radiosim.response`): the signal of every sample;
 3. integrator (:mod:`radiosim.integrator`): its mean over each pixel's footprint × window, with
    the scene-truth statistics of the same tensor;
-4. optics (:mod:`radiosim.optics`): mean signal → photo-electrons through the étendue;
+   — or, with a point-spread function, reflections or a path, the image the optics form
+   (:mod:`radiosim.imaging`: per-sample radiance per sub-band, the thermography equation's
+   terms, the PSF, then the footprint mean), the statistics staying scene truth;
+4. optics (:mod:`radiosim.optics`): mean signal, plus the optics' own emission → photo-electrons
+   through the étendue;
 5. electronics (:mod:`radiosim.electronics`): dark charge, shot and read noise, full well, ADC;
 6. calibration (:mod:`radiosim.calibration`): DN → apparent temperature and flags;
 7. :class:`~radiosim.measurement.Measurement`.
@@ -30,6 +34,7 @@ from radiosim.config import build_from_toml, dumps_toml, edge_field
 from radiosim.electronics import Electronics
 from radiosim.errors import RadiosimError, RadiosimWarning
 from radiosim.fpa import FocalPlaneArray
+from radiosim.imaging import forms_image, image_signal
 from radiosim.integrator import (FootprintIntegrator, Job, TensorStatistics, Window, integrate,
                                  integrate_many, integration_window)
 from radiosim.measurement import Measurement
@@ -68,6 +73,14 @@ class Camera:
         Electron rate per kelvin of the linear response [e⁻ s⁻¹ K⁻¹].
     calibration_range : tuple of float
         Temperatures the calibration covers [K].
+    assumed_reflected_temperature : float or None
+        The camera's reflected-temperature setting [K]; ``None``: nothing reflected.
+    assumed_path_transmission, assumed_path_temperature : float, float or None
+        The camera's setting for the path between scene and camera: transmission [1] and
+        temperature [K].
+    assumed_instrument_temperature : float or None
+        The instrument temperature [K] the calibration was made at (the optics' emission it
+        subtracts); ``None``: the optics' current ``instrument_temperature``.
 
     Examples
     --------
@@ -92,6 +105,15 @@ class Camera:
     calibration_range: tuple[float, float] = edge_field(
         (150.0, 3000.0), "calibration_range_K", kind="numbers",
         doc="temperatures the calibration covers [K]")
+    assumed_reflected_temperature: float | None = edge_field(
+        None, "assumed_reflected_temperature_K", doc="reflected-temperature setting [K]")
+    assumed_path_transmission: float = edge_field(1.0, "assumed_path_transmission",
+                                                  doc="path transmission setting")
+    assumed_path_temperature: float | None = edge_field(
+        None, "assumed_path_temperature_K", doc="path temperature setting [K]")
+    assumed_instrument_temperature: float | None = edge_field(
+        None, "assumed_instrument_temperature_K",
+        doc="instrument temperature of the calibration [K]")
 
     def __post_init__(self):
         if self.response not in ("linear", "planck"):
@@ -103,6 +125,15 @@ class Camera:
                            check_fraction(self.assumed_emissivity, "assumed_emissivity"))
         object.__setattr__(self, "calibration_range", tuple(float(t) for t in
                                                             self.calibration_range))
+        for name in ("assumed_reflected_temperature", "assumed_path_temperature",
+                     "assumed_instrument_temperature"):
+            if getattr(self, name) is not None:
+                object.__setattr__(self, name, check_positive(getattr(self, name), name, "K"))
+        tau = check_fraction(self.assumed_path_transmission, "assumed_path_transmission")
+        if tau == 0 or (tau < 1 and self.assumed_path_temperature is None):
+            raise RadiosimError(f"assumed_path_transmission must be in (0, 1], and below 1 needs "
+                                f"assumed_path_temperature [K]; got {tau!r}")
+        object.__setattr__(self, "assumed_path_transmission", tau)
 
     # -- construction -------------------------------------------------------------------------
 
@@ -211,10 +242,33 @@ class Camera:
         """Electron rate per unit of response signal [e⁻ s⁻¹ per signal unit]."""
         return self.response_model.rate_per_signal(self.etendue)
 
+    def instrument_signal(self, temperature: float | None = None) -> float:
+        """The optics' own emission into a pixel [signal unit] at ``temperature`` [K] (default
+        the optics' instrument temperature); 0 for the linear response."""
+        if not self.response_model.radiometric:
+            return 0.0
+        return self.optics.emitted_radiance(self.fpa.quantum_efficiency, temperature)
+
     def calibration(self, integration_time: float) -> Calibration:
-        """The camera's DN → temperature calibration for ``integration_time`` [s]."""
+        """The camera's DN → temperature calibration for ``integration_time`` [s], under its
+        settings (emissivity, reflected temperature, path, instrument temperature)."""
         return Calibration(self.response_model, self.electronics, self.rate_per_signal,
-                           integration_time, self.assumed_emissivity, self.calibration_range)
+                           integration_time, self.assumed_emissivity, self.calibration_range,
+                           self.assumed_reflected_temperature, self.assumed_path_transmission,
+                           self.assumed_path_temperature,
+                           self.instrument_signal(self.assumed_instrument_temperature))
+
+    def forms_image(self, scene: Scene) -> bool:
+        """Whether measuring ``scene`` takes the image stage (:mod:`radiosim.imaging`): a
+        PSF, or reflections or a path a radiometric response sees."""
+        return forms_image(scene, self.response_model, self.optics.psf)
+
+    def image(self, scene: Scene, window: Window, progress=None):
+        """Mean signal per pixel of the image the optics form of ``scene`` over ``window``
+        [signal unit] (:func:`radiosim.imaging.image_signal`)."""
+        return image_signal(scene, self.integrator(scene), window, self.response_model,
+                            self.optics.psf, self.optics.band, self.optics.object_na(self.fpa),
+                            progress)
 
     def integrator(self, scene: Scene) -> FootprintIntegrator:
         """The footprints of this camera's pixels on ``scene``."""
@@ -258,6 +312,8 @@ class Camera:
         # Scene frames (T [K], ε) → response signal per sample → mean per pixel over
         # footprint × window [signal unit], with the tensor's T statistics [K].
         stats = integrate(scene, self.integrator(scene), window, self.response_model)
+        if self.forms_image(scene):  # the statistics stay scene truth; the signal is imaged
+            stats = dataclasses.replace(stats, signal_mean=self.image(scene, window))
         return self.read_out(stats, window, scene, rng)
 
     def read_out(self, stats: TensorStatistics, window: Window, scene: Scene,
@@ -268,8 +324,10 @@ class Camera:
         """
         calibration = self.calibration(window.duration)
         calibration.check_resolution(stacklevel=3)
-        # Optics: mean signal → mean photo-electrons [e⁻] through the étendue.
-        photoelectrons = collect(stats.signal_mean, self.rate_per_signal, window.duration)
+        # Optics: mean signal and the optics' emission → mean photo-electrons [e⁻] through the
+        # étendue.
+        photoelectrons = collect(stats.signal_mean + self.instrument_signal(),
+                                 self.rate_per_signal, window.duration)
         # Electronics: dark charge, shot noise, full well, read noise, ADC → counts [DN].
         exposure = self.electronics.expose(photoelectrons, window.duration, rng)
         # Calibration: counts [DN] → apparent temperature [K] and flags.
@@ -342,5 +400,8 @@ def measure_many(scene: Scene, cases, rng=None, progress=None) -> list[Measureme
             integrators[key] = camera.integrator(scene)
         jobs.append(Job(integrators[key], window, camera.response_model))
     statistics = integrate_many(scene, jobs, progress)
+    statistics = [dataclasses.replace(stats, signal_mean=camera.image(scene, window))
+                  if camera.forms_image(scene) else stats
+                  for (camera, _, _), window, stats in zip(cases, windows, statistics)]
     return [camera.read_out(stats, window, scene, rng)
             for (camera, _, _), window, stats in zip(cases, windows, statistics)]

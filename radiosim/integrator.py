@@ -496,7 +496,7 @@ def _within(frame: SceneFrame, outer: Region, inner: Region) -> SceneFrame:
         return values[rows, cols] if isinstance(values, np.ndarray) else values
 
     return SceneFrame(cut(frame.temperature), cut(frame.emissivity), cut(frame.regions),
-                      frame.region_emissivity, frame.index)
+                      frame.region_emissivity, frame.index, cut(frame.reflected_temperature))
 
 
 #: The integration engines: ``"compiled"`` (numba kernels, :mod:`radiosim.kernels`) and

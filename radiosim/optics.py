@@ -2,8 +2,11 @@
 The optics: lens, filter and cold stop between the scene and the focal plane.
 
 This stage turns the mean in-band radiance a pixel sees into the rate at which it collects
-photo-electrons, through the étendue of its active area. It is where the optics' point-spread
-function acts on image-plane radiance (before the pixel footprint), when the chain grows one.
+photo-electrons, through the étendue of its active area. The optics' point-spread function
+(:mod:`radiosim.psf`, ``Optics.psf``) acts on image-plane radiance before the pixel footprint
+(:mod:`radiosim.imaging`). Optics at an instrument temperature T_i with transmission τ(λ) emit
+(1 − τ(λ))·L(λ, T_i) into every pixel (Kirchhoff's law for a non-scattering lens), seen through
+the filter and the detector's quantum efficiency: a background charge with its shot noise.
 
 The light cone reaching a pixel is limited by the narrower of two apertures: the camera's cold
 stop, of image-space f-number N (sin θ' = 1 / √(4N² + 1)), and, behind a microscope objective
@@ -28,6 +31,9 @@ from radiosim.checks import check_positive
 from radiosim.config import edge_field
 from radiosim.errors import RadiosimError
 from radiosim.fpa import FocalPlaneArray
+from radiosim.psf import PSF, as_psf
+from radiosim.radiometry import band_radiance
+from radiosim.response import reflectance
 from radiosim.spectral import as_spectrum
 
 __all__ = ["Optics", "etendue", "f_number_of", "collect"]
@@ -99,6 +105,12 @@ class Optics:
     objective_na : float or None
         Object-side numerical aperture of a microscope objective (dimensionless); ``None``:
         the cold stop alone limits the cone.
+    psf : tuple of PSF or None
+        Point-spread functions (their convolution; :mod:`radiosim.psf`); ``None``: a perfect
+        lens. A single PSF or TOML tables (``[[optics.psf]]`` with a ``type``) are accepted.
+    instrument_temperature : float or None
+        Temperature of the lens and windows [K], which emit (1 − transmission); ``None``: cold
+        optics, no emission.
 
     Examples
     --------
@@ -117,6 +129,10 @@ class Optics:
         1.0, "spectral_filter", kind="curve", doc="filter transmission curve or number")
     objective_na: float | None = edge_field(
         None, "objective_na", doc="object-side numerical aperture of the objective")
+    psf: tuple[PSF, ...] | None = edge_field(None, "psf", kind="psf",
+                                             doc="point-spread functions (tables with a type)")
+    instrument_temperature: float | None = edge_field(
+        None, "instrument_temperature_K", doc="temperature of the emitting lens and windows [K]")
 
     def __post_init__(self):
         try:
@@ -137,6 +153,10 @@ class Optics:
             if na >= 1:
                 raise RadiosimError(f"objective_na must be < 1 (a dry objective), got {na!r}")
             object.__setattr__(self, "objective_na", na)
+        object.__setattr__(self, "psf", as_psf(self.psf))
+        if self.instrument_temperature is not None:
+            object.__setattr__(self, "instrument_temperature", check_positive(
+                self.instrument_temperature, "instrument_temperature", "K"))
 
     def image_f_number(self, fpa: FocalPlaneArray) -> float:
         """
@@ -159,6 +179,24 @@ class Optics:
     def responsivity(self) -> list:
         """The optics' spectral factors of the Planck response: filter and transmission."""
         return [self.spectral_filter, self.transmission]
+
+    def emitted_radiance(self, quantum_efficiency, temperature: float | None = None) -> float:
+        """
+        In-band photon radiance the optics emit into a pixel [photons s⁻¹ m⁻² sr⁻¹]:
+        ∫ (1 − τ(λ)) · filter(λ) · QE(λ) · L_q(λ, T_i) dλ, at ``temperature`` [K] (default the
+        instrument temperature; 0 for cold optics).
+
+        Examples
+        --------
+        >>> Optics(transmission=1.0, instrument_temperature=300.0).emitted_radiance(1.0)
+        0.0
+        """
+        t = self.instrument_temperature if temperature is None else temperature
+        if t is None:
+            return 0.0
+        return float(band_radiance(check_positive(t, "instrument temperature", "K"), self.band,
+                                   "photon", [self.spectral_filter, quantum_efficiency],
+                                   reflectance(self.transmission)))
 
 
 def collect(signal_mean, rate_per_signal: float, integration_time: float):

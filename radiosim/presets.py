@@ -23,6 +23,7 @@ from radiosim.electronics import Electronics
 from radiosim.errors import RadiosimError
 from radiosim.fpa import FocalPlaneArray
 from radiosim.optics import Optics
+from radiosim.psf import as_psf
 from radiosim.spectral import available_spectra, read_spectrum, spectral_distribution
 
 __all__ = ["PRESET_DIRECTORY", "available_presets", "camera_fields", "camera_table",
@@ -85,7 +86,7 @@ def camera_fields(camera_class, data: dict, base: Path | None = None) -> dict:
     converted to SI, with its components built.
     """
     data = dict(data)
-    converters = {"curve": _curve_reader(base)}
+    converters = {"curve": _curve_reader(base), "psf": lambda key, value: as_psf(value, base)}
     data.pop("description", None)
     components = {}
     for name, component in SECTIONS.items():
@@ -103,7 +104,7 @@ def camera_table(camera) -> dict:
     A camera in the preset structure (edge units in the keys), so that :func:`camera_fields`
     rebuilds it exactly. Shipped curves are named; others are inlined.
     """
-    converters = {"curve": _curve_entry}
+    converters = {"curve": _curve_entry, "psf": lambda psfs: [p.to_table() for p in psfs]}
     out = to_table(camera, converters)
     for name in SECTIONS:
         out[name] = to_table(getattr(camera, name), converters)

@@ -35,13 +35,56 @@ from radiosim.radiometry import QUANTITIES, BandRadianceTable, band_radiance
 from radiosim.scenes.base import SceneFrame
 
 __all__ = ["Response", "LinearResponse", "PlanckResponse", "RESPONSES",
-           "PLANCK_TABLE_RANGE"]
+           "PLANCK_TABLE_RANGE", "observed_signal", "object_signal", "reflectance"]
 
 #: Temperatures the Planck response tabulates [K]: colder samples are integrated exactly,
 #: hotter ones are refused. Its relative error against quadrature stays below 1e-7 over the
 #: range (the 2 K spline of ln L loses accuracy below about 123 K, where ln L curves fastest).
 PLANCK_TABLE_RANGE = (130.0, 4000.0)
 _TABLE_MARGIN = 30.0  # [K] the spline starts this far below the range, clear of its end effects
+
+
+def reflectance(emissivity):
+    """
+    The reflectance 1 − ε(λ) of an opaque surface of ``emissivity`` (a grey scalar, a grey map
+    or a spectral curve), in the same form (Kirchhoff's law).
+    """
+    if isinstance(emissivity, SpectralDistribution):
+        out = emissivity.copy()
+        out.values = 1.0 - np.asarray(emissivity.values, dtype=float)
+        out.name = f"1 - {emissivity.name}"
+        return out
+    return 1.0 - emissivity
+
+
+def observed_signal(emitted, reflected, path_transmission: float = 1.0, path_emitted=0.0):
+    """
+    The thermography equation, forward: the signal reaching the camera from an opaque surface,
+
+        S = τ · (ε L(T) + (1 − ε) L(T_refl)) + (1 − τ) · L(T_path),
+
+    from its ``emitted`` part ε L(T), its ``reflected`` part (1 − ε) L(T_refl), and a grey path
+    of transmission τ that emits ``path_emitted`` = L(T_path) [all in the response's unit].
+
+    Examples
+    --------
+    >>> observed_signal(3.0, 1.0, 0.5, 2.0)
+    3.0
+    """
+    return path_transmission * (emitted + reflected) + (1.0 - path_transmission) * path_emitted
+
+
+def object_signal(observed, reflected, path_transmission: float = 1.0, path_emitted=0.0):
+    """
+    The thermography equation, inverted: the emitted part ε L(T) of an ``observed`` signal,
+    given the reflected part and the path (the inverse of :func:`observed_signal`).
+
+    Examples
+    --------
+    >>> object_signal(observed_signal(3.0, 1.0, 0.5, 2.0), 1.0, 0.5, 2.0)
+    3.0
+    """
+    return (observed - (1.0 - path_transmission) * path_emitted) / path_transmission - reflected
 
 
 class Response(ABC):
@@ -53,6 +96,9 @@ class Response(ABC):
     #: Whether :meth:`kernel_table` describes the signal to the compiled kernels; responses
     #: that do not are integrated by the numpy engine.
     has_kernel: bool = False
+    #: Whether the signal is a radiance, so that reflections, paths and the optics' emission add
+    #: to it (the linear response's signal is the temperature itself: the paper's ideal).
+    radiometric: bool = False
 
     @abstractmethod
     def signal(self, frame: SceneFrame) -> np.ndarray:
@@ -78,6 +124,16 @@ class Response(ABC):
     def rate_per_signal(self, etendue: float) -> float:
         """Electron rate per unit of signal [e⁻ s⁻¹ per :attr:`unit`] for a pixel of
         ``etendue`` [m² sr]."""
+
+    def sub_bands(self, n: int) -> list:
+        """
+        The response split into ``n`` spectral sub-bands of equal width, whose signals add up
+        to this one's, each with its centre wavelength [m]: ``[(response, wavelength), …]``.
+        A response without a spectrum (the linear one) is one band at the centre of
+        ``band``.
+        """
+        return [(self, float("nan"))]
+
 
     def slope(self, temperature, emissivity: float = 1.0) -> np.ndarray:
         """d(signal)/dT of a grey body [:attr:`unit` K⁻¹] (central difference of 1 mK)."""
@@ -146,6 +202,8 @@ class PlanckResponse(Response):
     unit = QUANTITIES["photon"]
     has_kernel = True
 
+    radiometric = True
+
     def __init__(self, band, responsivity, temperature_range=PLANCK_TABLE_RANGE):
         self.band = tuple(band)
         self.responsivity = responsivity
@@ -154,6 +212,16 @@ class PlanckResponse(Response):
                                  0.5 * self.temperature_range[0]), self.temperature_range[1])
         self._tables: dict[int, tuple[SpectralDistribution | None, BandRadianceTable]] = {}
         self._kernel_tables: dict[tuple, RadianceKernelTable] = {}
+        self._split: dict[int, list] = {}
+
+    def sub_bands(self, n: int) -> list:
+        if n not in self._split:
+            edges = np.linspace(self.band[0], self.band[1], int(n) + 1)
+            self._split[n] = [
+                (self if n == 1 else PlanckResponse((lo, hi), self.responsivity,
+                                                    self.temperature_range), 0.5 * (lo + hi))
+                for lo, hi in zip(edges[:-1], edges[1:])]
+        return self._split[n]
 
     def table(self, emissivity=1.0) -> BandRadianceTable:
         """
@@ -195,15 +263,26 @@ class PlanckResponse(Response):
             return radiance
         return radiance * emissivity
 
-    def signal(self, frame: SceneFrame) -> np.ndarray:
-        """ε·L_q(T) of each sample [photons s⁻¹ m⁻² sr⁻¹]."""
+    def _surface(self, temperature, frame: SceneFrame, optical) -> np.ndarray:
+        """optical(ε)·L_q(T) per sample, with the frame's emissivity (grey, curve, map or per
+        region) passed through ``optical`` (the identity, or :func:`reflectance`)."""
         if frame.regions is None:
-            return self._grey_or_curve(frame.temperature, frame.emissivity)
-        out = np.zeros(frame.temperature.shape)
+            return self._grey_or_curve(temperature, optical(frame.emissivity))
+        out = np.zeros(temperature.shape)
         for code, value in frame.region_emissivity.items():
             here = frame.regions == code
             if here.any():
-                out[here] = self._grey_or_curve(frame.temperature[here], value)
+                out[here] = self._grey_or_curve(temperature[here], optical(value))
+        return out
+
+    def signal(self, frame: SceneFrame) -> np.ndarray:
+        """ε·L_q(T) + (1 − ε)·L_q(T_refl) of each sample [photons s⁻¹ m⁻² sr⁻¹] (the second
+        term where the frame reflects a temperature)."""
+        out = self._surface(frame.temperature, frame, lambda e: e)
+        if frame.reflected_temperature is not None:
+            reflected = np.broadcast_to(np.asarray(frame.reflected_temperature, dtype=float),
+                                        np.shape(frame.temperature))
+            out = out + self._surface(reflected, frame, reflectance)
         return out
 
     def grey_signal(self, temperature, emissivity: float = 1.0) -> np.ndarray:

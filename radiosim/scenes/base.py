@@ -22,7 +22,7 @@ from radiosim.errors import RadiosimError
 from radiosim.spectral import as_spectrum
 
 __all__ = ["Region", "SceneFrame", "Scene", "CroppedScene", "check_frame", "check_positive",
-           "check_emissivity", "check_grid"]
+           "check_emissivity", "check_grid", "AMBIENT_TEMPERATURE"]
 
 #: A rectangular region of a frame: (row slice, column slice), both with explicit bounds.
 Region = tuple[slice, slice]
@@ -47,6 +47,9 @@ class SceneFrame:
         ``emissivity``.
     index : int
         Frame index k.
+    reflected_temperature : float, numpy.ndarray or None
+        Temperature [K] of what each sample reflects (a scalar or a map shaped like
+        ``temperature``); ``None``: a black room, nothing reflected.
     """
 
     temperature: np.ndarray
@@ -54,6 +57,7 @@ class SceneFrame:
     regions: np.ndarray | None = None
     region_emissivity: dict | None = None
     index: int = 0
+    reflected_temperature: float | np.ndarray | None = None
 
 
 def check_grid(dx: float, dt: float) -> tuple[float, float]:
@@ -79,6 +83,19 @@ def check_emissivity(emissivity, shape: tuple[int, int]):
     return as_spectrum(emissivity, "emissivity")
 
 
+def _check_temperature_field(value, what: str) -> np.ndarray:
+    values = np.asarray(value, dtype=float)
+    bad = ~(np.isfinite(values) & (values > 0))
+    if bad.any():
+        raise RadiosimError(f"{what} must be finite temperatures > 0 K, got "
+                            f"{values[bad].flat[0]!r}")
+    return values
+
+
+#: Temperature of a scene's surroundings when none is stated [K]: a laboratory at 20 °C.
+AMBIENT_TEMPERATURE = 293.15
+
+
 class Scene(ABC):
     """
     Temperature frames [K] on a regular grid, streamed one frame at a time.
@@ -97,6 +114,19 @@ class Scene(ABC):
         Grey scalar, grey map shaped like a frame, or spectral curve (domain [m]).
     event_time : float or None
         Time [s] a measurement window is centred on when no start is given, if any.
+    reflected_temperature : float, numpy.ndarray or None
+        Temperature [K] of what the surfaces reflect: a scalar, a map shaped like a frame, or
+        one value per frame (1-D, ``n_frames`` long); ``None``: nothing (a black room).
+    path_transmission, path_temperature : float, float or None
+        A grey path between the scene and the camera (an atmosphere, a window in the
+        set-up): transmission [1] and temperature [K]; by default none (1, ``None``).
+    surroundings_temperature : float
+        Temperature [K] of the blackbody surroundings beyond the frame's edges, whose light a
+        point-spread function's wings carry into the image (default 293.15 K).
+
+    Notes
+    -----
+    Set the last four with :meth:`set_environment`.
     """
 
     dx: float
@@ -105,6 +135,67 @@ class Scene(ABC):
     n_frames: int | None = None
     emissivity: float | np.ndarray | SpectralDistribution = 1.0
     event_time: float | None = None
+    reflected_temperature: float | np.ndarray | None = None
+    path_transmission: float = 1.0
+    path_temperature: float | None = None
+    surroundings_temperature: float = AMBIENT_TEMPERATURE
+
+    def set_environment(self, reflected_temperature=None, path_transmission: float = 1.0,
+                        path_temperature: float | None = None,
+                        surroundings_temperature: float = AMBIENT_TEMPERATURE):
+        """
+        State what the scene's surfaces reflect, the path to the camera and the surroundings
+        (see the class attributes); returns the scene.
+
+        Examples
+        --------
+        >>> from radiosim.scenes import UniformBlackbody
+        >>> scene = UniformBlackbody(800.0).set_environment(reflected_temperature=293.15)
+        >>> scene.reflected_temperature
+        293.15
+        """
+        if reflected_temperature is not None:
+            values = _check_temperature_field(reflected_temperature, "reflected_temperature")
+            if values.ndim == 0:
+                reflected_temperature = float(values)
+            elif values.ndim == 2 and values.shape != tuple(self.shape):
+                raise RadiosimError(f"reflected_temperature map has shape {values.shape}, "
+                                    f"expected the frame shape {tuple(self.shape)}")
+            elif values.ndim == 1 and (self.n_frames is None or values.size != self.n_frames):
+                raise RadiosimError(f"reflected_temperature per frame has {values.size} values, "
+                                    f"expected one per frame ({self.n_frames})")
+            elif values.ndim > 2:
+                raise RadiosimError("reflected_temperature must be a scalar, a frame-shaped map "
+                                    f"or one value per frame, got shape {values.shape}")
+            else:
+                reflected_temperature = values
+        self.reflected_temperature = reflected_temperature
+        tau = float(path_transmission)
+        if not 0 < tau <= 1:
+            raise RadiosimError(f"path_transmission must be in (0, 1], got {path_transmission!r}")
+        self.path_transmission = tau
+        self.path_temperature = (None if path_temperature is None else float(
+            _check_temperature_field(path_temperature, "path_temperature")))
+        if tau < 1 and self.path_temperature is None:
+            raise RadiosimError("a path with transmission < 1 needs its path_temperature [K]")
+        self.surroundings_temperature = float(_check_temperature_field(
+            surroundings_temperature, "surroundings_temperature"))
+        return self
+
+    def _reflected(self, k: int, region: Region):
+        """The reflected temperature of frame ``k`` over ``region`` [K] (scalar, map or None)."""
+        value = self.reflected_temperature
+        if isinstance(value, np.ndarray):
+            return float(value[k]) if value.ndim == 1 else value[region[0], region[1]]
+        return value
+
+    @property
+    def environment(self) -> dict:
+        """The environment as :meth:`set_environment`'s keyword arguments."""
+        return dict(reflected_temperature=self.reflected_temperature,
+                    path_transmission=self.path_transmission,
+                    path_temperature=self.path_temperature,
+                    surroundings_temperature=self.surroundings_temperature)
 
     @property
     def duration(self) -> float | None:
@@ -159,7 +250,8 @@ class Scene(ABC):
         """
         k, region = self._where(k, region)
         frame = self._sample(k, region)
-        return dataclasses.replace(frame, temperature=self._checked(frame.temperature, k, region))
+        return dataclasses.replace(frame, temperature=self._checked(frame.temperature, k, region),
+                                   reflected_temperature=self._reflected(k, region))
 
     def sample_unchecked(self, k: int, region: Region | None = None) -> SceneFrame:
         """
@@ -173,7 +265,9 @@ class Scene(ABC):
         if np.shape(frame.temperature) != expected:
             raise RadiosimError(f"frame {k} has shape {np.shape(frame.temperature)}, expected "
                                 f"{expected} from the scene's shape {self.shape}")
-        return frame
+        if self.reflected_temperature is None:
+            return frame
+        return dataclasses.replace(frame, reflected_temperature=self._reflected(k, region))
 
     def frames(self, start: int, stop: int, region: Region | None = None) -> Iterator[np.ndarray]:
         """Frames ``start`` to ``stop - 1`` [K], one at a time."""
@@ -238,6 +332,12 @@ class CroppedScene(Scene):
         if isinstance(emissivity, np.ndarray):
             emissivity = emissivity[bounds[0][0]:bounds[0][1], bounds[1][0]:bounds[1][1]]
         self.emissivity = emissivity
+        environment = scene.environment
+        reflected = environment["reflected_temperature"]
+        if isinstance(reflected, np.ndarray) and reflected.ndim == 2:
+            environment["reflected_temperature"] = reflected[bounds[0][0]:bounds[0][1],
+                                                             bounds[1][0]:bounds[1][1]]
+        self.set_environment(**environment)
 
     def _shift(self, region: Region) -> Region:
         (r0, c0), (rs, cs) = self.offset, region
