@@ -1,5 +1,6 @@
 """
-Camera characterisation after EMVA 1288: the photon-transfer curve and what it recovers.
+Camera characterisation: the photon-transfer curve after EMVA 1288 and what it recovers, and the
+size-of-source effect of the optics.
 
 A flat field (a uniform blackbody) is recorded twice at each exposure level; the mean of the
 pair gives μ_y [DN] and half the variance of their difference gives the temporal variance σ²_y
@@ -8,9 +9,19 @@ line fitted over the linear range (up to 70 % of saturation, as the standard pre
 the system gain K [DN/e⁻]; the dark variance gives the dark noise σ_d = √(σ²_y,dark − 1/12)/K
 [e⁻]; and the saturation capacity is the charge (μ_y − μ_y,dark)/K where the variance peaks.
 
+The size-of-source effect (SSE) is measured as MSL Technical Guide 26 describes: the camera
+views uniform discs of increasing diameter d, centred on a pixel, in front of a uniform
+background; SSE(d) = (S(d) − S_bg) / (S(d_ref) − S_bg), the centre pixel's signal above the
+background relative to that of the largest disc. A scatter halo whose wings fall as r⁻³
+(:class:`~radiosim.psf.ScatterHalo`) gives, for a pixel small against the halo,
+S(d) − S_bg ∝ 1 − β · a / √((d/2)² + a²), which :func:`fit_scatter_halo` fits to a measured
+curve.
+
 References
 ----------
 -   EMVA Standard 1288, Release 4.0 Linear (2021), sections 6 and 8.
+-   Saunders, P. (2015). MSL Technical Guide 26: Size-of-source effect. Measurement Standards
+    Laboratory of New Zealand.
 """
 
 from __future__ import annotations
@@ -21,10 +32,16 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from radiosim.checks import check_positive
 from radiosim.errors import RadiosimError, RadiosimWarning
+from radiosim.integrator import integration_window
+from radiosim.optics import collect
+from radiosim.psf import ScatterHalo
 from radiosim.scenes.analytic import UniformBlackbody
+from radiosim.scenes.framestack import FrameStack
 
-__all__ = ["PhotonTransfer", "photon_transfer", "EmvaResult", "fit_emva1288"]
+__all__ = ["PhotonTransfer", "photon_transfer", "EmvaResult", "fit_emva1288",
+           "SizeOfSource", "size_of_source", "HaloFit", "fit_scatter_halo"]
 
 
 @dataclass(frozen=True)
@@ -119,3 +136,170 @@ def fit_emva1288(ptc: PhotonTransfer, linear_fraction: float = 0.7) -> EmvaResul
     dark_noise = float(np.sqrt(max(ptc.dark_variance - 1 / 12, 0.0)) / gain)
     return EmvaResult(gain=gain, dark_noise=dark_noise,
                       saturation_capacity=float(signal[peak] / gain), linear_range=linear)
+
+
+@dataclass(frozen=True)
+class SizeOfSource:
+    """
+    A camera's size-of-source curve.
+
+    Attributes
+    ----------
+    diameter : numpy.ndarray
+        Disc diameters [m, object space].
+    signal : numpy.ndarray
+        Centre pixel's mean signal [response unit] with each disc (noise-free).
+    background_signal : float
+        The same with no disc [response unit].
+    sse : numpy.ndarray
+        (signal − background) / (signal of the largest disc − background) [1].
+    apparent_temperature : numpy.ndarray
+        The centre pixel's noise-free reading [K] (NaN outside the calibration).
+    """
+
+    diameter: np.ndarray
+    signal: np.ndarray
+    background_signal: float
+    sse: np.ndarray
+    apparent_temperature: np.ndarray
+
+
+#: Samples per pixel pitch, and at most this many samples across a disc scene.
+_SSE_SAMPLES_PER_PIXEL = 3
+_SSE_MAX_SAMPLES = 768
+
+
+def _disc_signal(camera, diameter: float, temperature: float, background: float,
+                 integration_time: float) -> float:
+    """The centre pixel's imaged signal of a disc (0 diameter: the background alone)."""
+    pitch = camera.fpa.pixel_pitch
+    span = max(diameter, 4 * pitch) * 1.25  # the disc and a margin of background
+    dx = max(pitch / _SSE_SAMPLES_PER_PIXEL, span / _SSE_MAX_SAMPLES)
+    n = int(np.ceil(span / dx)) | 1  # odd: a sample at the centre
+    centre = n * dx / 2  # [m] from the scene's edge
+    coordinate = (np.arange(n) + 0.5) * dx - centre
+    inside = np.hypot(coordinate[:, None], coordinate[None, :]) < diameter / 2
+    frame = np.where(inside, temperature, background)[None]
+    scene = FrameStack(frame, dt=integration_time, dx=dx).set_environment(
+        surroundings_temperature=background)
+    fpa = dataclasses.replace(camera.fpa, shape=(1, 1),
+                              origin=(centre - pitch / 2, centre - pitch / 2))
+    one_pixel = camera.replace(fpa=fpa)
+    window = integration_window(scene, integration_time, 0.0)
+    return float(one_pixel.image(scene, window)[0, 0])
+
+
+def size_of_source(camera, diameters, temperature: float = 1273.15,
+                   background: float = 293.15, integration_time: float = 10e-6
+                   ) -> SizeOfSource:
+    """
+    The camera's size-of-source curve: the reading of uniform blackbody discs against their
+    diameter (MSL Technical Guide 26), through the optics' PSF and the pixel's footprint.
+
+    Parameters
+    ----------
+    camera
+        The camera (its PSF, response, fill factor and calibration).
+    diameters
+        Disc diameters [m, object space], increasing; the largest is the reference.
+    temperature, background
+        Disc and background (and surroundings) temperatures [K].
+    integration_time
+        Integration time [s] of the readings.
+
+    Returns
+    -------
+    SizeOfSource
+
+    Examples
+    --------
+    >>> from radiosim.camera import Camera
+    >>> from radiosim.psf import ScatterHalo
+    >>> cam = Camera.linear_ideal(6e-6)
+    >>> cam = cam.replace(optics=dataclasses.replace(cam.optics, psf=ScatterHalo(0.1, 60e-6)))
+    >>> curve = size_of_source(cam, [60e-6, 240e-6, 960e-6])
+    >>> np.round(curve.sse, 3).tolist()
+    [0.922, 0.967, 1.0]
+    """
+    diameters = np.asarray(diameters, dtype=float)
+    if diameters.ndim != 1 or diameters.size < 2 or not np.all(np.isfinite(diameters)) or \
+            np.any(diameters <= 0) or np.any(np.diff(diameters) <= 0):
+        raise RadiosimError(f"diameters must be at least two increasing lengths > 0 [m], got "
+                            f"{diameters.tolist()}")
+    temperature = check_positive(temperature, "disc temperature", "K")
+    background = check_positive(background, "background temperature", "K")
+    t_int = check_positive(integration_time, "integration_time", "s")
+    if temperature == background:
+        raise RadiosimError("the disc and the background must differ in temperature")
+    base = _disc_signal(camera, 0.0, temperature, background, t_int)
+    signal = np.array([_disc_signal(camera, d, temperature, background, t_int)
+                       for d in diameters])
+    calibration = camera.calibration(t_int)
+    photo = collect(signal + camera.instrument_signal(), camera.rate_per_signal, t_int)
+    apparent = calibration.temperature(camera.electronics.mean_counts(photo, t_int))
+    return SizeOfSource(diameters, signal, base, (signal - base) / (signal[-1] - base),
+                        apparent)
+
+
+@dataclass(frozen=True)
+class HaloFit:
+    """
+    A scatter halo fitted to an SSE curve.
+
+    Attributes
+    ----------
+    halo : ScatterHalo
+        The fitted halo (fraction β [1], width a [m]).
+    scale : float
+        Fitted signal of an infinite disc relative to the curve's normalisation [1].
+    residuals : numpy.ndarray
+        Measured minus fitted SSE at each diameter [1].
+    """
+
+    halo: ScatterHalo
+    scale: float
+    residuals: np.ndarray
+
+
+def _halo_sse(diameter, fraction, width, scale):
+    radius = np.asarray(diameter) / 2
+    return scale * (1.0 - fraction * width / np.sqrt(radius * radius + width * width))
+
+
+def fit_scatter_halo(diameters, sse) -> HaloFit:
+    """
+    Fit a :class:`~radiosim.psf.ScatterHalo` to a measured size-of-source curve,
+    SSE(d) = c · (1 − β a / √((d/2)² + a²)) with c the curve's normalisation (least squares).
+
+    The model holds for discs much larger than the PSF's core and the pixel: pass diameters
+    from a few core widths upward.
+
+    Parameters
+    ----------
+    diameters
+        Disc diameters [m].
+    sse
+        Signal above background, relative (any normalisation) [1].
+
+    Examples
+    --------
+    >>> d = np.geomspace(50e-6, 5e-3, 12)
+    >>> fit = fit_scatter_halo(d, _halo_sse(d, 0.04, 150e-6, 1.02))
+    >>> round(fit.halo.fraction, 6), round(fit.halo.width * 1e6, 3)
+    (0.04, 150.0)
+    """
+    from scipy.optimize import least_squares
+
+    d = np.asarray(diameters, dtype=float)
+    y = np.asarray(sse, dtype=float)
+    if d.shape != y.shape or d.ndim != 1 or d.size < 4:
+        raise RadiosimError(f"need at least 4 (diameter, SSE) pairs of equal length, got "
+                            f"{d.size} diameters and {y.size} values")
+    if not (np.all(np.isfinite(d)) and np.all(d > 0) and np.all(np.isfinite(y))):
+        raise RadiosimError("diameters must be finite and > 0 [m] and SSE values finite")
+    start = (0.05, float(np.median(d)) / 2, float(y.max()))
+    fit = least_squares(lambda p: _halo_sse(d, *p) - y, start,
+                        bounds=([0.0, d.min() * 1e-3, 0.0], [1.0, d.max() * 1e3, np.inf]),
+                        x_scale=(0.1, start[1], start[2]), xtol=1e-15, ftol=1e-15, gtol=1e-15)
+    fraction, width, scale = fit.x
+    return HaloFit(ScatterHalo(float(fraction), float(width)), float(scale), -fit.fun)

@@ -164,16 +164,7 @@ def _measure(args) -> int:
     from radiosim.io import read_fea_nodes, read_frames, write_exr
     from radiosim.study import summarise
 
-    if args.camera == "linear-ideal":
-        if args.pixel_pitch is None:
-            raise RadiosimError("the linear-ideal camera needs --pixel-pitch (e.g. 6um)")
-        camera = Camera.linear_ideal(args.pixel_pitch)
-    elif args.camera.endswith(".toml"):
-        camera = Camera.from_toml(args.camera)
-    else:
-        camera = Camera.preset(args.camera)
-    if args.pixel_pitch is not None and args.camera != "linear-ideal":
-        camera = camera.with_pixel_pitch(args.pixel_pitch)
+    camera = _camera(args.camera, args.pixel_pitch)
     path = Path(args.scene)
     if not any(c in args.scene for c in "*?[") and not path.exists():
         raise RadiosimError(f"{path} does not exist (expected a .npy/.npz stack, a folder or "
@@ -216,6 +207,56 @@ def _measure(args) -> int:
           f"{100 * summary['over_range_fraction']:.1f} %")
     if args.out:
         print(f"wrote {write_exr(args.out, m)}")
+    return 0
+
+
+def _camera(name: str, pixel_pitch: float | None = None) -> Camera:
+    """A camera from the command line: a preset name, linear-ideal (with a pitch) or a TOML."""
+    if name == "linear-ideal":
+        if pixel_pitch is None:
+            raise RadiosimError("the linear-ideal camera needs --pixel-pitch (e.g. 6um)")
+        return Camera.linear_ideal(pixel_pitch)
+    camera = Camera.from_toml(name) if name.endswith(".toml") else Camera.preset(name)
+    return camera if pixel_pitch is None else camera.with_pixel_pitch(pixel_pitch)
+
+
+def _sse(args) -> int:
+    import numpy as np
+
+    from radiosim.characterization import fit_scatter_halo, size_of_source
+    from radiosim.files import write_text
+
+    camera = _camera(args.camera)
+    if args.out is not None:
+        if Path(args.out).suffix.lower() != ".csv":
+            raise RadiosimError(f"--out {args.out}: the SSE curve is a CSV table; give a path "
+                                "ending in .csv")
+        if Path(args.out).exists() and not args.overwrite:
+            raise RadiosimError(f"--out {args.out} exists; choose a new name or pass --overwrite")
+    pitch = camera.fpa.pixel_pitch
+    diameters = (np.array(args.diameters) if args.diameters else
+                 pitch * np.geomspace(2, 200, 13))
+    curve = size_of_source(camera, diameters, args.temperature, args.background,
+                           args.integration_time)
+    psf = ", ".join(type(p).__name__ for p in camera.optics.psf or ()) or "perfect lens"
+    print(f"{camera.name} ({psf}): size-of-source effect, a {args.temperature - 273.15:g} °C "
+          f"disc on {args.background - 273.15:g} °C, {args.integration_time * 1e6:g} µs")
+    print(f"{'diameter':>10}{'SSE':>10}{'reading':>10}")
+    print(f"{'[µm]':>10}{'[1]':>10}{'[°C]':>10}")
+    lines = ["diameter_um,signal,sse,apparent_C"]
+    for d, sig, sse, t in zip(curve.diameter, curve.signal, curve.sse,
+                              curve.apparent_temperature):
+        print(f"{d * 1e6:>10.1f}{sse:>10.5f}{t - 273.15:>10.1f}")
+        lines.append(f"{d * 1e6:.6g},{sig:.10g},{sse:.10g},{t - 273.15:.6g}")
+    large = curve.diameter >= 10 * pitch
+    if large.sum() >= 4 and np.ptp(curve.sse[large]) > 1e-9:
+        fit = fit_scatter_halo(curve.diameter[large], curve.sse[large])
+        print(f"effective halo fitted to the discs ≥ 10 pixels (diffraction's own r⁻³ wings "
+              f"included): fraction {fit.halo.fraction:.4g}, width "
+              f"{fit.halo.width * 1e6:.4g} µm (rms residual {np.sqrt(np.mean(fit.residuals**2)):.2g})")
+    if args.out:
+        write_text(args.out, "\n".join(lines) + "\n")
+        print(f"wrote {args.out}")
     return 0
 
 
@@ -304,6 +345,22 @@ def build_parser() -> argparse.ArgumentParser:
     measure.add_argument("--out", help="write the measurement to this .exr file (a new one)")
     measure.add_argument("--overwrite", action="store_true", help="replace --out if it exists")
     measure.set_defaults(func=_measure)
+    sse = sub.add_parser("sse", help="the size-of-source curve of a camera",
+                         description="Image uniform blackbody discs of increasing diameter "
+                         "through the camera's optics (MSL Technical Guide 26) and print the "
+                         "size-of-source effect; a scatter halo is fitted to the large discs.")
+    sse.add_argument("camera", help="preset name or camera TOML")
+    sse.add_argument("--temperature", type=parse_temperature, default=1273.15,
+                     help="disc temperature, e.g. 1000C (default 1000C)")
+    sse.add_argument("--background", type=parse_temperature, default=293.15,
+                     help="background temperature, e.g. 20C (default 20C)")
+    sse.add_argument("--diameters", type=parse_length, nargs="+",
+                     help="disc diameters, e.g. 12um 60um 600um (default 2 to 200 pixels)")
+    sse.add_argument("--integration-time", type=parse_time, default=10e-6, metavar="T",
+                     help="integration time (default 10us)")
+    sse.add_argument("--out", help="write the curve to this .csv file (a new one)")
+    sse.add_argument("--overwrite", action="store_true", help="replace --out if it exists")
+    sse.set_defaults(func=_sse)
     presets = sub.add_parser("presets", help="list the cameras and studies")
     presets.set_defaults(func=_presets)
     scene = sub.add_parser("scene", help="the built-in segmented-chip scene")

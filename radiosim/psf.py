@@ -58,7 +58,7 @@ from radiosim.config import edge_value, si_value
 from radiosim.errors import RadiosimError
 
 __all__ = ["PSF", "Diffraction", "GaussianBlur", "ScatterHalo", "TabulatedPSF", "as_psf",
-           "psf_floor", "transfer", "sampled_transfer", "blur", "padded_shape",
+           "psf_floor", "transfer", "sampled_transfer", "blur", "padded_shape", "reach",
            "airy_encircled_energy", "halo_encircled_energy", "PSF_TYPES"]
 
 #: |H − floor| below this fraction is negligible: the aliases beyond are not summed.
@@ -84,6 +84,12 @@ class PSF(ABC):
     @abstractmethod
     def bandwidth(self, wavelength: float, object_na: float) -> float:
         """Frequency [cycles m⁻¹] beyond which |OTF − floor| < 1e-13 (the aliases summed)."""
+
+    @abstractmethod
+    def reach(self, wavelength: float, object_na: float) -> float:
+        """Distance [m] beyond which the PSF's kernel is negligible against its core (20 core
+        widths for the power-law wings of the Airy pattern and the halo): the padding of a
+        blur."""
 
     def to_table(self) -> dict:
         """The PSF as a TOML table (``type`` and its parameters in edge units)."""
@@ -131,6 +137,9 @@ class Diffraction(PSF):
             raise RadiosimError("diffraction needs the optics' object-side numerical aperture")
         return 2.0 * object_na / wavelength
 
+    def reach(self, wavelength, object_na):
+        return 20 * 0.61 * wavelength / object_na  # 20 Airy radii: the r⁻³ envelope at 1e-4
+
     def to_table(self) -> dict:
         return {"type": "diffraction", "sub_bands": self.sub_bands}
 
@@ -157,6 +166,9 @@ class GaussianBlur(PSF):
 
     def bandwidth(self, wavelength, object_na):
         return math.sqrt(math.log(1 / _NEGLIGIBLE) / 2.0) / (math.pi * self.sigma)
+
+    def reach(self, wavelength, object_na):
+        return 8 * self.sigma
 
     def to_table(self) -> dict:
         return {"type": "gaussian", "sigma_um": edge_value(self.sigma, 1e-6)}
@@ -200,6 +212,9 @@ class ScatterHalo(PSF):
     def bandwidth(self, wavelength, object_na):
         return math.log(max(self.fraction, _NEGLIGIBLE) / _NEGLIGIBLE) / (2 * math.pi *
                                                                           self.width)
+
+    def reach(self, wavelength, object_na):
+        return 20 * self.width  # the kernel there is 1e-4 of its centre's
 
     def to_table(self) -> dict:
         return {"type": "scatter_halo", "fraction": self.fraction, "width_um": edge_value(self.width, 1e-6)}
@@ -256,6 +271,9 @@ class TabulatedPSF(PSF):
         # Cells have sharp edges, so the OTF never vanishes; its sinc envelope is below 1/(2π)
         # beyond 2/pitch, and the aliases' own sinc² factors are below 0.05 there.
         return 2.0 / self.pitch
+
+    def reach(self, wavelength, object_na):
+        return 0.5 * max(self.kernel.shape) * self.pitch
 
     def to_table(self) -> dict:
         raise RadiosimError("a tabulated PSF is given in Python or as a file path, not inline")
@@ -389,10 +407,24 @@ def sampled_transfer(psfs, shape: tuple[int, int], dx: float, wavelength: float,
     return out
 
 
-def padded_shape(shape: tuple[int, int]) -> tuple[int, int]:
-    """The FFT grid of a blur: each axis at least doubled (a scene's width of surroundings
-    between periodic copies), rounded up to a fast length."""
-    return tuple(sfft.next_fast_len(2 * n, real=True) for n in shape)
+#: A blur pads each axis of n samples by n to 3n samples of surroundings.
+_PAD_RANGE = (1, 3)
+
+
+def padded_shape(shape: tuple[int, int], reach: float = 0.0) -> tuple[int, int]:
+    """
+    The FFT grid of a blur of a field of ``shape`` samples: each axis padded by the PSF's
+    ``reach`` [samples], at least the field's length and at most three times it (a scene's
+    width of surroundings or more between periodic copies), rounded up to a fast length.
+    """
+    low, high = _PAD_RANGE
+    return tuple(sfft.next_fast_len(n + int(min(max(low * n, math.ceil(reach)), high * n)),
+                                    real=True) for n in shape)
+
+
+def reach(psfs, wavelength: float, object_na: float) -> float:
+    """The reach [m] of a convolution of PSFs: the sum of theirs."""
+    return sum(p.reach(wavelength, object_na) for p in psfs)
 
 
 def blur(field: np.ndarray, surroundings: float, psfs, dx: float, wavelength: float,
@@ -424,12 +456,14 @@ def blur(field: np.ndarray, surroundings: float, psfs, dx: float, wavelength: fl
     Notes
     -----
     The field is placed on a grid of :func:`padded_shape` filled with the surroundings and
-    convolved circularly: light that the PSF carries further than a scene's width from the
-    field comes from a periodic copy instead of the surroundings, an error of at most the
-    PSF's energy beyond that distance times the radiance contrast.
+    convolved circularly: each sample also receives the light of the field's periodic copies,
+    a padding away, instead of the surroundings'. The error is the PSF's kernel at that distance
+    times the field's area and radiance contrast: with the PSF's :meth:`~PSF.reach` of padding,
+    below 1e-4 of the core's kernel; where the padding is capped at three field lengths, a
+    field smaller than the PSF's wings should be extended with its surroundings.
     """
     field = np.asarray(field, dtype=float)
-    shape = padded_shape(field.shape)
+    shape = padded_shape(field.shape, reach(psfs, wavelength, object_na) / dx)
     padded = np.full(shape, float(surroundings))
     padded[:field.shape[0], :field.shape[1]] = field
     spectrum = sfft.rfft2(padded - surroundings, workers=-1)

@@ -1,12 +1,15 @@
 """EMVA 1288 characterisation recovers the configured electronics; measurable range."""
 
+import dataclasses as _dc
 import math
 
 import numpy as np
 import pytest
 
 from radiosim import Camera
-from radiosim.characterization import fit_emva1288, photon_transfer
+from radiosim.characterization import (fit_emva1288, fit_scatter_halo, photon_transfer,
+                                       size_of_source)
+from radiosim.psf import ScatterHalo, halo_encircled_energy
 from radiosim.radiometry import band_radiance
 
 
@@ -86,3 +89,49 @@ def test_noise_floor_and_saturation_bound_the_measurable_range():
     # Longer integration: both ends move down.
     assert np.all(np.diff(lows) < 0) and np.all(np.diff(highs) < 0)
     assert all(lo < hi for lo, hi in zip(lows, highs))
+
+
+# -- size-of-source effect -------------------------------------------------------------------
+
+
+
+def _with_psf(camera, psf):
+    return camera.replace(optics=_dc.replace(camera.optics, psf=psf))
+
+
+def test_sse_of_a_perfect_lens_is_one():
+    from radiosim.camera import Camera
+
+    curve = size_of_source(Camera.linear_ideal(6e-6), [12e-6, 60e-6, 300e-6])
+    np.testing.assert_allclose(curve.sse, 1.0, rtol=1e-12)
+    np.testing.assert_allclose(curve.apparent_temperature, 1273.15, rtol=1e-12)
+
+
+def test_sse_of_a_halo_follows_its_encircled_energy_and_the_fit_recovers_it():
+    """A linear camera with a halo alone: the centre pixel's excess signal is
+    (1 − β) + β·EE_halo(R). The pixel (6 µm) and the staircase disc (dx ≤ 2 µm) perturb it by
+    O((p/a)²·β) and O(dx/R·β) ≲ 1e-3; the fit over discs ≥ 10 pixels then recovers β and a to
+    a few per cent."""
+    from radiosim.camera import Camera
+
+    halo = ScatterHalo(0.08, 80e-6)
+    camera = _with_psf(Camera.linear_ideal(6e-6), halo)
+    d = 6e-6 * np.geomspace(10, 200, 8)
+    curve = size_of_source(camera, d, 1273.15, 293.15)
+    expected = (1 - halo.fraction) + halo.fraction * halo_encircled_energy(d / 2, halo.width)
+    excess = (curve.signal - curve.background_signal) / (1273.15 - 293.15)
+    np.testing.assert_allclose(excess, expected, atol=1.5e-3)
+    fit = fit_scatter_halo(d, curve.sse)
+    assert fit.halo.fraction == pytest.approx(0.08, rel=0.05)
+    assert fit.halo.width == pytest.approx(80e-6, rel=0.05)
+    assert np.abs(fit.residuals).max() < 1e-3
+
+
+@pytest.mark.parametrize("diameters, sse", [([1e-4, 2e-4, 3e-4], [0.9, 0.95, 1.0]),
+                                            ([1e-4, -2e-4, 3e-4, 4e-4], [0.9, 0.95, 1, 1]),
+                                            ([1e-4, 2e-4, 3e-4, 4e-4], [0.9, np.nan, 1, 1])])
+def test_fit_scatter_halo_refuses_bad_curves(diameters, sse):
+    from radiosim.errors import RadiosimError
+
+    with pytest.raises(RadiosimError):
+        fit_scatter_halo(diameters, sse)

@@ -142,3 +142,16 @@ def test_measure_fea_names_the_unit_flags(tmp_path, capsys):
     assert "--time-unit" in capsys.readouterr().err
     assert main(args + ["--units", "K", "--time-unit", "us", "--length-unit", "um"]) == 0
     assert "highest reading 26.9 °C" in capsys.readouterr().out
+
+
+def test_sse_command_writes_its_curve_and_keeps_existing_files(tmp_path, capsys):
+    out = tmp_path / "sse.csv"
+    assert main(["sse", "nist-ir-psf", "--diameters", "12um", "60um", "300um",
+                 "--out", str(out)]) == 0
+    lines = out.read_text().splitlines()
+    assert lines[0] == "diameter_um,signal,sse,apparent_C" and len(lines) == 4
+    sse = [float(line.split(",")[2]) for line in lines[1:]]
+    assert sse[0] < sse[1] < sse[2] == 1.0
+    capsys.readouterr()
+    assert main(["sse", "nist-ir-psf", "--out", str(out)]) == 2
+    assert "exists" in capsys.readouterr().err

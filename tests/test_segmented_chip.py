@@ -216,3 +216,19 @@ def test_columns_table_is_what_the_scene_uses():
         x = SegmentedChip(dx=8e-6).column_x(name)
         along = (p.tool_tip_x - x) / math.cos(p.shear_angle)
         assert along * math.cos(p.shear_angle + p.clearance_angle) == pytest.approx(distance)
+
+
+def test_reflected_field_sees_the_interface_only_near_the_rake_face():
+    scene = SegmentedChip(dx=4e-6)
+    g, p = scene.geometry, scene.params
+    ambient = p.ambient_temperature
+    field = scene.reflected_field(view_length=5e-6)
+    assert np.all(field[~g.chip_max] == ambient)
+    assert field.max() <= g.face_temperature.max() + 1e-9
+    # Within one sample of the face along the contact the weight exp(−n/ℓ) is ≥ e^{−0.8}.
+    near = g.chip_max & (g.n < 4e-6) & (g.s > 0) & (g.s < p.contact_length)
+    face = np.interp(g.s[near], g.face_s, g.face_temperature)
+    excess = (field[near] - ambient) / (face - ambient)
+    assert np.all(excess >= math.exp(-0.8) - 1e-12) and np.all(excess <= 1 + 1e-12)
+    far = g.chip_max & (g.n > 60e-6)
+    assert np.all(field[far] - ambient < (face.max() - ambient) * math.exp(-12))

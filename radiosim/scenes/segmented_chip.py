@@ -53,6 +53,7 @@ from scipy.interpolate import RegularGridInterpolator
 from scipy.signal import fftconvolve
 from scipy.special import erfc
 
+from radiosim.checks import check_positive
 from radiosim.config import build_from_toml, dumps_toml, edge_field, from_table, to_table
 from radiosim.errors import RadiosimError
 from radiosim.files import write_text
@@ -374,6 +375,14 @@ class _Geometry:
         periodic = p.modulation * face_secondary * beyond * np.exp(-depth / p.tool_periodic_depth)
         cos_field[idx] = periodic * np.cos(phase[idx])
         sin_field[idx] = periodic * np.sin(phase[idx])
+        # The interface temperature along the rake face (n = u = 0), for the reflected field.
+        self.face_s = np.arange(0.0, s_max + step, step)
+        on_face = np.minimum(self.face_s, p.contact_length)
+        self.face_temperature = t0 + (
+            p.primary_rise * smooth_step((on_face * math.sin(tb) - p.primary_offset)
+                                         / p.primary_width)
+            + p.secondary_rise * lookup(np.column_stack([np.zeros_like(on_face), on_face]))
+        ) * erfc(np.clip(self.face_s - p.contact_length, 0.0, None) / p.tool_conduction_length)
 
         # Workpiece: primary-zone step ahead of the tool, faded behind the tip, and the
         # machined-surface layer broadening with the time since it was cut.
@@ -1130,6 +1139,35 @@ class SegmentedChip(Scene):
         return SceneFrame(temperature, 1.0, regions=regions, index=k,
                           region_emissivity={REGIONS[name]: value for name, value
                                              in self._region_emissivity.items()})
+
+    def reflected_field(self, view_length: float = 5e-6,
+                        ambient: float | None = None) -> np.ndarray:
+        """
+        A reflected-temperature map [K] in which chip samples near the rake face see the
+        tool's interface temperature (for :meth:`~radiosim.scenes.Scene.set_environment`).
+
+        The approximation: a chip sample at distance n from the rake face and position s along
+        it reflects the interface temperature T_face(s) with a weight exp(−n/ℓ), and the
+        ambient temperature with the rest, blended in temperature:
+        T_refl = T_amb + (T_face(s) − T_amb)·exp(−n/ℓ). A flat side face coplanar with the
+        tool's has no view of the rake face at all; the weight stands for the rounded,
+        side-flowed edge of a real chip, which does, within a few µm (ℓ) of the contact.
+        Everything else reflects the ambient.
+
+        Parameters
+        ----------
+        view_length
+            ℓ [m], the distance from the rake face over which the view of the interface fades.
+        ambient
+            Ambient temperature [K] (default the chip's ``ambient_temperature``).
+        """
+        view = check_positive(view_length, "view_length", "m")
+        p, g = self.params, self.geometry
+        amb = p.ambient_temperature if ambient is None else check_positive(ambient, "ambient",
+                                                                           "K")
+        face = np.interp(np.clip(g.s, 0.0, None), g.face_s, g.face_temperature)
+        weight = np.where(g.chip_max, np.exp(-np.clip(g.n, 0.0, None) / view), 0.0)
+        return amb + (face - amb) * weight
 
     # -- reference locations -----------------------------------------------------------------
 
