@@ -40,7 +40,7 @@ References
 -   Saunders, P. (2015). MSL Technical Guide 26: Size-of-source effect (the SSE and its
     measurement with discs of increasing diameter).
 -   Stein, E. M. & Weiss, G. (1971). Introduction to Fourier Analysis on Euclidean Spaces,
-    ch. I §1 (the Poisson kernel and its Fourier transform e^{−2π a |f|}).
+    ch. I §1 (the Poisson kernel and its Fourier transform e^{−2π a f}, f the radial frequency).
 """
 
 from __future__ import annotations
@@ -61,7 +61,7 @@ __all__ = ["PSF", "Diffraction", "GaussianBlur", "ScatterHalo", "TabulatedPSF", 
            "psf_floor", "transfer", "sampled_transfer", "blur", "padded_shape", "reach",
            "airy_encircled_energy", "halo_encircled_energy", "PSF_TYPES"]
 
-#: |H − floor| below this fraction is negligible: the aliases beyond are not summed.
+#: H − floor below this fraction (in magnitude) is negligible: the aliases beyond are not summed.
 _NEGLIGIBLE = 1e-13
 #: At most this many aliases either side (a PSF far narrower than a sample is a point).
 _MAX_ALIASES = 4
@@ -83,7 +83,8 @@ class PSF(ABC):
 
     @abstractmethod
     def bandwidth(self, wavelength: float, object_na: float) -> float:
-        """Frequency [cycles m⁻¹] beyond which |OTF − floor| < 1e-13 (the aliases summed)."""
+        """Frequency [cycles m⁻¹] beyond which the OTF differs from its floor by less than 1e-13
+        (the aliases summed)."""
 
     @abstractmethod
     def reach(self, wavelength: float, object_na: float) -> float:
@@ -371,7 +372,8 @@ def _bandwidth(psfs, wavelength, object_na) -> float:
 
 
 def _aliases(frequencies: np.ndarray, dx: float, bandwidth: float) -> list[int]:
-    """The aliases k for which some |f + k/dx| lies within the bandwidth (at most ±4)."""
+    """The aliases k for which some shifted frequency f + k/dx lies within the bandwidth (at
+    most ±4)."""
     nyquist = 0.5 / dx
     out = []
     for k in range(-_MAX_ALIASES, _MAX_ALIASES + 1):
