@@ -6,10 +6,14 @@ A study file names
 -   a ``[scene]``: ``type = "segmented-chip"`` (optional ``params`` TOML, ``dt_us``, ``dx_um``,
     ``emissivity`` as a number, a curve name or a table per region), ``type = "frames"``
     (``path``, ``dt_us``, ``dx_um``, ``units``, optional ``event_time_us``) or ``type = "fea"`` (``path``, ``dx_um``,
-    ``units`` table, ``fill_K``);
+    ``units`` table, ``fill_K``); any type may state its environment
+    (:meth:`~radiosim.scenes.Scene.set_environment`): ``reflected_temperature_K`` (a number,
+    or ``"tool"`` on the segmented chip for its reflected field, with ``reflection_view_um``),
+    ``path_transmission``, ``path_temperature_K``, ``surroundings_temperature_K``;
 -   ``[cameras.NAME]`` tables: ``preset = "nist-ir"`` or ``"linear-ideal"``, or ``file =
     "camera.toml"``, with optional overrides ``response``, ``pixel_pitch_um`` (same
-    magnification: the detector pixels scale) and ``assumed_emissivity``;
+    magnification: the detector pixels scale), ``assumed_emissivity`` and
+    ``assumed_reflected_temperature_K``;
 -   ``[[sweeps]]``: ``name``, ``cameras`` (names), and lists whose product is measured:
     ``response`` (override), ``pixel_pitch_um`` or ``pixel_samples`` (p × p scene samples, the
     paper's "p × p movie pixels"), ``integration_time_us`` or ``integration_time_frames``,
@@ -75,7 +79,11 @@ SCENE_KEYS = {"segmented-chip": ("type", "params", "dx_um", "dt_us", "emissivity
               "frames": ("type", "path", "dt_us", "dx_um", "units", "emissivity",
                          "event_time_us"),
               "fea": ("type", "path", "dx_um", "dt_us", "units", "fill_K", "emissivity")}
-CAMERA_KEYS = ("preset", "file", "response", "assumed_emissivity", "pixel_pitch_um")
+CAMERA_KEYS = ("preset", "file", "response", "assumed_emissivity", "pixel_pitch_um",
+               "assumed_reflected_temperature_K")
+#: The keys of a scene's environment (any type): see :meth:`Scene.set_environment`.
+ENVIRONMENT_KEYS = ("reflected_temperature_K", "reflection_view_um", "path_transmission",
+                    "path_temperature_K", "surroundings_temperature_K")
 #: The hooks a study file may name, and what each is called with.
 HOOKS = {"summary": "summary(measurement, scene) -> dict of extra columns",
          "pixel": "pixel(scene, pixel_pitch) -> the scene cropped to one pixel",
@@ -518,6 +526,9 @@ def _camera_from(table: dict, name: str, base: Path) -> Camera:
     if "assumed_emissivity" in table:
         changes["assumed_emissivity"] = _number(table, "assumed_emissivity",
                                                 f"[cameras.{name}]")
+    if "assumed_reflected_temperature_K" in table:
+        changes["assumed_reflected_temperature"] = _number(
+            table, "assumed_reflected_temperature_K", f"[cameras.{name}]")
     if "pixel_pitch_um" in table:
         pitch = _number(table, "pixel_pitch_um", f"[cameras.{name}]")
         camera = camera.with_pixel_pitch(shift(pitch, -6))
@@ -532,9 +543,10 @@ def _scene_from(spec: dict, base: Path) -> Scene:
     kind = spec.get("type")
     if kind not in SCENE_KEYS:
         raise RadiosimError(f"scene type {kind!r} is not segmented-chip, frames or fea")
-    reject_unknown([k for k in spec if k not in SCENE_KEYS[kind]], SCENE_KEYS[kind],
-                   f"[scene] ({kind})")
+    allowed = (*SCENE_KEYS[kind], *ENVIRONMENT_KEYS)
+    reject_unknown([k for k in spec if k not in allowed], allowed, f"[scene] ({kind})")
     spec.pop("type")
+    environment = {k: spec.pop(k) for k in ENVIRONMENT_KEYS if k in spec}
 
     def take_length(key, default=None):
         value = _number(spec, key, "[scene]")
@@ -562,4 +574,29 @@ def _scene_from(spec: dict, base: Path) -> Scene:
                                dt=take_length("dt_us"), units=spec.pop("units", None),
                                fill=_fill(spec),
                                emissivity=emissivity)
-    return scene
+    return _set_environment(scene, environment)
+
+
+def _set_environment(scene: Scene, table: dict) -> Scene:
+    """The [scene] table's environment keys applied: ``reflected_temperature_K`` is a number,
+    or ``"tool"`` on the segmented chip (its reflected field, over ``reflection_view_um``)."""
+    if not table:
+        return scene
+    reflected = table.get("reflected_temperature_K")
+    if reflected == "tool":
+        if not hasattr(scene, "reflected_field"):
+            raise RadiosimError("[scene] reflected_temperature_K = \"tool\" needs the "
+                                "segmented-chip scene (the tool's reflection)")
+        view = _number(table, "reflection_view_um", "[scene]")
+        reflected = scene.reflected_field(*(() if view is None else (shift(view, -6),)))
+    elif reflected is not None:
+        reflected = _number(table, "reflected_temperature_K", "[scene]")
+    elif "reflection_view_um" in table:
+        raise RadiosimError("[scene] reflection_view_um needs reflected_temperature_K = \"tool\"")
+    options = {}
+    for key, name in (("path_transmission", "path_transmission"),
+                      ("path_temperature_K", "path_temperature"),
+                      ("surroundings_temperature_K", "surroundings_temperature")):
+        if key in table:
+            options[name] = _number(table, key, "[scene]")
+    return scene.set_environment(reflected_temperature=reflected, **options)

@@ -1,12 +1,15 @@
 """Studies as data."""
 
+import dataclasses
 import tomllib
 
 import numpy as np
 import pytest
 
+from radiosim import Camera, Electronics
 from radiosim.errors import RadiosimError
 from radiosim.paper import COLUMN_I_COLUMNS
+from conftest import frames_study
 from radiosim.study import STUDY_DIRECTORY, RESULT_COLUMNS, Study, available_studies
 
 
@@ -108,3 +111,56 @@ def test_bad_studies_are_named(change, message):
     change(data)
     with pytest.raises(RadiosimError, match=message):
         Study.from_dict(data).scene
+
+
+def test_a_study_states_the_scene_environment_and_the_camera_setting(tmp_path):
+    """A reflecting scene read by a camera whose setting matches reads the truth; one set to a
+    black room reads the reflection as a bias (ε = 0.5: as much reflected as emitted)."""
+    np.save(tmp_path / "frames.npy", np.full((4, 24, 24), 700.0))
+    text = f"""name = "room"
+[scene]
+type = "frames"
+path = "frames.npy"
+dt_us = 1.0
+dx_um = 1.0
+units = "K"
+emissivity = 0.5
+reflected_temperature_K = 500.0
+surroundings_temperature_K = 700.0
+[cameras.set]
+file = "cam.toml"
+assumed_emissivity = 0.5
+assumed_reflected_temperature_K = 500.0
+[cameras.dark]
+file = "cam.toml"
+assumed_emissivity = 0.5
+[[sweeps]]
+name = "t"
+cameras = ["set", "dark"]
+integration_time_us = [2]
+"""
+    camera = Camera.preset("nist-ir").replace(electronics=Electronics.ideal())
+    camera = camera.replace(fpa=dataclasses.replace(camera.fpa, pixel_pitch=4e-6, shape=None,
+                                                    detector_pitch=None))
+    (tmp_path / "cam.toml").write_text(camera.to_toml())
+    (tmp_path / "room.toml").write_text(text)
+    study = Study.from_toml(tmp_path / "room.toml")
+    assert study.scene.reflected_temperature == 500.0
+    rows = study.run(tmp_path / "out", write_exr=False).rows
+    by_camera = {r["camera"]: r for r in rows}
+    assert by_camera["set"]["peak_C"] == pytest.approx(700.0 - 273.15, abs=1e-6)
+    assert by_camera["dark"]["peak_C"] > by_camera["set"]["peak_C"] + 10
+
+
+@pytest.mark.parametrize("line, message", [
+    ('reflected_temperature_K = "tool"', "segmented-chip"),
+    ("reflection_view_um = 3.0", "tool"),
+    ("path_transmission = 0.5", "path_temperature"),
+    ("reflected_temperature_K = -3.0", "reflected_temperature"),
+])
+def test_bad_scene_environments_are_named(tmp_path, line, message):
+    np.save(tmp_path / "frames.npy", np.full((2, 8, 8), 700.0))
+    text = frames_study([1], 2.0).replace('units = "K"', f'units = "K"\n{line}')
+    (tmp_path / "s.toml").write_text(text)
+    with pytest.raises(RadiosimError, match=message):
+        Study.from_toml(tmp_path / "s.toml").scene
