@@ -128,7 +128,8 @@ class Response(ABC):
     def sub_bands(self, n: int) -> list:
         """
         The response split into ``n`` spectral sub-bands of equal width, whose signals add up
-        to this one's, each with its centre wavelength [m]: ``[(response, wavelength), …]``.
+        to this one's, each with its centre wavelength [m]: ``[(response, wavelength), …]``
+        (sub-bands where the responsivity is zero are left out).
         A response without a spectrum (the linear one) is one band at the centre of
         ``band``.
         """
@@ -217,10 +218,14 @@ class PlanckResponse(Response):
     def sub_bands(self, n: int) -> list:
         if n not in self._split:
             edges = np.linspace(self.band[0], self.band[1], int(n) + 1)
+            # Sub-bands where the responsivity is zero (a band wider than its filter) carry no
+            # light: they are left out.
+            hot = self.temperature_range[1]
             self._split[n] = [
                 (self if n == 1 else PlanckResponse((lo, hi), self.responsivity,
                                                     self.temperature_range), 0.5 * (lo + hi))
-                for lo, hi in zip(edges[:-1], edges[1:])]
+                for lo, hi in zip(edges[:-1], edges[1:])
+                if n == 1 or band_radiance(hot, (lo, hi), "photon", self.responsivity) > 0]
         return self._split[n]
 
     def table(self, emissivity=1.0) -> BandRadianceTable:

@@ -340,10 +340,6 @@ def test_sub_band_sample_signals_sum_to_the_full_band_with_reflection():
     assert np.min(0.4 * response.grey_signal(450.0) / full) > 1e-3
 
 
-@pytest.mark.xfail(strict=True, reason="radiosim bug: PlanckResponse.sub_bands makes sub-bands "
-                   "outside the filter's support, whose radiance table raises (zero in-band "
-                   "radiance); nist-ir's band (3.75–5.15 µm) encloses the filter (3.78–5.12 µm) "
-                   "so Diffraction(sub_bands ≥ 47) cannot measure")
 def test_many_sub_bands_work_with_the_preset_band():
     scene = UniformBlackbody(800.0, shape=(12, 12), dx=1e-6, dt=1e-6)
     scene.set_environment(surroundings_temperature=800.0)
@@ -359,8 +355,8 @@ SUB_BANDS_FOR_0_1_K = 5
 def test_polychromatic_diffraction_converges_with_sub_bands():
     # nist-ir (working NA 0.2 at 5×, 6 µm pixels) with ideal electronics; its band narrowed to
     # the filter's support (3.78–5.12 µm, the same signal: the filter is 0 outside) so that
-    # all 64 sub-bands carry light (see the xfail above). A 6 µm shear band at 1300 K on a
-    # 500 K background, the surroundings at 500 K: the hot light is bluer, so it spreads less
+    # all 64 sub-bands carry light (the preset's band would leave its edge sub-bands out).
+    # A 6 µm shear band at 1300 K on a 500 K background, the surroundings at 500 K: the hot light is bluer, so it spreads less
     # than the cold light. The apparent temperature with n sub-bands against 64; the smallest
     # n from which every tested count stays below 0.1 K is asserted.
     stack = np.full((1, 12, 96), 500.0)
@@ -450,16 +446,8 @@ def gaussian_sample_kernel(sigma, dx, n=3):
                      for m in range(-n, n + 1)])
 
 
-NARROW_PSF_BUG = ("radiosim bug: psf.sampled_transfer truncates the alias sum at "
-                  "_MAX_ALIASES = 4, where a PSF narrower than ~dx/5 still has H ≈ 1; the "
-                  "missing Σ_{|k|>4} sinc² (≈ 4.5 % at Nyquist) blurs the image instead of "
-                  "leaving it nearly unchanged")
-
-
 @pytest.mark.parametrize("ratio", [
-    pytest.param(0.02, marks=pytest.mark.xfail(strict=True, reason=NARROW_PSF_BUG)),
-    pytest.param(0.1, marks=pytest.mark.xfail(strict=True, reason=NARROW_PSF_BUG)),
-    0.25, 0.5, 1.0, 2.0])
+    0.02, 0.1, 0.25, 0.5, 1.0, 2.0])
 def test_gaussian_blur_equals_the_exact_sample_kernel(ratio):
     # One hot sample through GaussianBlur(σ = ratio · dx): the blurred sample averages are
     # the separable kernel K[m] K[n] (module docstring of radiosim.psf), here by quadrature
@@ -473,7 +461,6 @@ def test_gaussian_blur_equals_the_exact_sample_kernel(ratio):
     np.testing.assert_allclose(out[4:11, 4:11], np.outer(kernel, kernel), rtol=0, atol=1e-9)
 
 
-@pytest.mark.xfail(strict=True, reason=NARROW_PSF_BUG)
 def test_a_point_like_tabulated_psf_leaves_the_samples_alone():
     # A measured PSF of one 1 nm cell is a point for 1 µm samples: the exact kernel is
     # K[0] = ∫ tri(x/dx) box(x) dx = 1 − pitch/(4 dx) per axis, the rest ≤ pitch/(8 dx):
