@@ -558,29 +558,64 @@ def integrate_many(scene: Scene, jobs: list[Job], progress=None,
 
 
 class _Group:
-    """Jobs that share footprints: one reference, one kernel pass per frame and response."""
+    """Jobs that share footprints: one reference, one kernel pass per frame and response, and
+    their accumulators stacked (:class:`radiosim.kernels.Members`) so the kernel merges the
+    frame into every job itself."""
 
     def __init__(self, integrator: FootprintIntegrator):
         self.integrator = integrator
         self.members: list = []
         self.reference = None
+        self.state = None
 
-    def responses(self, k: int) -> list:
-        """The distinct responses of the members active at frame k, in order of appearance."""
-        out = {}
-        for acc in self.members:
-            if acc.first <= k < acc.stop:
-                out.setdefault(id(acc.job.response), acc.job.response)
-        return list(out.values())
+    def start(self):
+        from radiosim.kernels import Members
+
+        self.state = Members(len(self.members), self.integrator.shape)
+        for b, m in enumerate(self.members):
+            m.group, m.slot = self, b
+        self.first = min(m.first for m in self.members)
+        self.stop = max(m.stop for m in self.members)
+
+    def passes(self, k: int) -> list:
+        """Per distinct response of the members active at frame k (in order of appearance):
+        the response, the members' time weights (0 when inactive) and the signal weights of
+        those with this response."""
+        weight = np.zeros(len(self.members))
+        by_response: dict[int, list] = {}
+        for b, m in enumerate(self.members):
+            if m.first <= k < m.stop:
+                weight[b] = m.weights[k - m.first]
+                by_response.setdefault(id(m.job.response), [m.job.response, []])[1].append(b)
+        return weight, list(by_response.values())
+
+
+def _frames_inline_or_prefetched(scene, indices, region):
+    """Scene frames of ``indices`` in order, unchecked (the kernels check every sample). Frames
+    that come cheap (views of an array or a memory map: under 0.2 ms) are read on this thread;
+    as soon as one is slow to produce, the rest are read one ahead on a worker thread, so
+    producing a frame overlaps with integrating the previous one."""
+    import time
+
+    indices = list(indices)
+    for n, k in enumerate(indices):
+        start = time.perf_counter()
+        frame = scene.sample_unchecked(k, region)
+        slow = time.perf_counter() - start > 2e-4
+        yield frame
+        if slow:
+            yield from _prefetched(scene, indices[n + 1:], region, checked=False)
+            return
 
 
 def _integrate_compiled(scene, accumulators, frames, region, progress):
     """
-    The compiled engine. Per frame and footprint group, one kernel pass gives each pixel's
-    frame mean m_k and within-frame variance v_k (about the previous frame's means, so the
-    deviations are small); each job merges them with its time weight w_k by the parallel
-    update of Chan, Golub & LeVeque (1979): δ = m_k − mean, mean += δ·w_k/n', M2 += w_k·v_k +
-    δ²·n·w_k/n'. A pixel that does not change keeps an exactly zero spread.
+    The compiled engine. Per frame and footprint group, one kernel pass
+    (:func:`radiosim.kernels.accumulate_merged`) gives each pixel's frame mean m_k and
+    within-frame variance v_k (about the previous frame's means, so the deviations are small)
+    and merges them into each job with its time weight w_k by the parallel update of Chan,
+    Golub & LeVeque (1979): δ = m_k − mean, mean += δ·w_k/n', M2 += w_k·v_k + δ²·n·w_k/n'. A
+    pixel that does not change keeps an exactly zero spread.
     """
     from radiosim import kernels
 
@@ -588,73 +623,55 @@ def _integrate_compiled(scene, accumulators, frames, region, progress):
     merged = [_Merged(acc) for acc in accumulators]
     for m in merged:
         groups.setdefault(id(m.job.integrator), _Group(m.job.integrator)).members.append(m)
-    for done, frame in enumerate(_prefetched(scene, frames, region, checked=False), start=1):
+    for group in groups.values():
+        group.start()
+    active = list(groups.values())
+    for done, frame in enumerate(_frames_inline_or_prefetched(scene, frames, region), start=1):
         k = frame.index
-        for group in groups.values():
-            responses = group.responses(k)
-            if not responses:
+        for group in active:
+            if not group.first <= k < group.stop:
                 continue
+            weight, passes = group.passes(k)
             integrator = group.integrator
             mine = _within(frame, region, integrator.region)
             rows, cols = integrator.rows, integrator.cols
             if group.reference is None:  # [K] per pixel: the first frame's means
                 group.reference = kernels.pixel_mean(mine.temperature, rows, cols,
                                                      frame_index=k)
-            shape = integrator.shape
-            dev, sq, t_max = np.zeros(shape), np.zeros(shape), np.full(shape, -np.inf)
-            signals = {}
-            for n, response in enumerate(responses):
+            moments_done = False
+            for response, members in passes:
                 table = response.kernel_table(mine)
-                if table is None and n > 0:
-                    signals[id(response)] = None  # the signal is T: its statistics are formed
-                    continue  # once, with the first response
-                signal = np.zeros(shape) if table is not None else None
-                if n == 0:
-                    kernels.accumulate(mine.temperature, rows, cols, 1.0, group.reference,
-                                       dev, sq, t_max, signal, table, frame_index=k)
-                else:  # another response on the same footprints: its signal only
-                    kernels.accumulate(mine.temperature, rows, cols, 1.0, group.reference,
-                                       np.zeros(shape), np.zeros(shape),
-                                       np.full(shape, -np.inf), signal, table, frame_index=k)
-                signals[id(response)] = signal
-            frame_mean = group.reference + dev  # [K]
-            frame_var = np.maximum(sq - dev * dev, 0.0)  # [K²], within the footprint
-            group.reference = frame_mean  # the next frame's deviations stay small
-            for m in group.members:
-                if m.first <= k < m.stop:
-                    m.merge(k, frame_mean, frame_var, t_max, signals[id(m.job.response)])
+                if table is None and moments_done:
+                    continue  # the signal is T: its statistics are formed once
+                signal_weight = np.zeros(weight.size)
+                if table is not None:
+                    signal_weight[members] = weight[members]
+                    for b in members:
+                        group.members[b].has_signal = True
+                kernels.accumulate_merged(mine.temperature, rows, cols, group.reference,
+                                          group.state, weight, signal_weight, table,
+                                          moments=not moments_done, frame_index=k)
+                moments_done = True
         if progress is not None:
             progress(done, len(frames))
     return [m.statistics() for m in merged]
 
 
 class _Merged:
-    """One job's moments in the compiled engine, merged frame by frame (Chan et al. 1979)."""
+    """One job's moments in the compiled engine, merged frame by frame (Chan et al. 1979) by
+    the kernel, in its group's stacked accumulators."""
 
     def __init__(self, acc: _Accumulator):
         self.job, self.first, self.stop, self.weights = acc.job, acc.first, acc.stop, acc.weights
-        shape = acc.job.integrator.shape
-        self.n, self.mean, self.m2 = 0.0, np.zeros(shape), np.zeros(shape)
-        self.t_max = np.full(shape, -np.inf)
-        self.signal_mean = None  # stays None while the signal is the temperature
-
-    def merge(self, k, frame_mean, frame_var, t_max, signal):
-        weight = self.weights[k - self.first]
-        total = self.n + weight
-        delta = frame_mean - self.mean
-        self.m2 += weight * frame_var + delta * delta * (self.n * weight / total)
-        self.mean += delta * (weight / total)
-        self.n = total
-        np.maximum(self.t_max, t_max, out=self.t_max)
-        if signal is not None:
-            if self.signal_mean is None:
-                self.signal_mean = np.zeros(self.mean.shape)
-            self.signal_mean += weight * signal
+        self.group, self.slot = None, 0
+        self.has_signal = False  # stays False while the signal is the temperature
 
     def statistics(self) -> TensorStatistics:
+        state, b = self.group.state, self.slot
+        mean = state.mean[b].copy()
         return TensorStatistics(
-            signal_mean=self.mean if self.signal_mean is None else self.signal_mean,
-            mean=self.mean, std=np.sqrt(self.m2 / self.n), max=self.t_max,
+            signal_mean=state.signal[b].copy() if self.has_signal else mean,
+            mean=mean, std=np.sqrt(state.m2[b] / state.count[b]), max=state.max[b].copy(),
             n_frames=int(self.weights.size))
 
 

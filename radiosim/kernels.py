@@ -77,6 +77,8 @@ __all__ = [
     "pixel_mean_reference",
     "accumulate",
     "accumulate_reference",
+    "Members",
+    "accumulate_merged",
 ]
 
 #: Status bits the compiled kernels return (OR-ed over pixel rows).
@@ -188,53 +190,64 @@ def _gather(row, cols, out):
         out[q] = row[cols[q]]
 
 
-@numba.njit(**_JIT)
-def _lin4(x0, x1, x2, x3, w0, w1, w2, w3, ce, a1, a2, am, an):
-    """Four sample rows (weights w0..w3) into the column-piece accumulators:
-    a1 += w (T − c), a2 += w (T − c)², am = max(am, T), an = min(an, T)."""
-    for q in range(ce.size):
-        t0 = np.float64(x0[q])
-        t1 = np.float64(x1[q])
-        t2 = np.float64(x2[q])
-        t3 = np.float64(x3[q])
-        c = ce[q]
-        d0 = t0 - c
-        d1 = t1 - c
-        d2 = t2 - c
-        d3 = t3 - c
-        e0 = w0 * d0
-        e1 = w1 * d1
-        e2 = w2 * d2
-        e3 = w3 * d3
-        a1[q] += ((e0 + e1) + e2) + e3
-        a2[q] += ((e0 * d0 + e1 * d1) + e2 * d2) + e3 * d3
-        m = am[q]
-        m = t0 if t0 > m else m
-        m = t1 if t1 > m else m
-        m = t2 if t2 > m else m
-        m = t3 if t3 > m else m
-        am[q] = m
-        n = an[q]
-        n = t0 if t0 < n else n
-        n = t1 if t1 < n else n
-        n = t2 if t2 < n else n
-        n = t3 if t3 < n else n
-        an[q] = n
+#: Most sample rows one sweep along the columns takes (a pixel row of more pieces takes several
+#: sweeps): each sweep reads and writes the column accumulators once.
+_MAX_ROWS = 12
+#: Slots per sweep: the accumulators of a chunk stay in the L1 cache while its rows stream by.
+_CHUNK = 512
 
 
-@numba.njit(**_JIT)
-def _lin1(x0, w0, ce, a1, a2, am, an):
-    """One sample row into the column-piece accumulators (as :func:`_lin4`)."""
-    for q in range(ce.size):
-        t0 = np.float64(x0[q])
-        d0 = t0 - ce[q]
-        e0 = w0 * d0
-        a1[q] += e0
-        a2[q] += e0 * d0
-        m = am[q]
-        am[q] = t0 if t0 > m else m
-        n = an[q]
-        an[q] = t0 if t0 < n else n
+def _lin_source(k: int) -> str:
+    """Source of ``_lin{k}``: k sample rows ``xs[0..k-1]`` (weights ``ws``) into the column
+    accumulators: a1 += Σ w (T − c), a2 += Σ w (T − c)² (fused multiply-adds), am = max(am, T),
+    an = min(an, T), the maximum and minimum taken in the frame's own dtype (exact)."""
+    lines = [f"def _lin{k}(xs, ws, ce, a1, a2, am, an):"]
+    lines += [f"    x{h} = xs[{h}]" for h in range(k)]
+    lines += [f"    w{h} = ws[{h}]" for h in range(k)]
+    lines += ["    for q in range(ce.size):", "        c = ce[q]"]
+    for h in range(k):
+        lines.append(f"        d{h} = np.float64(x{h}[q]) - c")
+        lines.append(f"        e{h} = w{h} * d{h}")
+    lines.append("        a1[q] += " + " + ".join(f"e{h}" for h in range(k)))
+    square = "a2[q]"
+    for h in range(k):
+        square = f"_fma(e{h}, d{h}, {square})"
+    lines.append(f"        a2[q] = {square}")
+    lines.append("        m = x0[q]")
+    lines.append("        n = m")
+    for h in range(1, k):
+        lines.append(f"        v = x{h}[q]")
+        lines.append("        m = v if v > m else m")
+        lines.append("        n = v if v < n else n")
+    lines.append("        o = am[q]")
+    lines.append("        am[q] = m if m > o else o")
+    lines.append("        o = an[q]")
+    lines.append("        an[q] = n if n < o else o")
+    return "\n".join(lines) + "\n"
+
+
+def _lin_dispatch_source() -> str:
+    """Source of ``_lin``: the sweep of ``n`` rows (1 … _MAX_ROWS) by ``_lin{n}``."""
+    lines = ["def _lin(n, xs, ws, ce, a1, a2, am, an):"]
+    for k in range(1, _MAX_ROWS + 1):
+        lines.append(f"    {'if' if k == 1 else 'elif'} n == {k}:")
+        lines.append(f"        _lin{k}(xs, ws, ce, a1, a2, am, an)")
+    return "\n".join(lines) + "\n"
+
+
+def _make_sweeps():
+    # Compiled with this file's name, so that numba's on-disk cache finds (and invalidates) them
+    # with the module; generated because each row count needs its own unrolled loop body.
+    namespace = {"np": np, "_fma": _fma}
+    source = "".join(_lin_source(k) for k in range(1, _MAX_ROWS + 1)) + _lin_dispatch_source()
+    exec(compile(source, __file__, "exec"), namespace)
+    for k in range(1, _MAX_ROWS + 1):
+        namespace[f"_lin{k}"] = numba.njit(**_JIT)(namespace[f"_lin{k}"])
+    return numba.njit(**_JIT)(namespace["_lin"]), [namespace[f"_lin{k}"] for k in
+                                                    range(1, _MAX_ROWS + 1)]
+
+
+_lin, _LIN_SWEEPS = _make_sweeps()
 
 
 @numba.njit(**_JIT)
@@ -321,13 +334,23 @@ def _setup_row(reference_row, slot_pixel, with_signal, ce, a1, a2, a3, am, an):
 
 
 @numba.njit(**_JIT)
-def _commit_row(a1, a2, a3, am, an, slot_weight, slot_of_piece, col_bounds, identity,
-                time_weight, with_signal, t_low, t_high, dev, sq, tmax, signal, s1, s2, s3, sm,
-                status):
+def _commit_row(i, a1, a2, a3, am, an, slot_weight, slot_of_piece, col_bounds, identity,
+                time_weight, with_signal, t_low, t_high, reference_row, dev, sq, tmax, signal,
+                merge, moments, member_weight, member_count, signal_weight, m_mean, m_m2,
+                m_max, m_signal, s1, s2, s3, sm, status):
     """Check the row's slots that pieces read (NaN propagates into a1, +inf into am, T ≤ 0 and
-    T below the table show in an), then add the pieces to the row's pixels, unless the row has
-    a status (``status``: bits found so far). Returns the row's status. ``identity``: slot q is
-    piece q (the pieces are the samples); s1, s2, s3, sm: per-pixel scratch."""
+    T below the table show in an), then add the pieces to the row's pixels (pixel row ``i``),
+    unless the row has a status (``status``: bits found so far). Returns the row's status.
+    ``identity``: slot q is piece q (the pieces are the samples); s1, s2, s3, sm: per-pixel
+    scratch.
+
+    Without ``merge``: dev, sq, signal += time_weight × the frame's Σ w (T − c), Σ w (T − c)²,
+    Σ w S, and tmax = max(tmax, max T) (rows of the per-pixel accumulators). With ``merge``:
+    the frame's mean m = c + Σ w (T − c) and variance v = max(Σ w (T − c)² − (Σ w (T − c))², 0)
+    are merged into every member job b of weight w_b = member_weight[b] > 0 (Chan et al.:
+    δ = m − mean, M2 += w_b v + δ² n_b w_b / n', mean += δ w_b / n', n' = n_b + w_b; the
+    maximum), unless ``moments`` is off; signals add signal_weight[b] × Σ w S; and the reference
+    row becomes m (the next frame's c)."""
     n_bad = 0
     n_low = 0
     n_high = 0
@@ -352,20 +375,16 @@ def _commit_row(a1, a2, a3, am, an, slot_weight, slot_of_piece, col_bounds, iden
     for j in range(n_pixels):
         v1 = 0.0
         v2 = 0.0
-        m = tmax[j]
+        m = -_INF
         for q in range(col_bounds[j], col_bounds[j + 1]):
             k = q if identity else slot_of_piece[q]
             v1 += a1[k]
             v2 += a2[k]
-            a = am[k]
+            a = np.float64(am[k])
             m = a if a > m else m
         s1[j] = v1
         s2[j] = v2
         sm[j] = m
-    for j in range(n_pixels):
-        dev[j] += time_weight * s1[j]
-        sq[j] += time_weight * s2[j]
-        tmax[j] = sm[j]
     if with_signal:
         for k in range(a3.size):
             a3[k] *= slot_weight[k]
@@ -374,23 +393,66 @@ def _commit_row(a1, a2, a3, am, an, slot_weight, slot_of_piece, col_bounds, iden
             for q in range(col_bounds[j], col_bounds[j + 1]):
                 v3 += a3[q if identity else slot_of_piece[q]]
             s3[j] = v3
+    if not merge:
         for j in range(n_pixels):
-            signal[j] += time_weight * s3[j]
+            dev[j] += time_weight * s1[j]
+            sq[j] += time_weight * s2[j]
+            m = tmax[j]
+            tmax[j] = sm[j] if sm[j] > m else m
+        if with_signal:
+            for j in range(n_pixels):
+                signal[j] += time_weight * s3[j]
+        return 0
+    for b in range(member_weight.size):
+        w = signal_weight[b]
+        if with_signal and w > 0.0:
+            out = m_signal[b, i]
+            for j in range(n_pixels):
+                out[j] += w * s3[j]
+    if moments:
+        for j in range(n_pixels):  # the frame's mean and variance over each footprint
+            v = s2[j] - s1[j] * s1[j]
+            s2[j] = v if v > 0.0 else 0.0
+            s1[j] = reference_row[j] + s1[j]
+        for b in range(member_weight.size):
+            w = member_weight[b]
+            if w > 0.0:
+                n = member_count[b]
+                total = n + w
+                share = w / total
+                spread = n * w / total
+                mean = m_mean[b, i]
+                m2 = m_m2[b, i]
+                peak = m_max[b, i]
+                for j in range(n_pixels):
+                    delta = s1[j] - mean[j]
+                    m2[j] += w * s2[j] + delta * delta * spread
+                    mean[j] += delta * share
+                    m = peak[j]
+                    peak[j] = sm[j] if sm[j] > m else m
+        for j in range(n_pixels):
+            reference_row[j] = s1[j]
     return 0
 
 
 @numba.njit(**_JIT)
 def _accumulate_rows(i_start, i_stop, base, row_length, row_source, row_weight, row_bounds,
                      n_samples, slot_pixel, slot_weight, slot_of_piece, dup_source, col_bounds,
-                     identity, time_weight, reference, dev, sq, tmax, signal, mode, coef, t0,
-                     inverse, last, t_min, t_max, entry_table, entry_grey, grey, grey_map,
-                     index_map, map_length, use_map, rows_w, rows_r, grey_w, grey_r, index_w,
-                     index_r, status):
+                     identity, time_weight, reference, dev, sq, tmax, signal, merge, moments,
+                     member_weight, member_count, signal_weight, m_mean, m_m2, m_max, m_signal,
+                     mode, coef, t0, inverse, last, t_min, t_max, entry_table, entry_grey, grey,
+                     grey_map, index_map, map_length, use_map, rows_w, rows_r, grey_w, grey_r,
+                     index_w, index_r, am, an, status):
     """Pixel rows i_start to i_stop − 1 of :func:`_accumulate_kernel` (one thread's block).
     rows_w/rows_r, grey_w/grey_r, index_w/index_r: this thread's buffers for the duplicate
     slots' samples, each written through the first array and read through the second (a
     read-only view of the same memory, so that the gathered rows have the type of the frame's
-    rows: one compilation serves both)."""
+    rows: one compilation serves both); am, an: this thread's running maximum and minimum per
+    slot, in the frame's dtype.
+
+    Each pixel row is swept along the columns in chunks of _CHUNK slots, up to _MAX_ROWS sample
+    rows per sweep (all of them, for pixels of up to _MAX_ROWS pieces), so the accumulators are
+    read and written once per chunk while the frame's rows stream through."""
     n_slots = slot_pixel.size
     ns = n_samples
     n_dups = dup_source.size
@@ -399,13 +461,11 @@ def _accumulate_rows(i_start, i_stop, base, row_length, row_source, row_weight, 
     a1 = np.empty(n_slots)
     a2 = np.empty(n_slots)
     a3 = np.empty(n_slots)
-    am = np.empty(n_slots)
-    an = np.empty(n_slots)
     ce = np.empty(n_slots)
-    log_l = np.empty(n_slots)
-    factor = np.empty(n_slots)
-    interval = np.empty(n_slots, dtype=np.uint64)
-    u = np.empty(n_slots)
+    log_l = np.empty(_CHUNK)
+    factor = np.empty(_CHUNK)
+    interval = np.empty(_CHUNK, dtype=np.uint64)
+    u = np.empty(_CHUNK)
     s1 = np.empty(n_pixels)
     s2 = np.empty(n_pixels)
     s3 = np.empty(n_pixels)
@@ -419,65 +479,85 @@ def _accumulate_rows(i_start, i_stop, base, row_length, row_source, row_weight, 
         p = row_bounds[i]
         stop = row_bounds[i + 1]
         while p < stop:
-            n = min(4, stop - p)
-            w0 = row_weight[p]
-            w1 = row_weight[p + 1] if n > 1 else 0.0
-            w2 = row_weight[p + 2] if n > 2 else 0.0
-            w3 = row_weight[p + 3] if n > 3 else 0.0
+            n = min(_MAX_ROWS, stop - p)
+            # Rows past n repeat the last one (never read by _lin{n}).
+            o0 = row_source[p] * row_length
+            o = (o0, row_source[p + min(1, n - 1)] * row_length,
+                 row_source[p + min(2, n - 1)] * row_length,
+                 row_source[p + min(3, n - 1)] * row_length,
+                 row_source[p + min(4, n - 1)] * row_length,
+                 row_source[p + min(5, n - 1)] * row_length,
+                 row_source[p + min(6, n - 1)] * row_length,
+                 row_source[p + min(7, n - 1)] * row_length,
+                 row_source[p + min(8, n - 1)] * row_length,
+                 row_source[p + min(9, n - 1)] * row_length,
+                 row_source[p + min(10, n - 1)] * row_length,
+                 row_source[p + min(11, n - 1)] * row_length)
+            ws = (row_weight[p], row_weight[p + min(1, n - 1)], row_weight[p + min(2, n - 1)],
+                  row_weight[p + min(3, n - 1)], row_weight[p + min(4, n - 1)],
+                  row_weight[p + min(5, n - 1)], row_weight[p + min(6, n - 1)],
+                  row_weight[p + min(7, n - 1)], row_weight[p + min(8, n - 1)],
+                  row_weight[p + min(9, n - 1)], row_weight[p + min(10, n - 1)],
+                  row_weight[p + min(11, n - 1)])
             # Part 0: the sample slots, along the frame's rows; part 1: the duplicate slots,
-            # along rows gathered into the buffers. One call site per helper (compile time).
+            # along rows gathered into the buffers.
             for part in range(2 if n_dups else 1):
-                lo, hi = (0, ns) if part == 0 else (ns, n_slots)
-                if part == 0:
-                    x0 = base[row_source[p] * row_length:]
-                    x1 = base[row_source[p + 1] * row_length:] if n > 1 else x0
-                    x2 = base[row_source[p + 2] * row_length:] if n > 2 else x1
-                    x3 = base[row_source[p + 3] * row_length:] if n > 3 else x2
-                else:
+                if part == 1:
                     for h in range(n):
-                        _gather(base[row_source[p + h] * row_length:], dup_source, rows_w[h])
-                    x0 = rows_r[0]
-                    x1 = rows_r[1] if n > 1 else x0
-                    x2 = rows_r[2] if n > 2 else x1
-                    x3 = rows_r[3] if n > 3 else x2
-                # Rows of a group of 2 or 3: the last one repeated with weight 0 (adds nothing).
-                if n == 1:
-                    _lin1(x0, w0, ce[lo:hi], a1[lo:hi], a2[lo:hi], am[lo:hi], an[lo:hi])
-                else:
-                    _lin4(x0, x1, x2, x3, w0, w1, w2, w3, ce[lo:hi], a1[lo:hi], a2[lo:hi],
-                          am[lo:hi], an[lo:hi])
-                if with_signal:
-                    for h in range(n):
-                        x = x0 if h == 0 else (x1 if h == 1 else (x2 if h == 2 else x3))
-                        o = row_source[p + h] * map_length
-                        if part == 0:
-                            g = grey_map[o:]
-                            e = index_map[o:]
-                        else:
-                            if use_map or mode != 3:  # mode 1: the row of ones
-                                _gather(grey_map[o:], dup_source, grey_w)
-                            if mode == 3:
-                                _gather(index_map[o:], dup_source, index_w)
-                            g = grey_r
-                            e = index_r
-                        row_status |= _signal_row(
-                            x, g, e, slot_weight[lo:hi], row_weight[p + h], mode, grey, use_map,
-                            coef, t0, inverse, last, t_min, t_max, entry_table, entry_grey,
-                            interval, u, log_l, factor, a3[lo:hi])
+                        _gather(base[o[h]:], dup_source, rows_w[h])
+                first, end = (0, ns) if part == 0 else (ns, n_slots)
+                for lo in range(first, end, _CHUNK):
+                    hi = min(end, lo + _CHUNK)
+                    if part == 0:
+                        xs = (base[o[0] + lo:], base[o[1] + lo:], base[o[2] + lo:],
+                              base[o[3] + lo:], base[o[4] + lo:], base[o[5] + lo:],
+                              base[o[6] + lo:], base[o[7] + lo:], base[o[8] + lo:],
+                              base[o[9] + lo:], base[o[10] + lo:], base[o[11] + lo:])
+                    else:
+                        r = lo - ns
+                        xs = (rows_r[0][r:], rows_r[min(1, n - 1)][r:],
+                              rows_r[min(2, n - 1)][r:], rows_r[min(3, n - 1)][r:],
+                              rows_r[min(4, n - 1)][r:], rows_r[min(5, n - 1)][r:],
+                              rows_r[min(6, n - 1)][r:], rows_r[min(7, n - 1)][r:],
+                              rows_r[min(8, n - 1)][r:], rows_r[min(9, n - 1)][r:],
+                              rows_r[min(10, n - 1)][r:], rows_r[min(11, n - 1)][r:])
+                    _lin(n, xs, ws, ce[lo:hi], a1[lo:hi], a2[lo:hi], am[lo:hi], an[lo:hi])
+                    if with_signal:
+                        for h in range(n):
+                            m_off = row_source[p + h] * map_length
+                            if part == 0:
+                                g = grey_map[m_off + lo:]
+                                e = index_map[m_off + lo:]
+                            else:
+                                if use_map or mode != 3:  # mode 1: the row of ones
+                                    _gather(grey_map[m_off:], dup_source[lo - ns:hi - ns],
+                                            grey_w[:hi - lo])
+                                if mode == 3:
+                                    _gather(index_map[m_off:], dup_source[lo - ns:hi - ns],
+                                            index_w[:hi - lo])
+                                g = grey_r
+                                e = index_r
+                            row_status |= _signal_row(
+                                xs[h], g, e, slot_weight[lo:hi], ws[h], mode, grey, use_map,
+                                coef, t0, inverse, last, t_min, t_max, entry_table, entry_grey,
+                                interval, u, log_l, factor, a3[lo:hi])
             p += n
-        status[i] = _commit_row(a1, a2, a3, am, an, slot_weight, slot_of_piece, col_bounds,
-                                identity, time_weight, with_signal, t_low, t_high, dev[i],
-                                sq[i], tmax[i], signal[i] if with_signal else signal[0], s1,
-                                s2, s3, sm, row_status)
+        signal_row = signal[i] if with_signal else signal[0]
+        status[i] = _commit_row(i, a1, a2, a3, am, an, slot_weight, slot_of_piece, col_bounds,
+                                identity, time_weight, with_signal, t_low, t_high, reference[i],
+                                dev[i], sq[i], tmax[i], signal_row,
+                                merge, moments, member_weight, member_count, signal_weight,
+                                m_mean, m_m2, m_max, m_signal, s1, s2, s3, sm, row_status)
 
 
 @numba.njit(parallel=True, **_JIT)
 def _accumulate_kernel(n_blocks, base, row_length, row_source, row_weight, row_bounds,
                        n_samples, slot_pixel, slot_weight, slot_of_piece, dup_source,
-                       col_bounds, identity, time_weight, reference, dev, sq, tmax, signal, mode,
-                       coef, t0, inverse, last, t_min, t_max, entry_table, entry_grey, grey,
-                       grey_map, index_map, map_length, use_map, rows_w, rows_r, grey_w, grey_r,
-                       index_w, index_r, status):
+                       col_bounds, identity, time_weight, reference, dev, sq, tmax, signal,
+                       merge, moments, member_weight, member_count, signal_weight, m_mean, m_m2,
+                       m_max, m_signal, mode, coef, t0, inverse, last, t_min, t_max,
+                       entry_table, entry_grey, grey, grey_map, index_map, map_length, use_map,
+                       rows_w, rows_r, grey_w, grey_r, index_w, index_r, am, an, status):
     """The frame's pixel rows in ``n_blocks`` contiguous blocks, one per thread (block b uses
     buffers [b]); returns the OR of the rows' status bits (``status`` holds each row's)."""
     n_rows = row_bounds.size - 1
@@ -485,10 +565,12 @@ def _accumulate_kernel(n_blocks, base, row_length, row_source, row_weight, row_b
         _accumulate_rows(b * n_rows // n_blocks, (b + 1) * n_rows // n_blocks, base,
                          row_length, row_source, row_weight, row_bounds, n_samples, slot_pixel,
                          slot_weight, slot_of_piece, dup_source, col_bounds, identity,
-                         time_weight, reference, dev, sq, tmax, signal, mode, coef, t0, inverse,
-                         last, t_min, t_max, entry_table, entry_grey, grey, grey_map, index_map,
-                         map_length, use_map, rows_w[b], rows_r[b], grey_w[b], grey_r[b],
-                         index_w[b], index_r[b], status)
+                         time_weight, reference, dev, sq, tmax, signal, merge, moments,
+                         member_weight, member_count, signal_weight, m_mean, m_m2, m_max,
+                         m_signal, mode, coef, t0, inverse, last, t_min, t_max, entry_table,
+                         entry_grey, grey, grey_map, index_map, map_length, use_map, rows_w[b],
+                         rows_r[b], grey_w[b], grey_r[b], index_w[b], index_r[b], am[b], an[b],
+                         status)
     result = 0
     for i in range(n_rows):
         result |= status[i]
@@ -1006,17 +1088,21 @@ _NO_TABLE = (np.zeros((1, 1, 4)), np.zeros(1), np.ones(1), np.zeros(1, dtype=np.
 _BUFFERS = threading.local()
 
 
-def _buffers(n_blocks: int, size: int, dtype, index_dtype) -> tuple:
+def _buffers(n_blocks: int, size: int, n_slots: int, dtype, index_dtype) -> tuple:
     """Per-thread buffers for the duplicate slots' samples (frame rows, grey map row, index map
-    row), each as a writeable array and a read-only view of it."""
-    key = (n_blocks, size, np.dtype(dtype), np.dtype(index_dtype))
+    row), each as a writeable array and a read-only view of it, and the running maximum and
+    minimum of every slot (frame dtype)."""
+    key = (n_blocks, size, n_slots, np.dtype(dtype), np.dtype(index_dtype))
     cache = _BUFFERS.__dict__.setdefault("cache", {})  # per calling thread
     cached = cache.get(key)
     if cached is None:
-        rows = np.empty((n_blocks, 4, size), dtype=dtype)
+        rows = np.empty((n_blocks, _MAX_ROWS, size), dtype=dtype)
         grey = np.empty((n_blocks, size))
         index = np.empty((n_blocks, size), dtype=index_dtype)
-        cached = (rows, _read_only(rows), grey, _read_only(grey), index, _read_only(index))
+        extremes = (np.empty((n_blocks, n_slots), dtype=dtype),
+                    np.empty((n_blocks, n_slots), dtype=dtype))
+        cached = (rows, _read_only(rows), grey, _read_only(grey), index, _read_only(index),
+                  *extremes)
         if len(cache) > 8:
             cache.clear()
         cache[key] = cached
@@ -1143,6 +1229,91 @@ def accumulate(frame, rows, cols, time_weight: float, reference: np.ndarray, dev
     shape = (rows.n_pixels, cols.n_pixels)
     for name, array in (("reference", reference), ("dev", dev), ("sq", sq), ("tmax", tmax)):
         _per_pixel(array, shape, name)
+    if response is not None:
+        _per_pixel(signal_acc, shape, "signal_acc")
+    if not reference.flags.writeable:  # the kernel takes one array type (it writes it only
+        reference = reference.copy()  # when merging)
+    status = _launch(frame2d, rows, cols, float(time_weight), reference, dev, sq, tmax,
+                     signal_acc, response, None, threads)
+    if status is None:
+        return STATUS_OK
+    return _finish(status, frame2d, rows, cols, frame_index, response, float(time_weight),
+                   reference, dev, sq, tmax, signal_acc, None)
+
+
+class Members:
+    """
+    The accumulators of the jobs that share a footprint group in the integrator's compiled
+    engine (:func:`accumulate_merged`): per job b, the merged mean [K], M2 [K²] (sum of the
+    weights × squared deviations), maximum [K] and time-weighted signal of each pixel, stacked
+    as (jobs, pixel rows, pixel columns), and the total weight n_b merged so far.
+    """
+
+    def __init__(self, n_jobs: int, shape: tuple[int, int]):
+        self.mean = np.zeros((n_jobs, *shape))
+        self.m2 = np.zeros((n_jobs, *shape))
+        self.max = np.full((n_jobs, *shape), -np.inf)
+        self.signal = np.zeros((n_jobs, *shape))
+        self.count = np.zeros(n_jobs)
+
+
+_NO_MEMBERS = (False, False, np.zeros(1), np.zeros(1), np.zeros(1), np.zeros((1, 1, 1)),
+               np.zeros((1, 1, 1)), np.zeros((1, 1, 1)), np.zeros((1, 1, 1)))
+
+
+def accumulate_merged(frame, rows, cols, reference: np.ndarray, members: Members,
+                      weight: np.ndarray, signal_weight: np.ndarray,
+                      response: RadianceKernelTable | None = None, *, moments: bool = True,
+                      frame_index: int = 0, threads: int | None = None) -> int:
+    """
+    One frame into the accumulators of several jobs on the same footprints, in one pass: the
+    frame's per-pixel mean m = c + Σ w (T − c) and variance v = Σ w (T − c)² − (Σ w (T − c))²
+    (c = ``reference``, the previous frame's means) are merged into job b with its time weight
+    ``weight[b]`` (0: the frame is not in its window) by the update of Chan, Golub & LeVeque
+    (1979), its maximum raised, and ``signal_weight[b]`` × the frame's mean signal added to its
+    signal. ``reference`` then holds m. With ``moments`` off, only the signals are added (a
+    second response on the same footprints) and ``reference`` is kept. ``members.count`` is
+    updated here. Checks, errors and return value as :func:`accumulate`.
+    """
+    rows, cols = _axis(rows, "row"), _axis(cols, "column")
+    frame2d = _frame(frame, rows, cols)
+    weight = np.ascontiguousarray(weight, dtype=np.float64)
+    signal_weight = np.ascontiguousarray(signal_weight, dtype=np.float64)
+    merged = (True, bool(moments), weight if moments else np.zeros(weight.size),
+              members.count, signal_weight, members.mean, members.m2, members.max,
+              members.signal)
+    shape = reference.shape
+    status = _launch(frame2d, rows, cols, 1.0, reference, _scratch(shape, 0), _scratch(shape, 1),
+                     _scratch(shape, 2), _scratch(shape, 3), response, merged, threads)
+    if status is not None:
+        status = _finish(status, frame2d, rows, cols, frame_index, response, 1.0, reference,
+                         None, None, None, None, (merged, members))
+    else:
+        status = STATUS_OK
+    if moments:
+        members.count += weight
+    return status
+
+
+_SCRATCH: dict = {}
+
+
+def _scratch(shape, which: int) -> np.ndarray:
+    """Per-pixel arrays the merging kernel takes but does not use (kept per shape)."""
+    key = (shape, which)
+    array = _SCRATCH.get(key)
+    if array is None:
+        if len(_SCRATCH) > 16:
+            _SCRATCH.clear()
+        array = _SCRATCH[key] = np.zeros(shape)
+    return array
+
+
+def _launch(frame2d, rows: _Axis, cols: _Axis, time_weight, reference, dev, sq, tmax,
+            signal_acc, response, merged, threads):
+    """Run the compiled kernel on one frame; None if every row is fine, else the rows'
+    status array (with the OR of its bits first)."""
+    shape = (rows.n_pixels, cols.n_pixels)
     base, row_length = _rows_of(frame2d, "frame")
     if response is None:
         mode, signal, table = _SIGNAL_NONE, _DUMMY_SIGNAL, None
@@ -1152,7 +1323,7 @@ def accumulate(frame, rows, cols, time_weight: float, reference: np.ndarray, dev
         if not isinstance(response, RadianceKernelTable):
             raise RadiosimError(f"response must be a RadianceKernelTable or None, got "
                                 f"{type(response).__name__}")
-        signal = _per_pixel(signal_acc, shape, "signal_acc")
+        signal = signal_acc if signal_acc is not None else _scratch(shape, 3)
         response._check_maps(frame2d.shape)
         mode = response._mode()
         table = response
@@ -1178,7 +1349,8 @@ def accumulate(frame, rows, cols, time_weight: float, reference: np.ndarray, dev
     status = np.zeros(rows.n_pixels, dtype=np.int64)
     slot_pixel, slot_weight, slot_of_piece, dup_source, col_bounds = cols.slots
     n_blocks = _blocks(rows.n_pixels, threads)
-    buffers = _buffers(n_blocks, max(1, dup_source.size), base.dtype, index_map.dtype)
+    buffers = _buffers(n_blocks, max(1, dup_source.size), slot_pixel.size, base.dtype,
+                       index_map.dtype)
     previous = numba.get_num_threads()
     if n_blocks != previous and n_blocks <= numba.config.NUMBA_NUM_THREADS:
         numba.set_num_threads(n_blocks)
@@ -1187,14 +1359,23 @@ def accumulate(frame, rows, cols, time_weight: float, reference: np.ndarray, dev
             result = _accumulate_kernel(
                 n_blocks, base, row_length, rows.source, rows.weight, rows.bounds, cols.extent,
                 slot_pixel, slot_weight, slot_of_piece, dup_source, col_bounds, cols.identity,
-                float(time_weight), _read_only(reference), dev, sq, tmax, signal, mode, coef,
+                time_weight, reference, dev, sq, tmax, signal,
+                *(merged if merged is not None else _NO_MEMBERS), mode, coef,
                 t0, inverse, last, t_min, t_max, entry_table, entry_grey, float(grey), grey_map,
                 index_map, map_length, use_map, *buffers, status)
     finally:
         if numba.get_num_threads() != previous:
             numba.set_num_threads(previous)
     if result == STATUS_OK:
-        return STATUS_OK
+        return None
+    return result, status, table
+
+
+def _finish(launched, frame2d, rows: _Axis, cols: _Axis, frame_index, response, time_weight,
+            reference, dev, sq, tmax, signal_acc, merged):
+    """Raise for a flagged frame, or redo its pixel rows with samples below the table in numpy
+    (exact quadrature for those samples); returns STATUS_BELOW_TABLE."""
+    result, status, table = launched
     if result & STATUS_BAD_SAMPLE:
         _raise_bad_sample(frame2d, rows, cols, frame_index)
     if result & STATUS_BAD_INDEX:
@@ -1202,17 +1383,38 @@ def accumulate(frame, rows, cols, time_weight: float, reference: np.ndarray, dev
     if result & STATUS_ABOVE_TABLE:
         _raise_above_table(frame2d, rows, cols, frame_index, table)
     # Samples below the table: those pixel rows were left untouched; redo them in numpy.
+    shape = (rows.n_pixels, cols.n_pixels)
     flagged = np.flatnonzero(status)
     start, stop = int(flagged[0]), int(flagged[-1]) + 1
     part = rows.pixels(start, stop)
     n = stop - start
     part_dev, part_sq, part_signal = (np.zeros((n, shape[1])) for _ in range(3))
     part_max = np.full((n, shape[1]), -np.inf)
-    _accumulate_numpy(frame2d, part, cols, float(time_weight), reference[start:stop], part_dev,
+    _accumulate_numpy(frame2d, part, cols, time_weight, reference[start:stop], part_dev,
                       part_sq, part_max, part_signal, response)
     local = flagged - start
-    dev[flagged] += part_dev[local]
-    sq[flagged] += part_sq[local]
-    signal_acc[flagged] += part_signal[local]
-    tmax[flagged] = np.maximum(tmax[flagged], part_max[local])
+    if merged is None:
+        dev[flagged] += part_dev[local]
+        sq[flagged] += part_sq[local]
+        signal_acc[flagged] += part_signal[local]
+        tmax[flagged] = np.maximum(tmax[flagged], part_max[local])
+        return STATUS_BELOW_TABLE
+    (_, moments, weight, count, signal_weight, mean, m2, peak, signal), _ = merged
+    d, v1, s = part_dev[local], part_sq[local], part_signal[local]
+    for b in range(weight.size):
+        if signal_weight[b] > 0:
+            signal[b, flagged] += signal_weight[b] * s
+    if moments:
+        frame_mean = reference[flagged] + d
+        frame_var = np.maximum(v1 - d * d, 0.0)
+        for b in range(weight.size):
+            w = weight[b]
+            if w > 0:
+                n_b = count[b]
+                total = n_b + w
+                delta = frame_mean - mean[b, flagged]
+                m2[b, flagged] += w * frame_var + delta * delta * (n_b * w / total)
+                mean[b, flagged] += delta * (w / total)
+                peak[b, flagged] = np.maximum(peak[b, flagged], part_max[local])
+        reference[flagged] = frame_mean
     return STATUS_BELOW_TABLE

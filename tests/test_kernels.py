@@ -20,7 +20,7 @@ from radiosim.radiometry import BandRadianceTable, band_radiance
 from radiosim.spectral import spectral_distribution
 
 COMPILED_AT_IMPORT = sum(len(f.signatures) for f in (
-    kernels._accumulate_kernel, kernels._accumulate_rows, kernels._lin4, kernels._lin1,
+    kernels._accumulate_kernel, kernels._accumulate_rows, kernels._lin, *kernels._LIN_SWEEPS,
     kernels._signal_row, kernels._commit_row, kernels._setup_row, kernels._exp))
 
 SCENE = (70, 90)  # scene samples (rows, columns)
