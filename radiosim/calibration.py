@@ -42,11 +42,12 @@ from functools import cached_property
 import numpy as np
 
 from radiosim.checks import check_fraction, check_positive
-from radiosim.electronics import Electronics, Exposure
+from radiosim.electronics import Electronics, Exposure, apply_nonlinearity
 from radiosim.errors import RadiosimError, RadiosimWarning
 from radiosim.response import Response, object_signal, observed_signal
 
-__all__ = ["Calibration", "Reading", "MIN_CALIBRATION_SPAN_DN"]
+__all__ = ["Calibration", "Reading", "MIN_CALIBRATION_SPAN_DN", "NonUniformityCorrection",
+           "replace_bad_pixels"]
 
 #: A quantising camera whose calibration spans fewer counts than this over its temperature
 #: range reads in steps of more than 1/this of the range: the calibration warns.
@@ -230,6 +231,24 @@ class Calibration:
         :meth:`~radiosim.electronics.Electronics.temporal_noise`)."""
         return self.electronics.temporal_noise(self.electrons(temperature))
 
+    def netd(self, temperature) -> np.ndarray:
+        """
+        Noise-equivalent temperature difference [K] at ``temperature`` [K]: the temporal noise
+        [e⁻ rms] (:meth:`noise`) over the slope of the mean charge d e⁻/dT (a central
+        difference of 1e-4 relative).
+
+        Examples
+        --------
+        >>> from radiosim.response import LinearResponse
+        >>> el = Electronics(read_noise=10.0, shot_noise=False)
+        >>> float(Calibration(LinearResponse(1e6), el, 1e6, 1e-3).netd(500.0))  # 10 e⁻ / 1000 e⁻/K
+        0.01
+        """
+        t = np.asarray(temperature, dtype=float)
+        h = 1e-4 * t
+        slope = (self.photoelectrons(t + h) - self.photoelectrons(t - h)) / (2 * h)  # [e⁻/K]
+        return self.noise(t) / slope
+
     def lowest_measurable_temperature(self, snr: float = 1.0) -> float:
         """
         Lowest grey-body temperature [K] of the calibration range whose photo-signal (above
@@ -271,7 +290,8 @@ class Calibration:
         if not math.isfinite(charge):
             return math.inf
         el = self.electronics
-        return float(self.temperature(el.gain * charge + el.offset))
+        return float(self.temperature(
+            el.gain * apply_nonlinearity(charge, el.nonlinearity, el.full_well) + el.offset))
 
     @property
     def counts_span(self) -> float:
@@ -295,3 +315,113 @@ class Calibration:
                 f"{span:.3g} DN over {low:g}–{high:g} K at {self.integration_time:g} s: one DN is "
                 f"about {step:.3g} K, so readings are coarse (raise the responsivity, gain or "
                 "integration time)", RadiosimWarning, stacklevel=stacklevel + 1)
+
+
+def replace_bad_pixels(values: np.ndarray, bad: np.ndarray) -> np.ndarray:
+    """
+    ``values`` with each bad pixel replaced by the median of the good ones among its 3 × 3
+    neighbours (5 × 5, 7 × 7, … where none is good), as cameras' bad-pixel replacement does.
+
+    Examples
+    --------
+    >>> v = np.arange(9.0).reshape(3, 3); bad = np.zeros((3, 3), bool); bad[1, 1] = True
+    >>> float(replace_bad_pixels(v, bad)[1, 1])
+    4.0
+    """
+    out = np.array(values, dtype=float, copy=True)
+    good = ~bad
+    if not good.any():
+        raise RadiosimError("every pixel is bad: none to replace them from")
+    rows, cols = out.shape
+    for i, j in zip(*np.nonzero(bad)):
+        reach = 1
+        while True:
+            r0, r1 = max(i - reach, 0), min(i + reach + 1, rows)
+            c0, c1 = max(j - reach, 0), min(j + reach + 1, cols)
+            near = values[r0:r1, c0:c1][good[r0:r1, c0:c1]]
+            if near.size:
+                out[i, j] = float(np.median(near))
+                break
+            reach += 1
+    return out
+
+
+@dataclass(frozen=True, eq=False)
+class NonUniformityCorrection:
+    """
+    A non-uniformity correction (NUC), as cameras compute it from uniform blackbodies: each
+    pixel's counts are mapped, piecewise linearly through the calibration points, onto the
+    array's mean counts at those points; bad pixels are replaced by their neighbours. Applied
+    to counts before the calibration.
+
+    Attributes
+    ----------
+    points : numpy.ndarray
+        (points, rows, columns): each pixel's mean counts at each calibration point [DN].
+    targets : numpy.ndarray
+        The array's mean counts (over good pixels) at each point [DN].
+    bad : numpy.ndarray of bool
+        Pixels replaced (dead, hot or saturated at a point, or with an outlying response).
+    temperatures : tuple of float
+        Blackbody temperatures of the points [K].
+    integration_time : float
+        Integration time of the points [s].
+    """
+
+    points: np.ndarray
+    targets: np.ndarray
+    bad: np.ndarray
+    temperatures: tuple
+    integration_time: float
+
+    #: A pixel whose response (count span between the outer points) lies further than this
+    #: many robust standard deviations from the median is bad.
+    OUTLIER_SIGMAS = 6.0
+
+    @classmethod
+    def from_flat_fields(cls, flats, temperatures, integration_time: float,
+                         saturated=None) -> NonUniformityCorrection:
+        """
+        A NUC from mean flat fields [DN] at increasing blackbody temperatures [K] (two for a
+        two-point NUC, more for a multi-point one); ``saturated`` marks pixels saturated in
+        any frame of a point.
+        """
+        flats = np.asarray(flats, dtype=float)
+        temperatures = tuple(float(t) for t in temperatures)
+        if flats.ndim != 3 or flats.shape[0] != len(temperatures) or len(temperatures) < 2:
+            raise RadiosimError(f"a NUC needs ≥ 2 flat fields (points, rows, columns) with one "
+                                f"temperature each, got {flats.shape} and {len(temperatures)}")
+        if np.any(np.diff(temperatures) <= 0):
+            raise RadiosimError(f"NUC temperatures must increase, got {temperatures}")
+        span = flats[-1] - flats[0]  # [DN]
+        median = np.median(span)
+        robust = 1.4826 * np.median(np.abs(span - median))
+        bad = ~np.isfinite(span) | (span <= 1e-3 * abs(median)) | (
+            np.abs(span - median) > cls.OUTLIER_SIGMAS * max(robust, 1e-12 * abs(median)))
+        if saturated is not None:
+            bad |= np.asarray(saturated, dtype=bool)
+        if np.any(np.diff(flats, axis=0)[:, ~bad] <= 0):
+            raise RadiosimError("the flat fields do not rise with temperature at every good "
+                                "pixel: choose temperatures further apart")
+        targets = np.array([f[~bad].mean() for f in flats])
+        return cls(flats, targets, bad, temperatures, float(integration_time))
+
+    def apply(self, counts) -> np.ndarray:
+        """Corrected counts [DN] (float), bad pixels replaced; ``counts`` may be the first
+        rows and columns of the NUC's array."""
+        counts = np.asarray(counts, dtype=float)
+        rows, cols = counts.shape
+        if rows > self.bad.shape[0] or cols > self.bad.shape[1]:
+            raise RadiosimError(f"counts of shape {counts.shape} on a NUC of shape "
+                                f"{self.bad.shape}")
+        points = self.points[:, :rows, :cols]
+        # The segment of each pixel's piecewise-linear map (the outer ones extrapolate).
+        segment = np.clip(np.sum(counts[None] > points[1:-1], axis=0), 0, len(self.targets) - 2)
+        low = np.take_along_axis(points, segment[None], 0)[0]
+        high = np.take_along_axis(points, segment[None] + 1, 0)[0]
+        t_low, t_high = self.targets[segment], self.targets[segment + 1]
+        bad = self.bad[:rows, :cols]
+        with np.errstate(divide="ignore", invalid="ignore"):
+            corrected = t_low + (counts - low) * (t_high - t_low) / (high - low)
+        corrected = np.where(bad, counts, corrected)
+        return replace_bad_pixels(corrected, bad) if bad.any() else corrected

@@ -27,8 +27,10 @@ from dataclasses import dataclass, field
 from functools import cached_property
 from pathlib import Path
 
+import numpy as np
 
-from radiosim.calibration import Calibration
+
+from radiosim.calibration import Calibration, NonUniformityCorrection
 from radiosim.checks import check_fraction, check_positive, check_rng
 from radiosim.config import build_from_toml, dumps_toml, edge_field
 from radiosim.electronics import Electronics
@@ -81,6 +83,9 @@ class Camera:
     assumed_instrument_temperature : float or None
         The instrument temperature [K] the calibration was made at (the optics' emission it
         subtracts); ``None``: the optics' current ``instrument_temperature``.
+    nuc : NonUniformityCorrection or None
+        The non-uniformity correction applied to counts before the calibration (measured:
+        :meth:`fit_nuc`; not part of the camera file).
 
     Examples
     --------
@@ -114,6 +119,7 @@ class Camera:
     assumed_instrument_temperature: float | None = edge_field(
         None, "assumed_instrument_temperature_K",
         doc="instrument temperature of the calibration [K]")
+    nuc: NonUniformityCorrection | None = None
 
     def __post_init__(self):
         if self.response not in ("linear", "planck"):
@@ -280,11 +286,14 @@ class Camera:
         """The integration window on ``scene`` [s]: from ``t_start``, else centred on the
         scene's event, else from t = 0; checked against the frame period."""
         t_int = check_positive(integration_time, "integration_time", "s")
-        if self.frame_rate is not None and t_int > 1.0 / self.frame_rate * (1 + 1e-12):
-            raise RadiosimError(
-                f"integration time {t_int:g} s exceeds the frame period {1 / self.frame_rate:g} s "
-                f"of {self.name} at {self.frame_rate:g} Hz"
-            )
+        if self.frame_rate is not None:
+            needed = self.fpa.frame_period(t_int, self.readout_shape)
+            if needed > 1.0 / self.frame_rate * (1 + 1e-12):
+                raise RadiosimError(
+                    f"integration time {t_int:g} s" + (
+                        f" with its readout ({needed:g} s)" if needed != t_int else "")
+                    + f" exceeds the frame period {1 / self.frame_rate:g} s of {self.name} at "
+                    f"{self.frame_rate:g} Hz")
         return integration_window(scene, t_int, t_start)
 
     def measure(self, scene: Scene, integration_time: float, t_start: float | None = None,
@@ -328,8 +337,12 @@ class Camera:
         # étendue.
         photoelectrons = collect(stats.signal_mean + self.instrument_signal(),
                                  self.rate_per_signal, window.duration)
-        # Electronics: dark charge, shot noise, full well, read noise, ADC → counts [DN].
-        exposure = self.electronics.expose(photoelectrons, window.duration, rng)
+        # Electronics: the fixed pattern, dark charge, shot noise, full well, non-linearity,
+        # read noise, ADC → counts [DN].
+        pattern = self.fpa.pattern(photoelectrons.shape)
+        exposure = self.electronics.expose(photoelectrons, window.duration, rng, pattern)
+        if self.nuc is not None:  # the NUC: counts [DN] → corrected counts [DN]
+            exposure = dataclasses.replace(exposure, counts=self.nuc.apply(exposure.counts))
         # Calibration: counts [DN] → apparent temperature [K] and flags.
         reading = calibration.read(exposure)
         if reading.saturated.any():
@@ -348,24 +361,114 @@ class Camera:
             scene=scene.describe(), alignment=window.alignment,
         )
 
+    @property
+    def readout_shape(self) -> tuple[int, int]:
+        """The window the array reads (rows, columns): its shape (one pixel if it has none)."""
+        return tuple(self.fpa.shape) if self.fpa.shape is not None else (1, 1)
+
+    def frame_period(self, integration_time: float) -> float:
+        """
+        The camera's frame period [s] at ``integration_time`` [s]: the array's own (integration
+        and readout, :meth:`~radiosim.fpa.FocalPlaneArray.frame_period`), or the frame rate's
+        if that is slower. A camera with neither a frame rate nor a readout time has none.
+        """
+        own = self.fpa.frame_period(integration_time, self.readout_shape)
+        if self.frame_rate is not None:
+            return max(1.0 / self.frame_rate, own)
+        if self.fpa.readout_time(self.readout_shape) == 0:
+            raise RadiosimError(f"{self.name} has no frame rate nor readout time; set "
+                                "frame_rate_hz or the [fpa] readout times")
+        return own
+
     def record(self, scene: Scene, integration_time: float, n_frames: int,
                t_start: float | None = None, rng=None) -> list[Measurement]:
         """
-        Record ``n_frames`` camera frames at the camera's frame rate.
+        Record ``n_frames`` camera frames with the camera's real timing.
 
-        Frame i integrates over [t_start + i/frame_rate, … + integration_time]; ``t_start``
+        Frame i integrates over [t_start + i·P, … + integration_time] with P the frame period
+        (:meth:`frame_period`: the readout's, or the frame rate's if slower); ``t_start``
         defaults to the start that centres the first frame's window on the scene's event.
         One generator drives the noise of all frames.
         """
-        if self.frame_rate is None:
-            raise RadiosimError(f"{self.name} has no frame rate; set frame_rate to record")
         if isinstance(n_frames, bool) or int(n_frames) != n_frames or n_frames < 1:
             raise RadiosimError(f"n_frames must be a whole number ≥ 1, got {n_frames!r}")
+        period = self.frame_period(integration_time)
         rng = check_rng(rng)
         first = self.window(scene, integration_time, t_start)
-        period = 1.0 / self.frame_rate
         return [self.measure(scene, integration_time, first.start + i * period, rng)
                 for i in range(int(n_frames))]
+
+    # -- the array's fixed pattern and its correction ------------------------------------------
+
+    def flat_field(self, temperature: float, integration_time: float, frames: int = 16,
+                   rng=None):
+        """
+        Mean counts [DN] of ``frames`` read-outs of a uniform blackbody filling the array at
+        ``temperature`` [K] (its whole shape), and the pixels saturated in any of them.
+
+        The blackbody is imaged once; each frame is a new read-out of the electronics (shot
+        and read noise, the fixed pattern).
+        """
+        from radiosim.scenes.analytic import UniformBlackbody
+
+        if self.fpa.shape is None:
+            raise RadiosimError(f"{self.name} has no array shape: a flat field needs one")
+        frames = int(frames)
+        if frames < 1:
+            raise RadiosimError(f"frames must be ≥ 1, got {frames!r}")
+        rng = check_rng(rng)
+        t_int = check_positive(integration_time, "integration_time", "s")
+        scene = UniformBlackbody(check_positive(temperature, "temperature", "K"),
+                                 shape=self.fpa.shape, dx=self.fpa.pixel_pitch, dt=t_int)
+        ideal = self.replace(fpa=dataclasses.replace(self.fpa, origin=(0.0, 0.0)))
+        window = ideal.window(scene, t_int, 0.0)
+        stats = integrate(scene, ideal.integrator(scene), window, self.response_model)
+        photo = collect(stats.signal_mean + self.instrument_signal(), self.rate_per_signal,
+                        t_int)
+        pattern = self.fpa.pattern(photo.shape)
+        total = np.zeros(photo.shape)
+        saturated = np.zeros(photo.shape, dtype=bool)
+        for _ in range(frames):
+            exposure = self.electronics.expose(photo, t_int, rng, pattern)
+            total += exposure.counts
+            saturated |= exposure.saturated
+        return total / frames, saturated
+
+    def fit_nuc(self, temperatures, integration_time: float, frames: int = 16,
+                rng=None) -> Camera:
+        """
+        The camera with a non-uniformity correction computed as cameras do: flat fields of
+        uniform blackbodies at ``temperatures`` [K] (two: a two-point NUC; more: multi-point),
+        ``frames`` read-outs each, at ``integration_time`` [s]
+        (:class:`~radiosim.calibration.NonUniformityCorrection`).
+        """
+        rng = check_rng(rng)
+        temperatures = [float(t) for t in temperatures]
+        flats, saturated = zip(*(self.flat_field(t, integration_time, frames, rng)
+                                 for t in temperatures))
+        nuc = NonUniformityCorrection.from_flat_fields(
+            np.array(flats), temperatures, integration_time, np.any(saturated, axis=0))
+        return self.replace(nuc=nuc)
+
+    # -- performance ----------------------------------------------------------------------------
+
+    def netd(self, temperature, integration_time: float) -> np.ndarray:
+        """
+        Noise-equivalent temperature difference [K] of a grey body (the camera's assumed
+        emissivity and settings) at ``temperature`` [K]: the temporal noise [e⁻ rms] over the
+        slope of the mean charge, d e⁻/dT (shot noise of signal, background and dark charge;
+        read and quantisation noise). The fixed pattern is not temporal noise and is not
+        included.
+        """
+        return self.calibration(integration_time).netd(temperature)
+
+    def measurable_range(self, integration_time: float) -> tuple[float, float]:
+        """
+        (lowest temperature above the noise floor, saturation temperature) [K] of a grey body
+        at ``integration_time`` [s] (NaN or ∞ where the calibration range does not hold them).
+        """
+        calibration = self.calibration(integration_time)
+        return calibration.lowest_measurable_temperature(), calibration.saturation_temperature
 
 
 def measure_many(scene: Scene, cases, rng=None, progress=None) -> list[Measurement]:

@@ -10,6 +10,17 @@ The model is the EMVA 1288 linear camera: the mean digital signal is
 Each effect is one pure function; :meth:`Electronics.expose` applies them in physical order.
 Randomness comes only from an explicit ``rng``.
 
+Two departures from the linear model are optional (off by default, when the chain is the
+linear one bit for bit):
+
+-   the array's fixed pattern (:class:`~radiosim.fpa.FixedPattern`: PRNU on the photo-charge,
+    DSNU on the dark charge, dead and hot pixels), passed to :meth:`Electronics.expose`;
+-   non-linearity: the charge-to-signal conversion bends toward full well,
+    e_out = e · (1 − β · e / FW) (a quadratic compression; β is the relative loss of signal
+    at full well, the electronics' ``nonlinearity``, times the pixel's own factor), the form
+    of the EMVA 1288 linearity-error measurement's deviation. The calibration inverts it
+    (:meth:`Electronics.photoelectrons`).
+
 References
 ----------
 -   EMVA Standard 1288, Release 4.0 Linear (2021): Standard for characterization of image
@@ -33,6 +44,8 @@ __all__ = [
     "apply_shot_noise",
     "clip_full_well",
     "apply_read_noise",
+    "apply_nonlinearity",
+    "invert_nonlinearity",
     "analogue_counts",
     "quantise",
     "Electronics",
@@ -67,6 +80,41 @@ def apply_read_noise(electrons: np.ndarray, read_noise: float, rng: np.random.Ge
     if read_noise == 0:
         return electrons
     return electrons + rng.normal(0.0, read_noise, np.shape(electrons))
+
+
+def apply_nonlinearity(electrons, nonlinearity, full_well: float | None):
+    """
+    The conversion's compression of charge [e⁻] into signal [e⁻ equivalent]:
+    e · (1 − β · e / FW), β = ``nonlinearity`` (a scalar or a per-pixel map) [1].
+
+    Examples
+    --------
+    >>> float(apply_nonlinearity(1e6, 0.05, 1e6))  # 5 % signal lost at full well
+    950000.0
+    """
+    if full_well is None or np.all(np.asarray(nonlinearity) == 0):
+        return electrons
+    return electrons * (1.0 - nonlinearity * electrons / full_well)
+
+
+def invert_nonlinearity(signal, nonlinearity: float, full_well: float | None):
+    """
+    The charge [e⁻] of a signal [e⁻ equivalent] (the inverse of :func:`apply_nonlinearity` on
+    its rising branch; signals above its top, FW / (4β), have none: NaN).
+
+    Examples
+    --------
+    >>> float(invert_nonlinearity(apply_nonlinearity(7e5, 0.05, 1e6), 0.05, 1e6))
+    700000.0
+    """
+    if full_well is None or nonlinearity == 0:
+        return signal
+    signal = np.asarray(signal, dtype=float)
+    root = 1.0 - 4.0 * nonlinearity * signal / full_well
+    with np.errstate(invalid="ignore"):
+        # e = 2y / (1 + √(1 − 4βy/FW)): the stable form of the quadratic's smaller root.
+        return np.where(root >= 0, 2.0 * signal / (1.0 + np.sqrt(np.clip(root, 0.0, None))),
+                        np.nan)
 
 
 def analogue_counts(electrons, gain: float, offset: float):
@@ -140,6 +188,9 @@ class Electronics:
         Dark offset [DN].
     adc_bits : int or None
         Converter resolution [bit]; ``None``: no quantisation and no clipping.
+    nonlinearity : float
+        β, the relative signal lost at full well by the conversion's compression [1] (0: the
+        linear model); needs a full well.
     """
 
     full_well: float | None = edge_field(None, "full_well_e", doc="well capacity [e⁻]")
@@ -149,6 +200,8 @@ class Electronics:
     gain: float = edge_field(1.0, "gain_dn_per_e", doc="system gain K [DN/e⁻]")
     offset: float = edge_field(0.0, "offset_dn", doc="dark offset [DN]")
     adc_bits: int | None = edge_field(None, "adc_bits", kind="int", doc="ADC resolution [bit]")
+    nonlinearity: float = edge_field(0.0, "nonlinearity",
+                                     doc="relative signal lost at full well [1]")
 
     def __post_init__(self):
         checks = [
@@ -164,6 +217,11 @@ class Electronics:
             (self.adc_bits is None or (int(self.adc_bits) == self.adc_bits
                                         and 1 <= self.adc_bits <= 32),
              f"adc_bits must be None or an integer from 1 to 32, got {self.adc_bits!r}"),
+            (math.isfinite(self.nonlinearity) and 0 <= self.nonlinearity < 0.5,
+             f"nonlinearity must be in [0, 0.5) (monotonic up to full well), got "
+             f"{self.nonlinearity!r}"),
+            (self.nonlinearity == 0 or self.full_well is not None,
+             "a non-linearity bends toward full well: give full_well too"),
         ]
         for ok, message in checks:
             if not ok:
@@ -196,11 +254,13 @@ class Electronics:
         """
         electrons = add_dark_charge(np.asarray(photoelectrons, dtype=float), self.dark_current,
                                     integration_time)  # [e⁻]
-        return analogue_counts(electrons, self.gain, self.offset)  # [DN]
+        signal = apply_nonlinearity(electrons, self.nonlinearity, self.full_well)  # [e⁻ eq.]
+        return analogue_counts(signal, self.gain, self.offset)  # [DN]
 
     def photoelectrons(self, counts, integration_time: float) -> np.ndarray:
         """The inverse of :meth:`mean_counts`: mean photo-charge [e⁻] of ``counts`` [DN]."""
-        electrons = (np.asarray(counts, dtype=float) - self.offset) / self.gain  # [e⁻]
+        signal = (np.asarray(counts, dtype=float) - self.offset) / self.gain  # [e⁻ eq.]
+        electrons = invert_nonlinearity(signal, self.nonlinearity, self.full_well)  # [e⁻]
         return electrons - self.dark_current * integration_time
 
     @property
@@ -213,8 +273,9 @@ class Electronics:
         if self.full_well is not None:
             limits.append(self.full_well)
         if self.adc_bits is not None:
-            limits.append((self.max_count - 0.5 - self.offset) / self.gain)
-        return min(limits)
+            top = (self.max_count - 0.5 - self.offset) / self.gain  # [e⁻ eq.]
+            limits.append(float(invert_nonlinearity(top, self.nonlinearity, self.full_well)))
+        return min(v for v in limits if not math.isnan(v))
 
     @property
     def max_count(self) -> float:
@@ -222,7 +283,7 @@ class Electronics:
         return math.inf if self.adc_bits is None else float(2**self.adc_bits - 1)
 
     def expose(self, photoelectrons: np.ndarray, integration_time: float,
-               rng=None) -> Exposure:
+               rng=None, pattern=None) -> Exposure:
         """
         Turn mean photo-electrons into a noisy, clipped, quantised read-out.
 
@@ -234,13 +295,28 @@ class Electronics:
             Integration time [s] (for the dark charge).
         rng
             Seed or :class:`numpy.random.Generator` for shot and read noise.
+        pattern
+            The array's :class:`~radiosim.fpa.FixedPattern` (shaped like ``photoelectrons``),
+            or ``None`` for identical pixels.
         """
         rng = check_rng(rng)
+        if pattern is not None:  # PRNU: each pixel's photo-response; dead pixels have none
+            photoelectrons = np.where(pattern.dead, 0.0, photoelectrons * pattern.gain)  # [e⁻]
         electrons = add_dark_charge(photoelectrons, self.dark_current, integration_time)  # [e⁻]
+        if pattern is not None:  # DSNU: each pixel's dark offset
+            electrons = np.clip(electrons + pattern.dark, 0.0, None)  # [e⁻]
         if self.shot_noise:
             electrons = apply_shot_noise(electrons, rng)  # [e⁻], Poisson
+        if pattern is not None and pattern.hot.any():  # hot pixels: a stuck, full well
+            well = self.full_well if self.full_well is not None else np.inf
+            electrons = np.where(pattern.hot, well, electrons)  # [e⁻]
         electrons, full = clip_full_well(electrons, self.full_well)  # [e⁻] in the well
-        read = apply_read_noise(electrons, self.read_noise, rng)  # [e⁻] at the converter
+        if pattern is not None:
+            full = full | pattern.hot
+        beta = (self.nonlinearity if pattern is None
+                else self.nonlinearity * pattern.nonlinearity)
+        signal = apply_nonlinearity(electrons, beta, self.full_well)  # [e⁻ eq.], compressed
+        read = apply_read_noise(signal, self.read_noise, rng)  # [e⁻ eq.] at the converter
         counts, floor, top = quantise(read, self.gain, self.offset, self.adc_bits)  # [DN]
         return Exposure(electrons=electrons, counts=counts, saturated=full | top,
                         adc_floor=floor)
