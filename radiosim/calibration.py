@@ -235,7 +235,8 @@ class Calibration:
         """
         Noise-equivalent temperature difference [K] at ``temperature`` [K]: the temporal noise
         [e⁻ rms] (:meth:`noise`) over the slope of the mean charge d e⁻/dT (a central
-        difference of 1e-4 relative).
+        difference of 1e-4 relative); NaN outside the calibration range and from saturation
+        up.
 
         Examples
         --------
@@ -247,7 +248,11 @@ class Calibration:
         t = np.asarray(temperature, dtype=float)
         h = 1e-4 * t
         slope = (self.photoelectrons(t + h) - self.photoelectrons(t - h)) / (2 * h)  # [e⁻/K]
-        return self.noise(t) / slope
+        saturation = self.saturation_temperature
+        low, high = self.temperature_range
+        beyond = (t < low) | (t > high) | (t >= saturation if not math.isnan(saturation)
+                                            else True)
+        return np.where(beyond, np.nan, self.noise(t) / slope)
 
     def lowest_measurable_temperature(self, snr: float = 1.0) -> float:
         """

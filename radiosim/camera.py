@@ -398,41 +398,111 @@ class Camera:
         return [self.measure(scene, integration_time, first.start + i * period, rng)
                 for i in range(int(n_frames))]
 
+    def superframe(self, scene: Scene, integration_times, t_start: float | None = None,
+                   rng=None) -> Measurement:
+        """
+        Superframing: integrate subframes of ``integration_times`` [s] in sequence with the
+        camera's real timing (each starts one frame period after the previous one's start),
+        calibrate each with its own calibration, and merge them per pixel: the longest
+        subframe whose reading is valid (neither saturated, under nor over range); a pixel with
+        no valid subframe keeps the flags of its shortest subframe if any is saturated, else of
+        its longest. The scene moves between subframes, and the merged frame shows it.
+
+        Parameters
+        ----------
+        scene
+            The scene.
+        integration_times
+            The subframes' integration times [s], in the order the camera cycles them.
+        t_start
+            Start of the first subframe [s]; ``None``: as :meth:`window` chooses.
+        rng
+            Seed or generator; the subframes draw their noise from it in turn.
+
+        Returns
+        -------
+        Measurement
+            Per-pixel fields from each pixel's subframe; ``subframe`` says which;
+            ``integration_time`` is the longest subframe's, ``t_start`` the first's.
+        """
+        times = [check_positive(t, "integration time", "s") for t in integration_times]
+        if not times:
+            raise RadiosimError("a superframe needs at least one integration time")
+        rng = check_rng(rng)
+        start = self.window(scene, times[0], t_start).start
+        subframes = []
+        for t_int in times:
+            subframes.append(self.measure(scene, t_int, start, rng))
+            start += self.frame_period(t_int) if (self.frame_rate is not None or
+                                                  self.fpa.readout_time(self.readout_shape) > 0
+                                                  ) else t_int
+        order = np.argsort(times, kind="stable")  # shortest first
+        shape = subframes[0].shape
+        chosen = np.full(shape, -1)
+        for j in order:  # longer valid subframes overwrite shorter ones
+            chosen = np.where(subframes[j].valid, j, chosen)
+        none = chosen < 0
+        any_saturated = np.any([m.saturated for m in subframes], axis=0)
+        chosen = np.where(none & any_saturated, order[0], np.where(none, order[-1], chosen))
+
+        def pick(name):
+            stack = np.stack([getattr(m, name) for m in subframes])
+            return np.take_along_axis(stack, chosen[None], 0)[0]
+
+        first = subframes[0]
+        return Measurement(
+            **{name: pick(name) for name in (
+                "apparent_temperature", "counts", "electrons", "saturated", "under_range",
+                "over_range", "tensor_max", "tensor_mean", "tensor_std", "signal_mean")},
+            signal_unit=first.signal_unit, camera=self, integration_time=max(times),
+            t_start=first.t_start, n_frames=sum(m.n_frames for m in subframes),
+            scene=first.scene, alignment=first.alignment, subframe=chosen,
+            subframe_times=tuple(times), subframe_starts=tuple(m.t_start for m in subframes))
+
     # -- the array's fixed pattern and its correction ------------------------------------------
 
-    def flat_field(self, temperature: float, integration_time: float, frames: int = 16,
-                   rng=None):
+    def flat_fields(self, temperature: float | None, integration_time: float,
+                    frames: int = 16, rng=None):
         """
-        Mean counts [DN] of ``frames`` read-outs of a uniform blackbody filling the array at
-        ``temperature`` [K] (its whole shape), and the pixels saturated in any of them.
+        ``frames`` read-outs [DN] (frames, rows, columns) of a uniform blackbody filling the
+        array at ``temperature`` [K] — or of darkness (no photo-charge) for ``None`` — and the
+        pixels saturated in any of them.
 
         The blackbody is imaged once; each frame is a new read-out of the electronics (shot
-        and read noise, the fixed pattern).
+        and read noise, with the array's fixed pattern), without the NUC.
         """
         from radiosim.scenes.analytic import UniformBlackbody
 
         if self.fpa.shape is None:
             raise RadiosimError(f"{self.name} has no array shape: a flat field needs one")
-        frames = int(frames)
-        if frames < 1:
-            raise RadiosimError(f"frames must be ≥ 1, got {frames!r}")
+        if isinstance(frames, bool) or int(frames) != frames or frames < 1:
+            raise RadiosimError(f"frames must be a whole number ≥ 1, got {frames!r}")
         rng = check_rng(rng)
         t_int = check_positive(integration_time, "integration_time", "s")
-        scene = UniformBlackbody(check_positive(temperature, "temperature", "K"),
-                                 shape=self.fpa.shape, dx=self.fpa.pixel_pitch, dt=t_int)
-        ideal = self.replace(fpa=dataclasses.replace(self.fpa, origin=(0.0, 0.0)))
-        window = ideal.window(scene, t_int, 0.0)
-        stats = integrate(scene, ideal.integrator(scene), window, self.response_model)
-        photo = collect(stats.signal_mean + self.instrument_signal(), self.rate_per_signal,
-                        t_int)
+        if temperature is None:
+            photo = np.zeros(self.fpa.shape)
+        else:
+            scene = UniformBlackbody(check_positive(temperature, "temperature", "K"),
+                                     shape=self.fpa.shape, dx=self.fpa.pixel_pitch, dt=t_int)
+            at_corner = self.replace(fpa=dataclasses.replace(self.fpa, origin=(0.0, 0.0)))
+            window = at_corner.window(scene, t_int, 0.0)
+            stats = integrate(scene, at_corner.integrator(scene), window, self.response_model)
+            photo = collect(stats.signal_mean + self.instrument_signal(), self.rate_per_signal,
+                            t_int)  # [e⁻]
         pattern = self.fpa.pattern(photo.shape)
-        total = np.zeros(photo.shape)
+        counts = np.empty((int(frames), *photo.shape))
         saturated = np.zeros(photo.shape, dtype=bool)
-        for _ in range(frames):
+        for k in range(int(frames)):
             exposure = self.electronics.expose(photo, t_int, rng, pattern)
-            total += exposure.counts
+            counts[k] = exposure.counts
             saturated |= exposure.saturated
-        return total / frames, saturated
+        return counts, saturated
+
+    def flat_field(self, temperature: float | None, integration_time: float, frames: int = 16,
+                   rng=None):
+        """The mean of :meth:`flat_fields` [DN] and the pixels saturated in any frame."""
+        counts, saturated = self.flat_fields(temperature, integration_time, frames, rng)
+        return counts.mean(axis=0), saturated
 
     def fit_nuc(self, temperatures, integration_time: float, frames: int = 16,
                 rng=None) -> Camera:

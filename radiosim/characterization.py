@@ -9,6 +9,13 @@ line fitted over the linear range (up to 70 % of saturation, as the standard pre
 the system gain K [DN/e⁻]; the dark variance gives the dark noise σ_d = √(σ²_y,dark − 1/12)/K
 [e⁻]; and the saturation capacity is the charge (μ_y − μ_y,dark)/K where the variance peaks.
 
+The spatial non-uniformity follows EMVA 1288's §8: the mean of L frames, dark and at about
+half saturation, has a spatial variance s²_y that still holds σ²_y,temporal / L of temporal
+noise, which is subtracted; then DSNU = s_y,dark / K [e⁻] and
+PRNU = √(s²_y,50 − s²_y,dark) / (μ_y,50 − μ_y,dark) [1]. The linearity error is EMVA 1288's
+(Release 3.0, §6.6): a line through the mean signal against exposure between 5 % and 95 % of
+its range, and LE = (max δ − min δ)/2 of the deviations δ relative to that range [%].
+
 The size-of-source effect (SSE) is measured as MSL Technical Guide 26 describes: the camera
 views uniform discs of increasing diameter d, centred on a pixel, in front of a uniform
 background; SSE(d) = (S(d) − S_bg) / (S(d_ref) − S_bg), the centre pixel's signal above the
@@ -41,7 +48,9 @@ from radiosim.scenes.analytic import UniformBlackbody
 from radiosim.scenes.framestack import FrameStack
 
 __all__ = ["PhotonTransfer", "photon_transfer", "EmvaResult", "fit_emva1288",
-           "SizeOfSource", "size_of_source", "HaloFit", "fit_scatter_halo"]
+           "SizeOfSource", "size_of_source", "HaloFit", "fit_scatter_halo",
+           "SpatialNonuniformity", "spatial_nonuniformity", "linearity_error",
+           "residual_nonuniformity", "Datasheet", "datasheet"]
 
 
 @dataclass(frozen=True)
@@ -303,3 +312,183 @@ def fit_scatter_halo(diameters, sse) -> HaloFit:
                         x_scale=(0.1, start[1], start[2]), xtol=1e-15, ftol=1e-15, gtol=1e-15)
     fraction, width, scale = fit.x
     return HaloFit(ScatterHalo(float(fraction), float(width)), float(scale), -fit.fun)
+
+
+# -- the spatial model (EMVA 1288 §8), linearity and the NUC's residual ----------------------
+
+
+@dataclass(frozen=True)
+class SpatialNonuniformity:
+    """
+    EMVA 1288 spatial non-uniformity of an array.
+
+    Attributes
+    ----------
+    dsnu : float
+        Dark-signal non-uniformity [e⁻ rms].
+    prnu : float
+        Photo-response non-uniformity [1, rms].
+    dark_spatial_variance, bright_spatial_variance : float
+        s²_y of the mean dark and bright images, temporal part removed [DN²].
+    temporal_variance : float
+        Mean per-pixel temporal variance of the bright frames [DN²].
+    """
+
+    dsnu: float
+    prnu: float
+    dark_spatial_variance: float
+    bright_spatial_variance: float
+    temporal_variance: float
+
+
+def _spatial_variance(frames: np.ndarray) -> tuple[float, float]:
+    """(s²_y of the frames' mean image less its temporal part, mean temporal variance) [DN²]."""
+    n = frames.shape[0]
+    temporal = float(np.mean(np.var(frames, axis=0, ddof=1)))
+    return float(np.var(frames.mean(axis=0), ddof=1)) - temporal / n, temporal
+
+
+def spatial_nonuniformity(camera, temperature: float, integration_time: float, gain: float,
+                          frames: int = 16, rng=None) -> SpatialNonuniformity:
+    """
+    DSNU and PRNU of ``camera``'s array from ``frames`` dark and bright (blackbody at
+    ``temperature`` [K]) read-outs at ``integration_time`` [s], with the system gain ``gain``
+    [DN/e⁻] (from :func:`fit_emva1288`).
+    """
+    rng = np.random.default_rng(rng)
+    dark, _ = camera.flat_fields(None, integration_time, frames, rng)
+    bright, saturated = camera.flat_fields(temperature, integration_time, frames, rng)
+    if saturated.any():
+        raise RadiosimError(f"{int(saturated.sum())} pixels saturate at {temperature:g} K: "
+                            "choose a level near half saturation")
+    s2_dark, _ = _spatial_variance(dark)
+    s2_bright, temporal = _spatial_variance(bright)
+    signal = float(bright.mean() - dark.mean())  # [DN]
+    return SpatialNonuniformity(
+        dsnu=float(np.sqrt(max(s2_dark, 0.0))) / gain,
+        prnu=float(np.sqrt(max(s2_bright - s2_dark, 0.0))) / signal,
+        dark_spatial_variance=s2_dark, bright_spatial_variance=s2_bright,
+        temporal_variance=temporal)
+
+
+def linearity_error(exposure, mean, dark_mean: float = 0.0, low: float = 0.05,
+                    high: float = 0.95) -> float:
+    """
+    EMVA 1288 linearity error [%] of mean signals ``mean`` [DN] against ``exposure`` (any unit
+    proportional to the photo-charge: irradiance × time): a least-squares line through the
+    points between ``low`` and ``high`` of the signal range (above ``dark_mean``), deviations
+    relative to that range, δ = 100·(y − fit)/((high − low)·y_max), LE = (max δ − min δ)/2.
+
+    Examples
+    --------
+    >>> h = np.linspace(0.0, 1.0, 21)
+    >>> round(linearity_error(h, 100 * h), 9)  # a straight line
+    0.0
+    >>> round(linearity_error(h, 100 * h * (1 - 0.05 * h)), 3)  # 5 % compression at the top
+    0.526
+    """
+    x = np.asarray(exposure, dtype=float)
+    y = np.asarray(mean, dtype=float) - dark_mean
+    top = y.max()
+    used = (y >= low * top) & (y <= high * top)
+    if used.sum() < 3:
+        raise RadiosimError("fewer than 3 levels between 5 % and 95 % of the signal range")
+    slope, intercept = np.polyfit(x[used], y[used], 1)
+    fit = slope * x[used] + intercept
+    delta = 100.0 * (y[used] - fit) / ((high - low) * top)  # [%] of the fitted range
+    return float((delta.max() - delta.min()) / 2)
+
+
+def residual_nonuniformity(camera, temperatures, integration_time: float, frames: int = 16,
+                           rng=None) -> np.ndarray:
+    """
+    Spatial noise left after the camera's NUC [DN rms] at each blackbody temperature [K]: the
+    spatial standard deviation of the NUC-corrected mean of ``frames`` read-outs, its temporal
+    part (σ²_temporal / frames) removed; NaN where any pixel saturates. Zero (to the noise of
+    the NUC's own flat fields) at the NUC's points, rising away from them where the pixels'
+    responses differ in shape (non-linearity spread).
+    """
+    if camera.nuc is None:
+        raise RadiosimError(f"{camera.name} has no NUC: fit one first (Camera.fit_nuc)")
+    rng = np.random.default_rng(rng)
+    out = []
+    for t in temperatures:
+        counts, saturated = camera.flat_fields(float(t), integration_time, frames, rng)
+        if saturated.any():
+            out.append(np.nan)
+            continue
+        corrected = np.stack([camera.nuc.apply(c) for c in counts])
+        good = ~camera.nuc.bad[:counts.shape[1], :counts.shape[2]]
+        mean = corrected.mean(axis=0)[good]
+        temporal = float(np.mean(np.var(corrected, axis=0, ddof=1)[good]))
+        out.append(float(np.sqrt(max(np.var(mean, ddof=1) - temporal / frames, 0.0))))
+    return np.array(out)
+
+
+@dataclass(frozen=True)
+class Datasheet:
+    """
+    A camera's datasheet in the spirit of an EMVA 1288 report.
+
+    Attributes
+    ----------
+    rows : list of dict
+        ``quantity``, ``condition``, ``value``, ``unit`` rows (one CSV).
+    ptc : PhotonTransfer
+        The photon-transfer curve.
+    netd : tuple of numpy.ndarray
+        (temperatures [K], NETD [K]) at the datasheet's integration time.
+    range : tuple of numpy.ndarray
+        (integration times [s], lowest measurable [K], saturation [K]).
+    """
+
+    rows: list
+    ptc: PhotonTransfer
+    netd: tuple
+    range: tuple
+
+
+def datasheet(camera, integration_time: float, ptc_temperatures, netd_temperatures,
+              range_times, frames: int = 16, rng=None) -> Datasheet:
+    """
+    The camera characterised as an EMVA 1288 report would: gain K, dark noise σ_d and
+    saturation capacity from the photon-transfer curve; DSNU and PRNU from the spatial model;
+    the linearity error from an exposure sweep; the NETD curve at ``integration_time`` [s]
+    over ``netd_temperatures`` [K]; the measurable range over ``range_times`` [s].
+    """
+    rng = np.random.default_rng(rng)
+    ptc = photon_transfer(camera, integration_time, ptc_temperatures, rng=rng)
+    fit = fit_emva1288(ptc)
+    # Half saturation for the PRNU: the PTC level nearest it.
+    half = ptc.dark_mean + 0.5 * (ptc.mean.max() - ptc.dark_mean)
+    level = float(ptc.temperature[np.argmin(np.abs(ptc.mean - half))])
+    spatial = spatial_nonuniformity(camera, level, integration_time, fit.gain, frames, rng)
+    # Linearity: the PTC's levels below saturation, exposure ∝ the noise-free photo-charge.
+    calibration = camera.calibration(integration_time)
+    exposure = calibration.photoelectrons(ptc.temperature)
+    below = ptc.mean < 0.98 * ptc.mean.max()
+    le = linearity_error(exposure[below], ptc.mean[below], ptc.dark_mean)
+    t_netd = np.asarray(netd_temperatures, dtype=float)
+    netd = camera.netd(t_netd, integration_time)
+    times = np.asarray(range_times, dtype=float)
+    limits = np.array([camera.measurable_range(t) for t in times])
+    condition = f"t_int = {integration_time * 1e6:g} us"
+    rows = [
+        {"quantity": "system gain K", "condition": condition, "value": fit.gain,
+         "unit": "DN/e-"},
+        {"quantity": "dark noise", "condition": condition, "value": fit.dark_noise, "unit": "e-"},
+        {"quantity": "saturation capacity", "condition": condition,
+         "value": fit.saturation_capacity, "unit": "e-"},
+        {"quantity": "DSNU", "condition": condition, "value": spatial.dsnu, "unit": "e-"},
+        {"quantity": "PRNU", "condition": f"{condition}, {level:g} K",
+         "value": 100 * spatial.prnu, "unit": "%"},
+        {"quantity": "linearity error", "condition": condition, "value": le, "unit": "%"},
+    ]
+    rows += [{"quantity": "NETD", "condition": f"{condition}, {t:g} K", "value": float(v),
+              "unit": "K"} for t, v in zip(t_netd, netd)]
+    for t, (low, sat) in zip(times, limits):
+        rows.append({"quantity": "lowest measurable temperature",
+                     "condition": f"t_int = {t * 1e6:g} us", "value": float(low), "unit": "K"})
+        rows.append({"quantity": "saturation temperature",
+                     "condition": f"t_int = {t * 1e6:g} us", "value": float(sat), "unit": "K"})
+    return Datasheet(rows, ptc, (t_netd, netd), (times, limits[:, 0], limits[:, 1]))

@@ -260,6 +260,75 @@ def _sse(args) -> int:
     return 0
 
 
+def _report(args) -> int:
+    import csv
+    import io
+
+    import numpy as np
+
+    from radiosim.characterization import datasheet
+    from radiosim.files import OutputFolder, write_text
+    from radiosim.plotting import figure, save_figure
+
+    camera = _camera(args.camera)
+    if camera.fpa.shape is None:
+        raise RadiosimError(f"{camera.name} has no array shape ([fpa] shape): a datasheet "
+                            "measures its whole array")
+    t_int = args.integration_time
+    calibration = camera.calibration(t_int)
+    low = calibration.lowest_measurable_temperature()
+    saturation = calibration.saturation_temperature
+    if not (np.isfinite(low) and np.isfinite(saturation)):
+        raise RadiosimError(f"at {t_int * 1e6:g} µs {camera.name} has no measurable range "
+                            f"within its calibration (floor {low:g} K, saturation "
+                            f"{saturation:g} K): choose another --integration-time")
+    top = min(saturation * 1.2, camera.calibration_range[1])
+    longest = 1.0 / camera.frame_rate if camera.frame_rate else 10e-3
+    times = np.geomspace(1e-6, longest, 13)
+    out = OutputFolder(Path(args.out or f"radiosim-report-{camera.name}"),
+                       overwrite=args.overwrite)
+    print(f"radiosim {__version__}: datasheet of {camera.name} at {t_int * 1e6:g} µs → "
+          f"{out.path}/")
+    sheet = datasheet(camera, t_int, np.linspace(low, top, 25),
+                      np.linspace(low, saturation, 12, endpoint=False), times,
+                      frames=args.frames, rng=args.seed)
+    text = io.StringIO()
+    writer = csv.DictWriter(text, ["quantity", "condition", "value", "unit"],
+                            lineterminator="\n")
+    writer.writeheader()
+    writer.writerows({**r, "value": f"{r['value']:.6g}"} for r in sheet.rows)
+    write_text(out.staging / "datasheet.csv", text.getvalue())
+    ptc = sheet.ptc
+    fig = figure(6, 4)
+    ax = fig.add_subplot()
+    ax.plot(ptc.mean - ptc.dark_mean, ptc.variance - ptc.dark_variance, "o")
+    ax.set(xlabel="μ_y − μ_y,dark [DN]", ylabel="σ²_y − σ²_y,dark [DN²]",
+           title=f"{camera.name}: photon transfer at {t_int * 1e6:g} µs")
+    save_figure(fig, out.staging / "photon_transfer.png")
+    fig = figure(6, 4)
+    ax = fig.add_subplot()
+    ax.semilogy(*sheet.netd, "o-")
+    ax.set(xlabel="blackbody temperature [K]", ylabel="NETD [K]",
+           title=f"{camera.name}: NETD at {t_int * 1e6:g} µs")
+    save_figure(fig, out.staging / "netd.png")
+    fig = figure(6, 4)
+    ax = fig.add_subplot()
+    t_range, lowest, highest = sheet.range
+    ax.fill_between(t_range * 1e6, lowest, highest, alpha=0.3)
+    ax.semilogx(t_range * 1e6, lowest, label="lowest measurable (SNR = 1)")
+    ax.semilogx(t_range * 1e6, highest, label="saturation")
+    ax.set(xlabel="integration time [µs]", ylabel="temperature [K]",
+           title=f"{camera.name}: measurable range")
+    ax.legend()
+    save_figure(fig, out.staging / "range.png")
+    out.commit()
+    for r in sheet.rows[:6]:
+        print(f"  {r['quantity']:<22}{r['value']:>12.4g} {r['unit']:<6} ({r['condition']})")
+    print(f"wrote {out.path / 'datasheet.csv'} ({len(sheet.rows)} rows), photon_transfer.png, "
+          "netd.png, range.png")
+    return 0
+
+
 def _presets(args) -> int:
     from radiosim.study import Study, available_studies
 
@@ -361,6 +430,22 @@ def build_parser() -> argparse.ArgumentParser:
     sse.add_argument("--out", help="write the curve to this .csv file (a new one)")
     sse.add_argument("--overwrite", action="store_true", help="replace --out if it exists")
     sse.set_defaults(func=_sse)
+    report = sub.add_parser("report", help="an EMVA 1288-style datasheet of a camera",
+                            description="Characterise a camera as an EMVA 1288 report does: "
+                            "gain, dark noise, saturation capacity, DSNU, PRNU, linearity "
+                            "error, NETD curve and measurable range; datasheet.csv and figures "
+                            "in --out.")
+    report.add_argument("camera", help="preset name or camera TOML")
+    report.add_argument("--integration-time", type=parse_time, default=240e-6, metavar="T",
+                        help="integration time of the datasheet (default 240us)")
+    report.add_argument("--frames", type=int, default=16,
+                        help="read-outs per flat field (default 16)")
+    report.add_argument("--seed", type=parse_seed, default=0, help="noise seed ≥ 0 (default 0)")
+    report.add_argument("--out", help="output folder, new or empty (default "
+                        "radiosim-report-CAMERA)")
+    report.add_argument("--overwrite", action="store_true",
+                        help="replace the files of radiosim's previous report in --out")
+    report.set_defaults(func=_report)
     presets = sub.add_parser("presets", help="list the cameras and studies")
     presets.set_defaults(func=_presets)
     scene = sub.add_parser("scene", help="the built-in segmented-chip scene")

@@ -303,10 +303,10 @@ class Electronics:
         if pattern is not None:  # PRNU: each pixel's photo-response; dead pixels have none
             photoelectrons = np.where(pattern.dead, 0.0, photoelectrons * pattern.gain)  # [e⁻]
         electrons = add_dark_charge(photoelectrons, self.dark_current, integration_time)  # [e⁻]
-        if pattern is not None:  # DSNU: each pixel's dark offset
-            electrons = np.clip(electrons + pattern.dark, 0.0, None)  # [e⁻]
         if self.shot_noise:
             electrons = apply_shot_noise(electrons, rng)  # [e⁻], Poisson
+        if pattern is not None:  # DSNU: each pixel's dark offset (the readout's, no shot noise)
+            electrons = electrons + pattern.dark  # [e⁻ eq.]
         if pattern is not None and pattern.hot.any():  # hot pixels: a stuck, full well
             well = self.full_well if self.full_well is not None else np.inf
             electrons = np.where(pattern.hot, well, electrons)  # [e⁻]

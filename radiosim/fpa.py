@@ -8,7 +8,7 @@ The integrator lays the array's pixel cells on the scene (:attr:`FocalPlaneArray
 
 The fixed pattern (EMVA 1288's spatial model) is what makes pixels differ: photo-response
 non-uniformity (PRNU, a per-pixel gain 1 + PRNU·z on the photo-charge), dark-signal
-non-uniformity (DSNU, a per-pixel dark charge offset [e⁻]), a per-pixel spread of the
+non-uniformity (DSNU, a per-pixel offset of the readout [e⁻ equivalent], without shot noise), a per-pixel spread of the
 non-linearity, dead pixels (no photo-response) and hot pixels (a stuck, full well). The maps
 are drawn from the array's own ``pattern_seed`` for its full shape, so the same camera always
 has the same pattern, or read from an NPZ file (:class:`FixedPattern`).

@@ -68,6 +68,13 @@ class Measurement:
     over_range : numpy.ndarray of bool
         Readings above the calibration range although neither the well nor the converter is
         full (with a very short integration, noise can carry a reading there).
+    subframe : numpy.ndarray of int or None
+        For a superframe (:meth:`~radiosim.camera.Camera.superframe`): the subframe each pixel
+        was taken from (an index into ``subframe_times``).
+    subframe_times : tuple of float
+        A superframe's integration times [s], in the order they were taken.
+    subframe_starts : tuple of float
+        The start of each subframe's window [s].
     """
 
     #: Units of the array fields and derived properties.
@@ -104,6 +111,9 @@ class Measurement:
     scene: dict = field(default_factory=dict)
     alignment: str = "given"
     over_range: np.ndarray | None = None
+    subframe: np.ndarray | None = None
+    subframe_times: tuple = ()
+    subframe_starts: tuple = ()
 
     def __post_init__(self):
         if self.over_range is None:
