@@ -21,7 +21,9 @@ How the kernels are fast (see ``benchmarks/bench_kernels.py``):
 -   pixel rows are split in one contiguous block per thread (``numba.prange``); a pixel row
     writes only its own output row, so there are no races, and the result does not depend on
     the number of threads;
--   within a pixel row, the sample rows of its pieces are swept 4 at a time (then 1) along the
+-   within a pixel row, the sample rows of its pieces are swept up to 12 at a time (all of a
+    pixel row of up to 12 pieces; generated sweeps ``_lin1`` … ``_lin12``), in chunks of 512
+    slots that stay in the L1 cache, along the
     columns, in sample space: one accumulator slot per sample (holding the first column piece
     that reads it), plus a slot per "duplicate" piece (a pixel edge inside a sample: the
     second piece reading it, filled from a small gathered row). The loops are contiguous and
@@ -39,7 +41,8 @@ How the kernels are fast (see ``benchmarks/bench_kernels.py``):
 
 Nothing is compiled at import (importing costs numba's own import). The first call with a new
 frame dtype (float32, float64) or index-map dtype (uint8, intp) compiles the one kernel that
-serves linear, Planck and every emissivity form (about 10 s) and caches it on disk
+serves linear, Planck and every emissivity form (about 35 s on a 2-core machine, most of it
+the twelve generated sweeps) and caches it on disk
 (``cache=True``, in ``radiosim/__pycache__`` or ``NUMBA_CACHE_DIR``); later processes load it in
 about 0.3 s.
 """
