@@ -363,7 +363,8 @@ class Camera:
 
     @property
     def readout_shape(self) -> tuple[int, int]:
-        """The window the array reads (rows, columns): its shape (one pixel if it has none)."""
+        """The window the array reads, as its number of rows and columns: the array's shape, or
+        one pixel if it has none."""
         return tuple(self.fpa.shape) if self.fpa.shape is not None else (1, 1)
 
     def frame_period(self, integration_time: float) -> float:
