@@ -38,7 +38,7 @@ from radiosim.errors import RadiosimError, RadiosimWarning
 from radiosim.fpa import FocalPlaneArray
 from radiosim.imaging import forms_image, image_signal
 from radiosim.integrator import (FootprintIntegrator, Job, TensorStatistics, Window, integrate,
-                                 integrate_many, integration_window)
+                                 integrate_many, integration_window, stack_rows)
 from radiosim.measurement import Measurement
 from radiosim.optics import Optics, collect
 from radiosim.presets import PRESET_DIRECTORY, available_presets, camera_fields, camera_table
@@ -318,12 +318,39 @@ class Camera:
         Measurement
         """
         window = self.window(scene, integration_time, t_start)  # [s]
+        if self.rolling:
+            return self.read_out(self._rolling(scene, window), window, scene, rng)
         # Scene frames (T [K], ε) → response signal per sample → mean per pixel over
         # footprint × window [signal unit], with the tensor's T statistics [K].
         stats = integrate(scene, self.integrator(scene), window, self.response_model)
         if self.forms_image(scene):  # the statistics stay scene truth; the signal is imaged
             stats = dataclasses.replace(stats, signal_mean=self.image(scene, window))
         return self.read_out(stats, window, scene, rng)
+
+    @property
+    def rolling(self) -> bool:
+        """Whether the rows integrate over staggered windows (a rolling shutter)."""
+        return self.fpa.shutter == "rolling" and self.fpa.row_time > 0
+
+    def _rolling(self, scene: Scene, window: Window) -> TensorStatistics:
+        """A rolling shutter's statistics: pixel row i integrates over the window delayed by
+        i·row_time, all rows in one pass over the frames."""
+        if self.forms_image(scene):
+            raise RadiosimError(
+                f"{self.name}: a rolling shutter with a PSF, reflections or a path would need "
+                "one image per row; measure with shutter = 'snapshot' or without them")
+        integrator = self.integrator(scene)
+        delays = self.fpa.row_delays(integrator.shape[0])  # [s]
+        last = window.start + window.duration + delays[-1]
+        if scene.duration is not None and last > scene.duration * (1 + 1e-12):
+            raise RadiosimError(
+                f"the rolling shutter's last row integrates until {last:.6g} s, past the "
+                f"scene's end at {scene.duration:.6g} s (row time {self.fpa.row_time:g} s × "
+                f"{integrator.shape[0] - 1} rows)")
+        jobs = [Job(integrator.pixel_rows(i, i + 1),
+                    Window(window.start + delay, window.duration, window.alignment),
+                    self.response_model) for i, delay in enumerate(delays)]
+        return stack_rows(integrate_many(scene, jobs))
 
     def read_out(self, stats: TensorStatistics, window: Window, scene: Scene,
                  rng=None) -> Measurement:
@@ -567,15 +594,19 @@ def measure_many(scene: Scene, cases, rng=None, progress=None) -> list[Measureme
     windows = [camera.window(scene, t_int, t_start) for camera, t_int, t_start in cases]
     integrators = {}
     jobs = []
-    for (camera, _, _), window in zip(cases, windows):
+    snapshot = [i for i, (camera, _, _) in enumerate(cases) if not camera.rolling]
+    for (camera, _, _), window in ((cases[i], windows[i]) for i in snapshot):
         fpa = camera.fpa
         key = (fpa.pixel_pitch, fpa.fill_factor, fpa.shape, fpa.origin)
         if key not in integrators:  # cameras with the same footprints share them
             integrators[key] = camera.integrator(scene)
         jobs.append(Job(integrators[key], window, camera.response_model))
-    statistics = integrate_many(scene, jobs, progress)
+    snapshot_statistics = dict(zip(snapshot, integrate_many(scene, jobs, progress)))
+    statistics = [snapshot_statistics[i] if i in snapshot_statistics
+                  else camera._rolling(scene, window)  # its own pass, one job per row
+                  for i, ((camera, _, _), window) in enumerate(zip(cases, windows))]
     statistics = [dataclasses.replace(stats, signal_mean=camera.image(scene, window))
-                  if camera.forms_image(scene) else stats
+                  if not camera.rolling and camera.forms_image(scene) else stats
                   for (camera, _, _), window, stats in zip(cases, windows, statistics)]
     return [camera.read_out(stats, window, scene, rng)
             for (camera, _, _), window, stats in zip(cases, windows, statistics)]

@@ -405,6 +405,24 @@ class FootprintIntegrator:
         """A per-pixel array repeated onto the piece grid."""
         return np.repeat(np.repeat(per_pixel, self.rows.counts, axis=0), self.cols.counts, axis=1)
 
+    def pixel_rows(self, start: int, stop: int) -> FootprintIntegrator:
+        """The integrator of pixel rows ``start`` to ``stop − 1`` alone (same columns)."""
+        rows = self.rows
+        ends = np.append(rows.starts, rows.source.size)
+        first, last = int(ends[start]), int(ends[stop])
+        part = AxisFootprints(rows.source[first:last], rows.weight[first:last],
+                              rows.starts[start:stop] - first)
+        return FootprintIntegrator(part, self.cols, self.pixel_pitch)
+
+
+def stack_rows(parts: list[TensorStatistics]) -> TensorStatistics:
+    """The statistics of consecutive pixel rows, stacked into one array's (``n_frames``: the
+    most any row's window touched)."""
+    return TensorStatistics(
+        *(np.vstack([getattr(p, name) for p in parts])
+          for name in ("signal_mean", "mean", "std", "max")),
+        n_frames=max(p.n_frames for p in parts))
+
 
 def _prefetched(scene: Scene, indices, region: Region, checked: bool = True):
     """Scene frames of ``indices`` in order, each read while the previous one is being used

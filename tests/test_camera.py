@@ -190,3 +190,30 @@ def test_with_pixel_pitch_keeps_magnification_origin_and_curves():
     assert bigger.fpa.quantum_efficiency is cam.fpa.quantum_efficiency
     # Étendue scales with the active area: (14/6)².
     assert bigger.etendue / cam.etendue == pytest.approx((14 / 6) ** 2, rel=1e-12)
+
+
+def test_a_rolling_shutter_delays_each_row_by_its_row_time():
+    """Row i of a rolling shutter reads what a snapshot camera reads with its window started
+    i·row_time later; a vertical band moving in x then leans (its peak column shifts with the
+    row by v·row_time / pitch)."""
+    band = MovingGaussianBand(300.0, 600.0, sigma=6e-6, velocity=2.0, x0=10e-6,
+                              shape=(48, 160), dx=1e-6, dt=0.5e-6, n_frames=200)
+    snapshot = Camera.linear_ideal(4e-6)
+    rolling = snapshot.replace(fpa=dataclasses.replace(snapshot.fpa, shutter="rolling",
+                                                       row_time=2e-6))
+    m = rolling.measure(band, 5e-6, t_start=10e-6)
+    for i in (0, 5, 11):
+        row = snapshot.measure(band, 5e-6, t_start=10e-6 + i * 2e-6).apparent_temperature[i]
+        np.testing.assert_allclose(m.apparent_temperature[i], row, rtol=1e-12)
+    assert rolling.rolling and not snapshot.rolling
+    peak = np.argmax(m.apparent_temperature, axis=1)
+    assert peak[-1] > peak[0]  # 11 rows × 2 µs × 2 m/s = 44 µm: the band leans by 11 pixels
+
+
+def test_a_rolling_shutter_past_the_scene_end_is_refused():
+    band = MovingGaussianBand(shape=(48, 64), dx=1e-6, dt=1e-6, n_frames=20)
+    camera = Camera.linear_ideal(4e-6)
+    camera = camera.replace(fpa=dataclasses.replace(camera.fpa, shutter="rolling",
+                                                    row_time=2e-6))
+    with pytest.raises(RadiosimError, match="rolling shutter's last row"):
+        camera.measure(band, 5e-6, t_start=0.0)
