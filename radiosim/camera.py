@@ -368,8 +368,12 @@ class Camera:
         # read noise, ADC → counts [DN].
         pattern = self.fpa.pattern(photoelectrons.shape)
         exposure = self.electronics.expose(photoelectrons, window.duration, rng, pattern)
-        if self.nuc is not None:  # the NUC: counts [DN] → corrected counts [DN]
-            exposure = dataclasses.replace(exposure, counts=self.nuc.apply(exposure.counts))
+        if self.nuc is not None:  # the NUC: counts [DN] → corrected counts [DN]; its bad
+            # pixels take their neighbours' values, and their own flags no longer apply
+            good = ~self.nuc.bad[:exposure.counts.shape[0], :exposure.counts.shape[1]]
+            exposure = dataclasses.replace(
+                exposure, counts=self.nuc.apply(exposure.counts),
+                saturated=exposure.saturated & good, adc_floor=exposure.adc_floor & good)
         # Calibration: counts [DN] → apparent temperature [K] and flags.
         reading = calibration.read(exposure)
         if reading.saturated.any():
