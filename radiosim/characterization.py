@@ -332,6 +332,8 @@ class SpatialNonuniformity:
         s²_y of the mean dark and bright images, temporal part removed [DN²].
     temporal_variance : float
         Mean per-pixel temporal variance of the bright frames [DN²].
+    defects : int
+        Defect pixels left out (saturated, dead, hot or outlying).
     """
 
     dsnu: float
@@ -339,13 +341,26 @@ class SpatialNonuniformity:
     dark_spatial_variance: float
     bright_spatial_variance: float
     temporal_variance: float
+    defects: int = 0
 
 
-def _spatial_variance(frames: np.ndarray) -> tuple[float, float]:
-    """(s²_y of the frames' mean image less its temporal part, mean temporal variance) [DN²]."""
+def _spatial_variance(frames: np.ndarray, keep: np.ndarray) -> tuple[float, float]:
+    """(s²_y of the frames' mean image over the ``keep`` pixels, less its temporal part; the
+    mean temporal variance) [DN²]."""
     n = frames.shape[0]
-    temporal = float(np.mean(np.var(frames, axis=0, ddof=1)))
-    return float(np.var(frames.mean(axis=0), ddof=1)) - temporal / n, temporal
+    temporal = float(np.mean(np.var(frames, axis=0, ddof=1)[keep]))
+    return float(np.var(frames.mean(axis=0)[keep], ddof=1)) - temporal / n, temporal
+
+
+#: A pixel whose dark level or response lies further than this many robust standard deviations
+#: from the array's median is a defect pixel, left out of DSNU and PRNU.
+DEFECT_SIGMAS = 6.0
+
+
+def _outliers(image: np.ndarray) -> np.ndarray:
+    median = np.median(image)
+    robust = 1.4826 * np.median(np.abs(image - median))
+    return np.abs(image - median) > DEFECT_SIGMAS * max(robust, 1e-12 * abs(median) + 1e-300)
 
 
 def spatial_nonuniformity(camera, temperature: float, integration_time: float, gain: float,
@@ -353,22 +368,27 @@ def spatial_nonuniformity(camera, temperature: float, integration_time: float, g
     """
     DSNU and PRNU of ``camera``'s array from ``frames`` dark and bright (blackbody at
     ``temperature`` [K]) read-outs at ``integration_time`` [s], with the system gain ``gain``
-    [DN/e⁻] (from :func:`fit_emva1288`).
+    [DN/e⁻] (from :func:`fit_emva1288`). Defect pixels — saturated in any frame, or with a
+    dark level or response beyond 6 robust standard deviations (dead and hot pixels) — are
+    left out and counted.
     """
     rng = np.random.default_rng(rng)
-    dark, _ = camera.flat_fields(None, integration_time, frames, rng)
+    dark, dark_saturated = camera.flat_fields(None, integration_time, frames, rng)
     bright, saturated = camera.flat_fields(temperature, integration_time, frames, rng)
-    if saturated.any():
-        raise RadiosimError(f"{int(saturated.sum())} pixels saturate at {temperature:g} K: "
-                            "choose a level near half saturation")
-    s2_dark, _ = _spatial_variance(dark)
-    s2_bright, temporal = _spatial_variance(bright)
-    signal = float(bright.mean() - dark.mean())  # [DN]
+    response = bright.mean(axis=0) - dark.mean(axis=0)
+    defects = saturated | dark_saturated | _outliers(dark.mean(axis=0)) | _outliers(response)
+    if defects.mean() > 0.01:
+        raise RadiosimError(f"{int(defects.sum())} pixels saturate or are defects at "
+                            f"{temperature:g} K: choose a level near half saturation")
+    keep = ~defects
+    s2_dark, _ = _spatial_variance(dark, keep)
+    s2_bright, temporal = _spatial_variance(bright, keep)
+    signal = float(response[keep].mean())  # [DN]
     return SpatialNonuniformity(
         dsnu=float(np.sqrt(max(s2_dark, 0.0))) / gain,
         prnu=float(np.sqrt(max(s2_bright - s2_dark, 0.0))) / signal,
         dark_spatial_variance=s2_dark, bright_spatial_variance=s2_bright,
-        temporal_variance=temporal)
+        temporal_variance=temporal, defects=int(defects.sum()))
 
 
 def linearity_error(exposure, mean, dark_mean: float = 0.0, low: float = 0.05,
@@ -404,7 +424,8 @@ def residual_nonuniformity(camera, temperatures, integration_time: float, frames
     """
     Spatial noise left after the camera's NUC [DN rms] at each blackbody temperature [K]: the
     spatial standard deviation of the NUC-corrected mean of ``frames`` read-outs, its temporal
-    part (σ²_temporal / frames) removed; NaN where any pixel saturates. Zero (to the noise of
+    part (σ²_temporal / frames) removed, over the pixels the NUC keeps; NaN where one of them
+    saturates. Zero (to the noise of
     the NUC's own flat fields) at the NUC's points, rising away from them where the pixels'
     responses differ in shape (non-linearity spread).
     """
@@ -414,11 +435,11 @@ def residual_nonuniformity(camera, temperatures, integration_time: float, frames
     out = []
     for t in temperatures:
         counts, saturated = camera.flat_fields(float(t), integration_time, frames, rng)
-        if saturated.any():
+        good = ~camera.nuc.bad[:counts.shape[1], :counts.shape[2]]
+        if saturated[good].any():  # the NUC's bad pixels are replaced, saturated or not
             out.append(np.nan)
             continue
         corrected = np.stack([camera.nuc.apply(c) for c in counts])
-        good = ~camera.nuc.bad[:counts.shape[1], :counts.shape[2]]
         mean = corrected.mean(axis=0)[good]
         temporal = float(np.mean(np.var(corrected, axis=0, ddof=1)[good]))
         out.append(float(np.sqrt(max(np.var(mean, ddof=1) - temporal / frames, 0.0))))
