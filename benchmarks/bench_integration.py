@@ -11,7 +11,9 @@ same run:
     of samples and reported per sample (running it on 7 × 10⁸ samples would take hours).
 
 Reports throughput [samples/s], peak traced memory [MB] and each case's time as a ratio to one
-streaming read of the same frames (numpy sum, warm pages), measured in the same run. The
+streaming read of the same frames (numpy sum, warm pages), measured in the same run; each time
+is the best of five runs (a shared 2-core machine only ever adds time), and memory is traced in
+a separate run. The
 compiled kernels alone (without the chain around them) are measured by bench_kernels.py. Run on
 demand:
 
@@ -51,14 +53,23 @@ def make_stack(path: Path, n_frames: int) -> np.memmap:
     return np.load(path, mmap_mode="r")
 
 
-def timed(function):
+#: Each case runs this many times; its time is the best (the machine's other work only ever
+#: adds time), its peak memory is traced in one further run (tracing slows Python down).
+REPEATS = 5
+
+
+def timed(function, repeats: int = REPEATS):
+    """(result, best wall time [s], peak traced memory [MB]) of ``function``."""
+    best = float("inf")
+    for _ in range(repeats):
+        start = time.perf_counter()
+        result = function()
+        best = min(best, time.perf_counter() - start)
     tracemalloc.start()
-    start = time.perf_counter()
-    result = function()
-    elapsed = time.perf_counter() - start
+    function()
     peak = tracemalloc.get_traced_memory()[1]
     tracemalloc.stop()
-    return result, elapsed, peak / 1e6
+    return result, best, peak / 1e6
 
 
 def naive_linear(stack, n):
@@ -98,7 +109,7 @@ def main():
     m_lin, t_lin, mem_lin = timed(lambda: linear.measure(scene, t_int, t_start=0.0))
     fractional = rs.Camera.linear_ideal(7.3 * DX, fill_factor=0.8)
     _, t_frac, mem_frac = timed(lambda: fractional.measure(scene, t_int, t_start=0.0))
-    (mean, peak, std), t_naive, mem_naive = timed(lambda: naive_linear(stack, n))
+    (mean, peak, std), t_naive, mem_naive = timed(lambda: naive_linear(stack, n), 1)
     err = max(np.max(np.abs(m_lin.apparent_temperature / mean - 1)),
               np.max(np.abs(m_lin.uncertainty - std)) / mean.max())
     assert np.array_equal(m_lin.tensor_max, peak)
@@ -111,7 +122,7 @@ def main():
                                                        rng=0))
     subset = np.asarray(stack[0, :20, :], dtype=np.float64)
     _, t_quad, _ = timed(lambda: band_radiance(subset, planck.optics.band,
-                                               responsivity=planck.responsivity))
+                                               responsivity=planck.responsivity), 1)
     quad_rate = subset.size / t_quad
 
     print(f"\n{'case':<38}{'time [s]':>10}{'samples/s':>12}{'peak MB':>10}{'× read':>8}")
