@@ -83,6 +83,9 @@ class Camera:
     assumed_instrument_temperature : float or None
         The instrument temperature [K] the calibration was made at (the optics' emission it
         subtracts); ``None``: the optics' current ``instrument_temperature``.
+    calibration_scale : float
+        The calibration's error of radiometric scale: it believes each unit of signal gives
+        ``calibration_scale`` times the electrons it truly does (1: exact; an uncertainty input).
     nuc : NonUniformityCorrection or None
         The non-uniformity correction applied to counts before the calibration (measured:
         :meth:`fit_nuc`; not part of the camera file).
@@ -119,6 +122,8 @@ class Camera:
     assumed_instrument_temperature: float | None = edge_field(
         None, "assumed_instrument_temperature_K",
         doc="instrument temperature of the calibration [K]")
+    calibration_scale: float = edge_field(1.0, "calibration_scale",
+                                          doc="the calibration's error of radiometric scale")
     nuc: NonUniformityCorrection | None = None
 
     def __post_init__(self):
@@ -140,6 +145,8 @@ class Camera:
             raise RadiosimError(f"assumed_path_transmission must be in (0, 1], and below 1 needs "
                                 f"assumed_path_temperature [K]; got {tau!r}")
         object.__setattr__(self, "assumed_path_transmission", tau)
+        object.__setattr__(self, "calibration_scale",
+                           check_positive(self.calibration_scale, "calibration_scale", "1"))
 
     # -- construction -------------------------------------------------------------------------
 
@@ -258,8 +265,9 @@ class Camera:
     def calibration(self, integration_time: float) -> Calibration:
         """The camera's DN → temperature calibration for ``integration_time`` [s], under its
         settings (emissivity, reflected temperature, path, instrument temperature)."""
-        return Calibration(self.response_model, self.electronics, self.rate_per_signal,
-                           integration_time, self.assumed_emissivity, self.calibration_range,
+        return Calibration(self.response_model, self.electronics,
+                           self.rate_per_signal * self.calibration_scale, integration_time,
+                           self.assumed_emissivity, self.calibration_range,
                            self.assumed_reflected_temperature, self.assumed_path_transmission,
                            self.assumed_path_temperature,
                            self.instrument_signal(self.assumed_instrument_temperature))

@@ -239,12 +239,18 @@ class Electronics:
     def temporal_noise(self, electrons) -> np.ndarray:
         """
         Temporal noise of a reading [e⁻ rms] for a mean charge ``electrons`` [e⁻] (signal and
-        dark): √(μ_e + σ_read² + 1/(12 K²)) — shot noise (if on), read noise and the
-        converter's 1/12 DN² quantisation noise referred to the input.
+        dark): √(μ_e + (σ_read² + 1/(12 K²)) / c'²) — shot noise (if on), read noise and the
+        converter's 1/12 DN² quantisation noise referred to the input through the
+        conversion's slope c' = 1 − 2β·μ_e/FW (1 for a linear conversion).
         """
         quantisation = 1 / 12 / self.gain**2 if self.adc_bits is not None else 0.0
-        shot = np.asarray(electrons, dtype=float) if self.shot_noise else 0.0
-        return np.sqrt(shot + self.read_noise**2 + quantisation)
+        charge = np.asarray(electrons, dtype=float)
+        shot = charge if self.shot_noise else 0.0
+        after = self.read_noise**2 + quantisation  # [e⁻ eq.²] added after the conversion
+        if self.nonlinearity and self.full_well is not None:
+            # Referred back to charge through the conversion's slope c' = 1 − 2βe/FW.
+            after = after / (1.0 - 2.0 * self.nonlinearity * charge / self.full_well) ** 2
+        return np.sqrt(shot + after)
 
     def mean_counts(self, photoelectrons, integration_time: float) -> np.ndarray:
         """

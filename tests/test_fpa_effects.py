@@ -500,12 +500,6 @@ def test_netd_monte_carlo(beta, temperature):
         assert camera.netd(temperature, T_INT) == pytest.approx(expected, rel=1e-4)
 
 
-@pytest.mark.xfail(strict=True, reason=(
-    "radiosim bug: Calibration.noise/netd (calibration.py) take Electronics.temporal_noise of the "
-    "mean charge, √(e + σ_r² + 1/(12K²)), but read and quantisation noise are added after the "
-    "non-linear conversion (electronics.py expose), so in charge they count 1/c'², "
-    "c' = 1 − 2βe/FW; Camera.netd is low by 0.4 % at β = 0.05 and 6.5 % at β = 0.3, 0.9 FW, "
-    "where the Monte Carlo (test_netd_monte_carlo) follows the corrected formula"))
 def test_netd_of_a_nonlinear_camera():
     t = np.array([450.0, 550.0, 600.0, 635.0, 650.0])
     for beta in (0.05, 0.3):

@@ -189,6 +189,14 @@ class Scene(ABC):
             return float(value[k]) if value.ndim == 1 else value[region[0], region[1]]
         return value
 
+    def with_emissivity(self, emissivity) -> Scene:
+        """A copy of the scene with another emissivity (grey scalar, map or curve)."""
+        import copy
+
+        out = copy.copy(self)
+        out.emissivity = check_emissivity(emissivity, self.shape)
+        return out
+
     @property
     def environment(self) -> dict:
         """The environment as :meth:`set_environment`'s keyword arguments."""

@@ -91,3 +91,32 @@ class FrameStack(Scene):
 
     def describe(self) -> dict:
         return super().describe() | {"source_units": self.units} | self._extra
+
+    def __reduce__(self):
+        """Pickled as a recipe where the frames are a file (a memory map: its path, offset,
+        dtype and shape; another process maps the same file), else with its array."""
+        stack = self._stack
+        if isinstance(stack, np.memmap) and getattr(stack, "filename", None):
+            frames = (_MappedFrames, (str(stack.filename), stack.offset, stack.dtype.str,
+                                      stack.shape, "F" if stack.flags.f_contiguous
+                                      and not stack.flags.c_contiguous else "C"))
+        else:
+            frames = (np.asarray, (stack,))
+        state = {k: v for k, v in self.__dict__.items() if k != "_stack"}
+        return (_rebuild_stack, (frames, state))
+
+
+class _MappedFrames:
+    """Re-opens a memory-mapped stack read-only from its recipe."""
+
+    def __new__(cls, path, offset, dtype, shape, order):
+        return np.memmap(path, dtype=np.dtype(dtype), mode="r", offset=offset, shape=shape,
+                         order=order)
+
+
+def _rebuild_stack(frames, state) -> FrameStack:
+    build, arguments = frames
+    out = FrameStack.__new__(FrameStack)
+    out.__dict__.update(state)
+    out._stack = build(*arguments)
+    return out

@@ -915,6 +915,7 @@ class SegmentedChip(Scene):
 
     def __init__(self, params: ChipParameters | str | Path | None = None, dx: float = 960e-6 / 1440,
                  dt: float = 0.2e-6, emissivity=1.0, cycles: int | None = None):
+        given_emissivity = emissivity
         if params is None:
             params = ChipParameters()
         elif isinstance(params, (str, Path)):
@@ -946,6 +947,7 @@ class SegmentedChip(Scene):
                                                                self.shape) for name in REGIONS}
             emissivity = 1.0
         self.emissivity = check_emissivity(emissivity, self.shape)
+        self._arguments = (params, dx, dt, given_emissivity, cycles)
         self._geometry = None
         self._regions: dict[tuple, _RegionData] = {}
         self._lock = threading.RLock()
@@ -1140,6 +1142,19 @@ class SegmentedChip(Scene):
                           region_emissivity={REGIONS[name]: value for name, value
                                              in self._region_emissivity.items()})
 
+    def __reduce__(self):
+        """Pickled as its recipe — parameters, grid and environment — never its caches (a
+        task on another process rebuilds the geometry it needs)."""
+        return (_rebuild_chip, (self._arguments, self.environment))
+
+    def with_emissivity(self, emissivity) -> SegmentedChip:
+        """The same chip with grey ``emissivity`` on its metal (workpiece, chip and tool; the
+        air keeps its own when the emissivity is given per region)."""
+        params, dx, dt, old, cycles = self._arguments
+        if isinstance(old, dict):
+            emissivity = {**old, **{k: emissivity for k in ("workpiece", "chip", "tool")}}
+        return _rebuild_chip((params, dx, dt, emissivity, cycles), self.environment)
+
     def reflected_field(self, view_length: float = 5e-6,
                         ambient: float | None = None) -> np.ndarray:
         """
@@ -1196,3 +1211,9 @@ class SegmentedChip(Scene):
                 f"{k}: {v.name if hasattr(v, 'name') else v}"
                 for k, v in self._region_emissivity.items())
         return out
+
+
+def _rebuild_chip(arguments, environment) -> SegmentedChip:
+    chip = SegmentedChip(*arguments)
+    chip.set_environment(**environment)
+    return chip
