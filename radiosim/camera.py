@@ -217,8 +217,20 @@ class Camera:
         return dumps_toml(self.to_dict(), tables=("optics", "fpa", "electronics"))
 
     def replace(self, **changes) -> Camera:
-        """A copy with some fields changed (``dataclasses.replace``)."""
-        return dataclasses.replace(self, **changes)
+        """A copy with some fields changed (``dataclasses.replace``); it keeps this camera's
+        response model (and its radiance tables) when the response, band and spectral curves
+        are the same."""
+        out = dataclasses.replace(self, **changes)
+        built = self.__dict__.get("response_model")
+        if built is not None and out._response_key() == self._response_key():
+            out.__dict__["response_model"] = built
+        return out
+
+    def _response_key(self) -> tuple:
+        """What the response model depends on (curves by identity: a replaced camera shares
+        its components' curve objects)."""
+        return (self.response, self.linear_responsivity, self.optics.band,
+                *(id(c) if not isinstance(c, float) else c for c in self.responsivity))
 
     def with_pixel_pitch(self, pixel_pitch: float) -> Camera:
         """

@@ -427,7 +427,7 @@ def connect(scheduler=None, workers: int | None = None):
         from distributed import Client, LocalCluster
 
         cluster = LocalCluster(n_workers=int(workers), threads_per_worker=1, processes=True,
-                               dashboard_address=None)
+                               dashboard_address=":0")  # any free port
         client = Client(cluster)
     elif isinstance(scheduler, str) and "://" in scheduler:
         from distributed import Client
@@ -445,7 +445,8 @@ def connect(scheduler=None, workers: int | None = None):
 
     if client is not None:
         def run(function, argument_lists, shared=()):
-            scattered = client.scatter(list(shared), broadcast=True) if shared else []
+            scattered = (client.scatter(list(shared), broadcast=True, hash=False) if shared
+                         else [])
             futures = [client.submit(function, *scattered, *args, pure=False)
                        for args in argument_lists]
             return client.gather(futures)

@@ -1,0 +1,151 @@
+"""The Monte Carlo uncertainty budget (GUM Supplement 1) against closed forms, and its engine."""
+
+import dataclasses
+import math
+
+import numpy as np
+import pytest
+from scipy.optimize import brentq
+
+import radiosim as rs
+from radiosim.errors import RadiosimError
+from radiosim.radiometry import band_radiance
+from radiosim.scenes import UniformBlackbody
+from radiosim.uncertainty import (HISTOGRAM_BINS, Normal, Samples, Triangular,
+                                  TruncatedNormal, Uniform, distribution_from_table, propagate)
+
+
+def ideal_planck(shape=(2, 2), assumed=0.3):
+    base = rs.Camera.preset("nist-ir")
+    return base.replace(electronics=rs.Electronics.ideal(), assumed_emissivity=assumed,
+                        fpa=dataclasses.replace(base.fpa, shape=shape))
+
+
+def test_one_uniform_emissivity_maps_its_quantiles_through_the_radiometry():
+    """A uniform blackbody of true emissivity ε ~ U(0.2, 0.4) read by a camera set to
+    ε_a = 0.3: T_app solves ε_a L(T_app) = ε L(T). T_app(ε) increases with ε, so its 2.5 % and
+    97.5 % quantiles are T_app at ε's own quantiles, by direct quadrature and root finding.
+    Tolerance: the standard error of a p-quantile of N draws, √(p(1−p)/N)·dT/dp (dT/dp =
+    0.2·dT_app/dε ≈ 94 K), four times, plus the histogram's bin (16σ/400)."""
+    camera = ideal_planck()
+    scene = UniformBlackbody(900.0, shape=(12, 12), dx=6e-6, dt=1e-6, emissivity=0.3)
+    n = 1000
+    result = propagate(camera, scene, 10e-6, {"emissivity": Uniform(0.2, 0.4)}, draws=n,
+                       rng=11, budget_draws=20)
+    band, resp = camera.optics.band, camera.responsivity
+    target = band_radiance(900.0, band, responsivity=resp)
+
+    def apparent(emissivity):
+        return brentq(lambda t: 0.3 * band_radiance(t, band, responsivity=resp)
+                      - emissivity * target, 300.0, 2000.0, xtol=1e-9)
+
+    low, high = result.interval(0.95)
+    slope = (apparent(0.4) - apparent(0.2)) / 0.2  # [K per unit ε], about 470 K
+    for p, got in ((0.025, low), (0.975, high)):
+        expected = apparent(0.2 + 0.2 * p)
+        tolerance = 4 * math.sqrt(p * (1 - p) / n) * 0.2 * slope + 16 * float(
+            result.std[0, 0]) / HISTOGRAM_BINS
+        np.testing.assert_allclose(got, expected, atol=tolerance)
+    # The mean and standard deviation of T_app(ε) by quadrature over ε's uniform density.
+    grid = np.linspace(0.2, 0.4, 201)
+    values = np.array([apparent(e) for e in grid])
+    mean = np.trapezoid(values, grid) / 0.2
+    std = math.sqrt(np.trapezoid((values - mean) ** 2, grid) / 0.2)
+    np.testing.assert_allclose(result.mean, mean, atol=4 * std / math.sqrt(n))
+    np.testing.assert_allclose(result.std, std, rtol=4 / math.sqrt(2 * (n - 1)))
+    # Scene truth: the blackbody's own temperature; the error is the mean reading's.
+    np.testing.assert_allclose(result.truth, 900.0)
+    np.testing.assert_allclose(result.error, result.mean - 900.0)
+
+
+def gradient_scene():
+    x = (np.arange(120) + 0.5) * 1e-6
+    frames = np.broadcast_to(500.0 + 2e6 * x, (3, 30, 120)).copy()  # 2 K/µm along x
+    return rs.FrameStack(frames, dt=1e-6, dx=1e-6)
+
+
+def test_gum_and_monte_carlo_agree_for_a_linear_model():
+    """The linear camera on a field rising 2 K/µm along x, its array registered with
+    σ = 1 µm: each reading moves by exactly 2 K per µm (a footprint mean of a linear field),
+    so GUM's u = 2 K, and the Monte Carlo standard deviation of N draws agrees within four
+    of its standard errors, u·√(1/(2(N−1)))."""
+    camera = rs.Camera.linear_ideal(6e-6, shape=(3, 15))
+    camera = camera.replace(fpa=dataclasses.replace(camera.fpa, origin=(0.0, 10e-6)))
+    n = 400
+    result = propagate(camera, gradient_scene(), 2e-6, {"registration_x": Normal(0.0, 1e-6)},
+                       draws=n, rng=3, t_start=0.0, budget_draws=200)
+    np.testing.assert_allclose(result.gum_std, 2.0, rtol=1e-9)
+    np.testing.assert_allclose(result.std, 2.0, rtol=4 / math.sqrt(2 * (n - 1)))
+    gum_low, gum_high = result.gum_interval()
+    low, high = result.interval()
+    half = 1.959964 * 2.0
+    np.testing.assert_allclose(high - low, 2 * half, rtol=0.1)  # Normal input, linear model
+    np.testing.assert_allclose(gum_high - gum_low, 2 * half, rtol=4 / math.sqrt(2 * (n - 1)))
+    peak = [r for r in result.budget if r["quantity"] == "peak"]
+    assert [r["input"] for r in peak] == ["registration_x", "temporal noise"]
+    assert peak[0]["sensitivity"] == pytest.approx(2e6, rel=1e-9)  # [K/m]
+    assert peak[0]["mc_contribution_K"] == pytest.approx(2.0, rel=4 / math.sqrt(2 * 199))
+    assert peak[1]["gum_contribution_K"] == 0.0  # the linear ideal camera has no noise
+
+
+def test_the_same_draws_on_two_workers_give_the_same_bits():
+    """Each draw's seed comes from one SeedSequence, and draws are accumulated in index
+    order: a two-worker distributed LocalCluster reproduces the synchronous result exactly."""
+    camera = ideal_planck().replace(electronics=rs.Camera.preset("nist-ir").electronics)
+    scene = UniformBlackbody(800.0, shape=(12, 12), dx=6e-6, dt=1e-6, emissivity=0.3)
+    inputs = {"emissivity": Uniform(0.25, 0.35), "t_start": Normal(0.0, 0.2e-6)}
+    kwargs = dict(draws=12, rng=5, t_start=2e-6, batch=5, budget_draws=4)
+    local = propagate(camera, scene, 5e-6, inputs, scheduler="synchronous", **kwargs)
+    cluster = propagate(camera, scene, 5e-6, inputs, workers=2, **kwargs)
+    for name in ("mean", "std", "gum_std", "valid_fraction"):
+        assert np.array_equal(getattr(local, name), getattr(cluster, name), equal_nan=True)
+    assert np.array_equal(np.array(local.interval()), np.array(cluster.interval()),
+                          equal_nan=True)
+    assert local.budget == cluster.budget
+    assert local.std.max() > 0  # the inputs and the noise did vary
+
+
+def test_the_adaptive_procedure_stops_within_its_draws():
+    camera = rs.Camera.linear_ideal(6e-6, shape=(3, 15))
+    camera = camera.replace(fpa=dataclasses.replace(camera.fpa, origin=(0.0, 10e-6)))
+    result = propagate(camera, gradient_scene(), 2e-6, {"registration_x": Normal(0.0, 1e-6)},
+                       rng=3, t_start=0.0, batch=40, max_draws=2000, digits=1, budget_draws=5)
+    assert 80 <= result.draws < 2000
+    np.testing.assert_allclose(result.std, 2.0, rtol=0.25)
+
+
+def test_distributions_have_their_moments_and_tables():
+    rng = np.random.default_rng(0)
+    for dist, mean, std in ((Normal(1.0, 2.0), 1.0, 2.0), (Uniform(0.0, 1.0), 0.5, 12**-0.5),
+                            (Triangular(0.0, 0.0, 3.0), 1.0, math.sqrt(0.5)),
+                            (Samples([1.0, 3.0]), 2.0, 1.0)):
+        draws = np.array([dist.sample(rng) for _ in range(20000)])
+        assert dist.mean == pytest.approx(mean) and dist.std == pytest.approx(std)
+        assert draws.mean() == pytest.approx(mean, abs=5 * std / math.sqrt(20000))
+    truncated = TruncatedNormal(0.0, 1.0, 0.0, 5.0)  # mean (φ(0) − φ(5)) / (Φ(5) − Φ(0))
+    phi = [math.exp(-z * z / 2) / math.sqrt(2 * math.pi) for z in (0.0, 5.0)]
+    mass = 0.5 * math.erf(5 / math.sqrt(2))
+    assert truncated.mean == pytest.approx((phi[0] - phi[1]) / mass, rel=1e-9)
+    assert distribution_from_table({"distribution": "uniform", "low": 1.0, "high": 3.0},
+                                   "psf_sigma") == Uniform(1e-6, 3e-6)  # µm in the file
+
+
+@pytest.mark.parametrize("inputs, draws, message", [
+    ({"emisivity": Uniform(0.2, 0.4)}, 10, "did you mean 'emissivity'"),
+    ({"emissivity": (0.2, 0.4)}, 10, "must be a Distribution"),
+    ({"emissivity": Uniform(0.2, 0.4)}, 1, "draws must be"),
+])
+def test_bad_budgets_are_named(inputs, draws, message):
+    with pytest.raises(RadiosimError, match=message):
+        propagate(ideal_planck(), UniformBlackbody(800.0, shape=(12, 12), dx=6e-6), 1e-6,
+                  inputs, draws=draws)
+
+
+@pytest.mark.parametrize("table, message", [
+    ({"distribution": "cauchy"}, "distribution = one of"),
+    ({"distribution": "uniform", "low": 1.0}, "needs low, high"),
+    ({"distribution": "uniform", "low": 2.0, "high": 1.0}, "low < high"),
+])
+def test_bad_distribution_tables_are_named(table, message):
+    with pytest.raises(RadiosimError, match=message):
+        distribution_from_table(table, "emissivity")
