@@ -32,12 +32,16 @@ How the kernels are fast (see ``benchmarks/bench_kernels.py``):
 -   the checks are fused: NaN propagates into the sums, +inf into the maximum, and a running
     minimum per slot catches T ≤ 0 and T below the table, so a clean frame costs one vector
     max and one min per sample;
--   ln L is the table's cubic in u = (T − Tᵢ)/step, evaluated once per sample (the interval
-    lookup stays a scalar gather: LLVM does not vectorise it on AMD Zen), and exp is an
-    inline vectorisable evaluation (Cody–Waite reduction, degree-12 Taylor polynomial with
-    fused multiply-adds; relative error < 4e-16);
--   ``fastmath`` is off: no reassociation, no automatic contraction into FMA, IEEE semantics
-    (the exp polynomial uses explicit fused multiply-adds).
+-   the radiance is the table's (:class:`~radiosim.radiometry.BandRadianceTable`) cubic of
+    u·L in u = 1/T, times T: no logarithm, no exponential. Per sample: one (vectorised)
+    division 1/T, the interval and position in it (vectorised), then the interval's four
+    coefficients, loaded as one 32-byte row for each of eight samples and transposed into
+    vectors by shuffles (:func:`_cubic8`, an LLVM intrinsic: LLVM would otherwise make four
+    scalar loads per sample, or slow gathers), and a vector Horner step; the table (about
+    40 kB for the nist-ir band) stays in the L1/L2 cache;
+-   ``fastmath`` is off: no reassociation, no automatic contraction into FMA, IEEE semantics;
+    the radiance takes the same operations in the same order as
+    :meth:`~radiosim.radiometry.BandRadianceTable.evaluate_reference`, its numpy oracle.
 
 Nothing is compiled at import (importing costs numba's own import). The first call with a new
 frame dtype (float32, float64) or index-map dtype (uint8, intp) compiles the one kernel that
@@ -253,12 +257,78 @@ def _make_sweeps():
 _lin, _LIN_SWEEPS = _make_sweeps()
 
 
+def _data(context, builder, array_type, array):
+    """Data pointer of a numba array argument of an intrinsic."""
+    return context.make_array(array_type)(context, builder, array).data
+
+
+@intrinsic
+def _cubic8(typingctx, coef, interval, position, out, q):
+    """out[q + k] = ((a r + b) r + c) r + d for k = 0 … 7, with (a, b, c, d) = row
+    ``interval[q + k]`` of the flat coefficient table ``coef`` (4 float64 per row) and
+    r = ``position[q + k]``. The eight rows are loaded whole (32 bytes each) and transposed
+    into four vectors of eight coefficients by shuffles, then Horner runs on the vectors
+    (separate multiply and add, as numpy): no gather, no scalar coefficient loads."""
+    signature = types.void(coef, interval, position, out, q)
+
+    def codegen(context, builder, sig, args):
+        double, i32, i64 = llvm_ir.DoubleType(), llvm_ir.IntType(32), llvm_ir.IntType(64)
+        row4, vec8 = llvm_ir.VectorType(double, 4), llvm_ir.VectorType(double, 8)
+        table, index, position, out = (_data(context, builder, sig.args[k], args[k])
+                                       for k in range(4))
+        q = args[4]
+
+        def mask(*lanes):
+            return llvm_ir.Constant(llvm_ir.VectorType(i32, len(lanes)),
+                                    [llvm_ir.Constant(i32, k) for k in lanes])
+
+        rows = []
+        for k in range(8):
+            i = builder.load(builder.gep(index, [builder.add(q, llvm_ir.Constant(i64, k))]))
+            first = builder.gep(table, [builder.mul(i, llvm_ir.Constant(i64, 4))])
+            rows.append(builder.load(builder.bitcast(first, row4.as_pointer()), align=8))
+        pairs = [builder.shuffle_vector(rows[2 * k], rows[2 * k + 1], mask(*range(8)))
+                 for k in range(4)]  # (a b c d a' b' c' d') of rows 2k, 2k + 1
+        ab_lo = builder.shuffle_vector(pairs[0], pairs[1], mask(0, 4, 8, 12, 1, 5, 9, 13))
+        cd_lo = builder.shuffle_vector(pairs[0], pairs[1], mask(2, 6, 10, 14, 3, 7, 11, 15))
+        ab_hi = builder.shuffle_vector(pairs[2], pairs[3], mask(0, 4, 8, 12, 1, 5, 9, 13))
+        cd_hi = builder.shuffle_vector(pairs[2], pairs[3], mask(2, 6, 10, 14, 3, 7, 11, 15))
+        low, high = mask(0, 1, 2, 3, 8, 9, 10, 11), mask(4, 5, 6, 7, 12, 13, 14, 15)
+        a = builder.shuffle_vector(ab_lo, ab_hi, low)
+        b = builder.shuffle_vector(ab_lo, ab_hi, high)
+        c = builder.shuffle_vector(cd_lo, cd_hi, low)
+        d = builder.shuffle_vector(cd_lo, cd_hi, high)
+        r = builder.load(builder.bitcast(builder.gep(position, [q]), vec8.as_pointer()),
+                         align=8)
+        value = builder.fadd(builder.fmul(a, r), b)
+        value = builder.fadd(builder.fmul(value, r), c)
+        value = builder.fadd(builder.fmul(value, r), d)
+        builder.store(value, builder.bitcast(builder.gep(out, [q]), vec8.as_pointer()), align=8)
+        return context.get_dummy_value()
+
+    return signature, codegen
+
+
 @numba.njit(**_JIT)
-def _locate(t, t0, inverse, last):
-    """Interval index and position u in it, as :meth:`BandRadianceTable._locate`:
-    x = (t − T₀)/step, i = min(⌊x⌋, last), u = x − i. Out-of-table samples (flagged by the
+def _cubic(coef, interval, position, out, n):
+    """out[q] = the cubic of row interval[q] of ``coef`` at position[q], q < n (eight at a time
+    by :func:`_cubic8`, the rest one by one with the same operations)."""
+    q = 0
+    while q + 8 <= n:
+        _cubic8(coef, interval, position, out, q)
+        q += 8
+    for k in range(q, n):
+        i = interval[k] * np.uint64(4)
+        r = position[k]
+        out[k] = ((coef[i] * r + coef[i + 1]) * r + coef[i + 2]) * r + coef[i + 3]
+
+
+@numba.njit(**_JIT)
+def _locate(t, u0, inverse, last):
+    """Interval index and position r in it, as :meth:`BandRadianceTable.evaluate_reference`:
+    x = (1/T − u₀)/Δu, i = min(⌊x⌋, last), r = x − i. Out-of-table samples (flagged by the
     checks) are clamped to a valid interval."""
-    x = (t - t0) * inverse
+    x = (1.0 / t - u0) * inverse
     xc = x if x > 0.0 else 0.0
     xc = xc if xc < last else last
     i = np.uint64(xc)
@@ -266,30 +336,29 @@ def _locate(t, t0, inverse, last):
 
 
 @numba.njit(**_JIT)
-def _signal_row(x, g, e, used, w, mode, grey, use_map, coef, t0, inverse, last, t_min, t_max,
-                entry_table, entry_grey, interval, u, log_l, factor, a3):
+def _signal_row(x, g, e, used, w, mode, grey, use_map, coef, u0, inverse, last, offset, t_min,
+                t_max, entry_table, entry_grey, interval, u, value, factor, a3):
     """a3 += w · S(T) along one row of pieces ``x`` (grey map row ``g``, index map row ``e``),
     with S = L(T) · grey (mode 1), L(T) · (grey · map) (mode 2) or L_e(T) · grey_e (· map)
-    with e from the index map (mode 3); L = exp(((a u + b) u + c) u + d) with the table's
-    coefficients of the sample's interval. Three loops: locate (vectorised), coefficients and
-    ln L (scalar: a gather), exp and accumulation (vectorised). Returns the status bits of the
-    row's per-sample checks (mode 3: table range and index; modes 1–2 check the range from the
-    row's min and max instead; ``used`` > 0 marks the slots a piece reads, the only ones
-    checked). ``interval``, ``u``, ``log_l``, ``factor``: scratch."""
+    with e from the index map (mode 3); L = T · (((a r + b) r + c) r + d) with the table's
+    coefficients (a row of the flat ``coef``, from the table's ``offset``) of the sample's
+    interval in 1/T. Three loops: locate (vectorised; the division 1/T), the cubics
+    (:func:`_cubic`, eight samples at a time), L and accumulation (vectorised). Returns the
+    status bits of the row's per-sample checks (mode 3: table range and index; modes 1–2
+    check the range from the row's min and max instead; ``used`` > 0 marks the slots a piece
+    reads, the only ones checked). ``interval``, ``u``, ``value``, ``factor``: scratch."""
     nq = a3.size
     status = 0
     if mode == 1 or mode == 2:
         j = entry_table[0]
-        c = coef[j]
-        s, v, n = t0[j], inverse[j], np.float64(last[j])
+        s, v, n, o = u0[j], inverse[j], np.float64(last[j]), np.uint64(offset[j])
         for q in range(nq):
-            interval[q], u[q] = _locate(np.float64(x[q]), s, v, n)
-        for q in range(nq):
-            i = interval[q]
-            r = u[q]
-            log_l[q] = ((c[i, 0] * r + c[i, 1]) * r + c[i, 2]) * r + c[i, 3]
+            i, r = _locate(np.float64(x[q]), s, v, n)
+            interval[q] = i + o
+            u[q] = r
+        _cubic(coef, interval, u, value, nq)
         for q in range(nq):  # mode 1: g is a row of ones (grey · 1 is grey, exactly)
-            a3[q] += w * (_exp(log_l[q]) * (grey * g[q]))
+            a3[q] += w * ((value[q] * np.float64(x[q])) * (grey * g[q]))
         return status
     else:
         n_entries = entry_table.size
@@ -307,17 +376,18 @@ def _signal_row(x, g, e, used, w, mode, grey, use_map, coef, t0, inverse, last, 
             n_low += checked * np.int64(t < t_min[j])
             n_high += checked * np.int64(t > t_max[j])
             factor[q] = entry_grey[h] * g[q] if use_map else entry_grey[h] * grey
-            i, r = _locate(t, t0[j], inverse[j], np.float64(last[j]))
-            log_l[q] = (((coef[j, i, 0] * r + coef[j, i, 1]) * r + coef[j, i, 2]) * r
-                        + coef[j, i, 3])
+            i, r = _locate(t, u0[j], inverse[j], np.float64(last[j]))
+            interval[q] = i + np.uint64(offset[j])
+            u[q] = r
         if n_low:
             status |= 2
         if n_high:
             status |= 4
         if n_index:
             status |= 8
+        _cubic(coef, interval, u, value, nq)
         for q in range(nq):
-            a3[q] += w * (_exp(log_l[q]) * factor[q])
+            a3[q] += w * ((value[q] * np.float64(x[q])) * factor[q])
         return status
 
 
@@ -443,7 +513,8 @@ def _accumulate_rows(i_start, i_stop, base, row_length, row_source, row_weight, 
                      n_samples, slot_pixel, slot_weight, slot_of_piece, dup_source, col_bounds,
                      identity, time_weight, reference, dev, sq, tmax, signal, merge, moments,
                      member_weight, member_count, signal_weight, m_mean, m_m2, m_max, m_signal,
-                     mode, coef, t0, inverse, last, t_min, t_max, entry_table, entry_grey, grey,
+                     mode, coef, u0, inverse, last, offset, t_min, t_max, entry_table, entry_grey,
+                     grey,
                      grey_map, index_map, map_length, use_map, rows_w, rows_r, grey_w, grey_r,
                      index_w, index_r, am, an, status):
     """Pixel rows i_start to i_stop − 1 of :func:`_accumulate_kernel` (one thread's block).
@@ -465,7 +536,7 @@ def _accumulate_rows(i_start, i_stop, base, row_length, row_source, row_weight, 
     a2 = np.empty(n_slots)
     a3 = np.empty(n_slots)
     ce = np.empty(n_slots)
-    log_l = np.empty(_CHUNK)
+    value = np.empty(_CHUNK)
     factor = np.empty(_CHUNK)
     interval = np.empty(_CHUNK, dtype=np.uint64)
     u = np.empty(_CHUNK)
@@ -542,8 +613,8 @@ def _accumulate_rows(i_start, i_stop, base, row_length, row_source, row_weight, 
                                 e = index_r
                             row_status |= _signal_row(
                                 xs[h], g, e, slot_weight[lo:hi], ws[h], mode, grey, use_map,
-                                coef, t0, inverse, last, t_min, t_max, entry_table, entry_grey,
-                                interval, u, log_l, factor, a3[lo:hi])
+                                coef, u0, inverse, last, offset, t_min, t_max, entry_table,
+                                entry_grey, interval, u, value, factor, a3[lo:hi])
             p += n
         signal_row = signal[i] if with_signal else signal[0]
         status[i] = _commit_row(i, a1, a2, a3, am, an, slot_weight, slot_of_piece, col_bounds,
@@ -558,7 +629,7 @@ def _accumulate_kernel(n_blocks, base, row_length, row_source, row_weight, row_b
                        n_samples, slot_pixel, slot_weight, slot_of_piece, dup_source,
                        col_bounds, identity, time_weight, reference, dev, sq, tmax, signal,
                        merge, moments, member_weight, member_count, signal_weight, m_mean, m_m2,
-                       m_max, m_signal, mode, coef, t0, inverse, last, t_min, t_max,
+                       m_max, m_signal, mode, coef, u0, inverse, last, offset, t_min, t_max,
                        entry_table, entry_grey, grey, grey_map, index_map, map_length, use_map,
                        rows_w, rows_r, grey_w, grey_r, index_w, index_r, am, an, status):
     """The frame's pixel rows in ``n_blocks`` contiguous blocks, one per thread (block b uses
@@ -570,7 +641,8 @@ def _accumulate_kernel(n_blocks, base, row_length, row_source, row_weight, row_b
                          slot_weight, slot_of_piece, dup_source, col_bounds, identity,
                          time_weight, reference, dev, sq, tmax, signal, merge, moments,
                          member_weight, member_count, signal_weight, m_mean, m_m2, m_max,
-                         m_signal, mode, coef, t0, inverse, last, t_min, t_max, entry_table,
+                         m_signal, mode, coef, u0, inverse, last, offset, t_min, t_max,
+                         entry_table,
                          entry_grey, grey, grey_map, index_map, map_length, use_map, rows_w[b],
                          rows_r[b], grey_w[b], grey_r[b], index_w[b], index_r[b], am[b], an[b],
                          status)
@@ -778,10 +850,10 @@ class RadianceKernelTable:
     Examples
     --------
     >>> from radiosim.radiometry import BandRadianceTable
-    >>> table = BandRadianceTable(temperature_range=(200.0, 1500.0), step=4.0)
+    >>> table = BandRadianceTable(temperature_range=(200.0, 1500.0), intervals=300)
     >>> packed = RadianceKernelTable(table, exact={"band": table.band}, grey=0.9)
-    >>> packed.n_entries, packed.coefficients.shape
-    (1, (1, 325, 4))
+    >>> packed.n_entries, table.intervals, packed.coefficients.shape
+    (1, 324, (1296,))
     """
 
     def __init__(self, tables, exact=None, grey=1.0, index=None, entry_grey=None):
@@ -814,21 +886,21 @@ class RadianceKernelTable:
         if len(exact) != n:
             raise RadiosimError(f"exact must be one specification or {n}, got {len(exact)}")
         self.exact = exact
-        n_intervals = max(t.temperatures.size - 1 for t in unique)
-        self.coefficients = np.zeros((len(unique), n_intervals, 4))
-        for j, t in enumerate(unique):
-            self.coefficients[j, : t.temperatures.size - 1] = np.stack(t._coefficients, axis=1)
-        self.t0 = np.array([t.temperatures[0] for t in unique])
+        # The tables' coefficient rows one after the other (table j's from row offset[j]), as
+        # one flat array for the kernels: (a, b, c, d) of each interval in 1/T.
+        self.offset = np.cumsum([0] + [t.intervals for t in unique[:-1]]).astype(np.uint64)
+        self.coefficients = np.concatenate([t.coefficients for t in unique]).reshape(-1)
+        self.u0 = np.array([t.inverse_temperatures[0] for t in unique])
         self.inverse = np.array([1.0 / t.step for t in unique])
-        self.last = np.array([t.temperatures.size - 2 for t in unique], dtype=np.intp)
+        self.last = np.array([t.intervals - 1 for t in unique], dtype=np.intp)
         self.t_min = np.array([t.temperature_range[0] for t in unique])
         self.t_max = np.array([t.temperature_range[1] for t in unique])
         self._set_maps(grey, index)
 
     @classmethod
     def build(cls, band=(3.8e-6, 5.1e-6), quantity: str = "photon", responsivity=None,
-              emissivity=(1.0,), temperature_range=(150.0, 3000.0), step: float = 2.0,
-              grey=1.0, index=None) -> "RadianceKernelTable":
+              emissivity=(1.0,), temperature_range=(150.0, 3000.0),
+              intervals: int | None = None, grey=1.0, index=None) -> "RadianceKernelTable":
         """
         Tables and exact radiances for a band and responsivity, one entry per emissivity
         (scalar: the blackbody table with that grey factor; spectral: its own table).
@@ -841,13 +913,13 @@ class RadianceKernelTable:
             if np.isscalar(value):
                 if blackbody is None:
                     blackbody = BandRadianceTable(band, quantity, responsivity, 1.0,
-                                                  temperature_range, step)
+                                                  temperature_range, intervals)
                 tables.append(blackbody)
                 exact.append(dict(band=band, quantity=quantity, responsivity=responsivity))
                 entry_grey.append(float(value))
             else:
                 tables.append(BandRadianceTable(band, quantity, responsivity, value,
-                                                temperature_range, step))
+                                                temperature_range, intervals))
                 exact.append(dict(band=band, quantity=quantity, responsivity=responsivity,
                                   emissivity=value))
                 entry_grey.append(1.0)
@@ -1082,10 +1154,11 @@ def accumulate_reference(frame, rows, cols, time_weight: float, reference: np.nd
 _DUMMY_MAP = _read_only(np.zeros(1))
 _DUMMY_INDEX = _read_only(np.zeros(1, dtype=np.uint8))
 _DUMMY_SIGNAL = np.zeros((1, 1))
-# Table arguments of the kernel without a response (coefficients, T₀, 1/step, last interval,
-# T_min, T_max, entry tables, entry grey factors).
-_NO_TABLE = (np.zeros((1, 1, 4)), np.zeros(1), np.ones(1), np.zeros(1, dtype=np.intp),
-             np.zeros(1), np.full(1, np.inf), np.zeros(1, dtype=np.intp), np.ones(1))
+# Table arguments of the kernel without a response (flat coefficients, u₀, 1/Δu, last interval,
+# row offset, T_min, T_max, entry tables, entry grey factors).
+_NO_TABLE = (np.zeros(4), np.zeros(1), np.ones(1), np.zeros(1, dtype=np.intp),
+             np.zeros(1, dtype=np.uint64), np.zeros(1), np.full(1, np.inf),
+             np.zeros(1, dtype=np.intp), np.ones(1))
 
 
 _BUFFERS = threading.local()
@@ -1321,7 +1394,7 @@ def _launch(frame2d, rows: _Axis, cols: _Axis, time_weight, reference, dev, sq, 
     if response is None:
         mode, signal, table = _SIGNAL_NONE, _DUMMY_SIGNAL, None
         grey_map, index_map, map_length, use_map, grey = _DUMMY_MAP, _DUMMY_INDEX, 0, False, 1.0
-        coef, t0, inverse, last, t_min, t_max, entry_table, entry_grey = _NO_TABLE
+        coef, u0, inverse, last, offset, t_min, t_max, entry_table, entry_grey = _NO_TABLE
     else:
         if not isinstance(response, RadianceKernelTable):
             raise RadiosimError(f"response must be a RadianceKernelTable or None, got "
@@ -1345,8 +1418,8 @@ def _launch(frame2d, rows: _Axis, cols: _Axis, time_weight, reference, dev, sq, 
             index_map, map_length = _rows_of(response.index, "index map")
         else:
             index_map = _DUMMY_INDEX
-        coef, t0, inverse, last = (response.coefficients, response.t0, response.inverse,
-                                   response.last)
+        coef, u0, inverse, last, offset = (response.coefficients, response.u0,
+                                           response.inverse, response.last, response.offset)
         t_min, t_max = response.t_min, response.t_max
         entry_table, entry_grey = response.entry_table, response.entry_grey
     status = np.zeros(rows.n_pixels, dtype=np.int64)
@@ -1364,7 +1437,8 @@ def _launch(frame2d, rows: _Axis, cols: _Axis, time_weight, reference, dev, sq, 
                 slot_pixel, slot_weight, slot_of_piece, dup_source, col_bounds, cols.identity,
                 time_weight, reference, dev, sq, tmax, signal,
                 *(merged if merged is not None else _NO_MEMBERS), mode, coef,
-                t0, inverse, last, t_min, t_max, entry_table, entry_grey, float(grey), grey_map,
+                u0, inverse, last, offset, t_min, t_max, entry_table, entry_grey, float(grey),
+                grey_map,
                 index_map, map_length, use_map, *buffers, status)
     finally:
         if numba.get_num_threads() != previous:

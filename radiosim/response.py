@@ -39,7 +39,7 @@ __all__ = ["Response", "LinearResponse", "PlanckResponse", "RESPONSES",
 
 #: Temperatures the Planck response tabulates [K]: colder samples are integrated exactly,
 #: hotter ones are refused. Its relative error against quadrature stays below 1e-7 over the
-#: range (the 2 K spline of ln L loses accuracy below about 123 K, where ln L curves fastest).
+#: range (measured: 6e-10 for the nist-ir band; see BandRadianceTable).
 PLANCK_TABLE_RANGE = (130.0, 4000.0)
 _TABLE_MARGIN = 30.0  # [K] the spline starts this far below the range, clear of its end effects
 
@@ -236,12 +236,12 @@ class PlanckResponse(Response):
         curve = emissivity if isinstance(emissivity, SpectralDistribution) else None
         key = id(curve)
         if key not in self._tables:
+            # u·L, cubic in u = 1/T (BandRadianceTable); its grid runs a few intervals past
+            # the range, clear of the spline's end effects, and it answers (and the kernels
+            # read it) over the range only.
             table = BandRadianceTable(self.band, "photon", self.responsivity,
-                                      1.0 if curve is None else curve, self._table_range)
-            # The spline runs from 30 K below the range, clear of its end effects; the table
-            # answers (and the kernels read it) over the range only.
+                                      1.0 if curve is None else curve, self.temperature_range)
             low, high = self.temperature_range
-            table.temperature_range = (low, high)
             table.radiance_range = (float(table(low)), float(table(high)))
             self._tables[key] = (curve, table)
         return self._tables[key][1]

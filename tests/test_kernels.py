@@ -21,13 +21,14 @@ from radiosim.spectral import spectral_distribution
 
 COMPILED_AT_IMPORT = sum(len(f.signatures) for f in (
     kernels._accumulate_kernel, kernels._accumulate_rows, kernels._lin, *kernels._LIN_SWEEPS,
-    kernels._signal_row, kernels._commit_row, kernels._setup_row, kernels._exp))
+    kernels._signal_row, kernels._cubic, kernels._commit_row, kernels._setup_row,
+    kernels._exp))
 
 SCENE = (70, 90)  # scene samples (rows, columns)
 T_SCALE = 1500.0  # [K], the scale of the temperatures below
 WEIGHTS = (0.15, 0.35, 0.3, 0.2)  # a window with fractional first and last frames
 RANGE = (200.0, 3000.0)  # radiance table range [K]
-STEP = 10.0  # coarse table step [K]: fast to build, evaluated exactly all the same
+INTERVALS = 200  # a coarse table: fast to build, evaluated exactly all the same
 
 # (pitch [samples], fill factor, origin [samples]): integer and fractional footprints.
 FOOTPRINTS = {
@@ -61,7 +62,7 @@ def tables():
     """Radiance tables: the blackbody one, and one of a spectral emissivity."""
     curve = spectral_distribution([3e-6, 4.5e-6, 6e-6], [0.3, 0.8, 0.5], "test curve")
     return RadianceKernelTable.build(emissivity=[1.0, 0.6, curve], temperature_range=RANGE,
-                                     step=STEP)
+                                     intervals=INTERVALS)
 
 
 def responses(tables, shape, seed=1):
@@ -311,10 +312,13 @@ def test_bad_table_index_raises(tables):
 
 def test_table_packing(tables):
     assert tables.n_entries == 3
-    assert tables.coefficients.shape == (2, 280, 4)  # the blackbody table is packed once
+    # The blackbody table is packed once: two tables of 200 + 2 × 12 (margin) intervals.
+    assert [t.intervals for t in tables.tables] == [224, 224, 224]
+    assert tables.coefficients.shape == (2 * 224 * 4,)
+    assert tables.offset.tolist() == [0, 224]
     assert tables.entry_table.tolist() == [0, 0, 1]
     assert tables.entry_grey.tolist() == [1.0, 0.6, 1.0]
-    table = BandRadianceTable(temperature_range=RANGE, step=STEP)
+    table = BandRadianceTable(temperature_range=RANGE, intervals=INTERVALS)
     rows, cols = footprints(9.0, 1.0, 0.0)
     frames = scene_frames(np.float64)
     with pytest.raises(RadiosimError, match="2 radiance table entries need an index map"):
@@ -329,3 +333,17 @@ def test_table_packing(tables):
 def test_importing_compiles_nothing():
     # Counted when this module was imported (collection), before any test ran.
     assert COMPILED_AT_IMPORT == 0
+
+
+def test_cubic_rows_match_numpy_bit_for_bit():
+    # The compiled cubics (eight at a time through _cubic8's shuffles, then one by one) are
+    # numpy's Horner steps, in the same order, without fused multiply-adds.
+    rng = np.random.default_rng(7)
+    coef = rng.normal(size=(50, 4))
+    for n in (1, 8, 13, 64, 67):
+        interval = rng.integers(0, 50, n).astype(np.uint64)
+        position = rng.uniform(0, 1, n)
+        out = np.empty(n)
+        kernels._cubic(coef.reshape(-1), interval, position, out, n)
+        a, b, c, d = coef[interval.astype(np.intp)].T
+        np.testing.assert_array_equal(out, ((a * position + b) * position + c) * position + d)

@@ -2,10 +2,11 @@
 
 References: :func:`radiosim.radiometry.band_radiance` (direct Gauss–Legendre quadrature, exact to
 rounding for the piecewise-linear curves) for every radiance, and finite differences of it for the
-slope. The Planck response evaluates through a cubic-spline table of ln L on a 2 K grid, whose
-documented relative accuracy is 1e-7 (``PLANCK_TABLE_RANGE``): that is the tolerance of every
-comparison that goes through the table. Temperatures are chosen off the 2 K grid nodes (where the
-spline would be exact by construction and the comparison would prove nothing).
+slope. The Planck response evaluates through a table of u·L, cubic in u = 1/T on a grid uniform in
+u (c·Δu ≤ 0.03, c = c₂/λ₁), whose relative accuracy is about 1e-9 (the tests assert the
+documented 1e-7, ``PLANCK_TABLE_RANGE``): that is the tolerance of every comparison that goes
+through the table. Temperatures are chosen off round values (the table's nodes are not round
+in T, but a node would make the comparison prove nothing).
 """
 
 import numpy as np
@@ -21,7 +22,7 @@ from radiosim.spectral import read_spectrum
 #: The table's documented relative accuracy (radiosim.response.PLANCK_TABLE_RANGE).
 TABLE_RTOL = 1e-7
 
-#: Off-grid temperatures [K] (the table's nodes are 100 + 2k K) inside the calibration range.
+#: Temperatures [K] inside the calibration range, off round values.
 T_GRID = np.array([[151.37, 287.91, 433.33], [1012.15, 1777.77, 2999.9]])
 
 
