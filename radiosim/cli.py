@@ -104,16 +104,8 @@ class _Progress:
 
 def _run(args) -> int:
     from radiosim.files import OutputFolder
-    from radiosim.study import Study, available_studies
 
-    target = args.study
-    if Path(target).suffix == ".toml" or Path(target).is_file():
-        study = Study.from_toml(target)
-    elif target in available_studies():
-        study = Study.preset(target)
-    else:
-        raise RadiosimError(f"{target!r} is neither a study file nor a shipped study "
-                            f"({', '.join(available_studies())})")
+    study = _study(args.study)
     draw = None if args.no_figures else study.hook("figures")
     study.scene  # build (and check) the scene before anything is written
     out = OutputFolder(Path(args.out or f"radiosim-{study.name}"), overwrite=args.overwrite)
@@ -257,6 +249,90 @@ def _sse(args) -> int:
     if args.out:
         write_text(args.out, "\n".join(lines) + "\n")
         print(f"wrote {args.out}")
+    return 0
+
+
+def _study(target: str):
+    from radiosim.study import Study, available_studies
+
+    if Path(target).suffix == ".toml" or Path(target).is_file():
+        return Study.from_toml(target)
+    if target in available_studies():
+        return Study.preset(target)
+    raise RadiosimError(f"{target!r} is neither a study file nor a shipped study "
+                        f"({', '.join(available_studies())})")
+
+
+def _uncertainty(args) -> int:
+    import csv
+    import io
+
+    import numpy as np
+
+    from radiosim.files import OutputFolder, write_text
+    from radiosim.io.exr import write_uncertainty_exr
+    from radiosim.plotting import figure, save_figure
+
+    study = _study(args.study)
+    spec = study.uncertainty
+    if spec is None:
+        raise RadiosimError(f"study {study.name} has no [uncertainty] table (see docs/"
+                            "user_guide.md)")
+    if args.workers is not None and args.workers < 1:
+        raise RadiosimError(f"--workers must be ≥ 1, got {args.workers}")
+    study.scene  # build (and check) the scene before anything is written
+    out = OutputFolder(Path(args.out or f"radiosim-{study.name}-uncertainty"),
+                       overwrite=args.overwrite)
+    draws = args.draws if args.draws is not None else spec.draws
+    print(f"radiosim {__version__}: uncertainty of study {study.name} → {out.path}/ "
+          f"({draws or 'adaptive'} draws, {', '.join(spec.inputs)} and the noise)")
+    def progress(done, total):
+        print(f"[{done}/{total or 'adaptive'}] draws", file=sys.stderr, flush=True)
+
+    completed = False
+    try:
+        result = study.propagate(draws=args.draws, seed=args.seed, scheduler=args.scheduler,
+                                 workers=args.workers, progress=None if args.quiet else progress)
+        camera = study.cameras[spec.camera]
+        text = io.StringIO()
+        keys = ["quantity", "input", "distribution", "unit", "estimate", "std_uncertainty",
+                "sensitivity", "gum_contribution_K", "mc_contribution_K", "share_percent"]
+        writer = csv.DictWriter(text, keys, lineterminator="\n")
+        writer.writeheader()
+        writer.writerows({k: (f"{r[k]:.6g}" if isinstance(r[k], float) else r[k])
+                          for k in keys} for r in result.budget)
+        write_text(out.staging / "budget.csv", text.getvalue())
+        write_uncertainty_exr(out.staging / "uncertainty.exr", result, camera,
+                              spec.integration_time)
+        fig = figure(10, 4)
+        ax1, ax2 = fig.subplots(1, 2)
+        image = ax1.imshow(result.std, cmap="viridis")
+        fig.colorbar(image, ax=ax1, label="standard uncertainty [K]")
+        ax1.set_title(f"{study.name}: u(T_app), {result.draws} draws")
+        ax1.set_axis_off()
+        peak = [r for r in result.budget if r["quantity"] == "peak"]
+        ax2.barh([r["input"] for r in peak], [r["gum_contribution_K"] for r in peak],
+                 label="GUM")
+        ax2.barh([r["input"] for r in peak], [r["mc_contribution_K"] for r in peak],
+                 height=0.4, label="one at a time (MC)")
+        ax2.set_xlabel("contribution to u(peak reading) [K]")
+        ax2.legend()
+        save_figure(fig, out.staging / "budget.png")
+        out.commit()
+        completed = True
+    finally:
+        if not completed:
+            out.abandon(keep=False)
+    print(f"{'input':<24}{'u(x)':>12}{'GUM [K]':>10}{'MC [K]':>10}{'share':>8}")
+    for r in (r for r in result.budget if r["quantity"] == "peak"):
+        print(f"{r['input']:<24}{r['std_uncertainty']:>12.4g}{r['gum_contribution_K']:>10.3g}"
+              f"{r['mc_contribution_K']:>10.3g}{r['share_percent']:>7.1f}%")
+    low, high = result.interval(0.95)
+    i = np.unravel_index(np.nanargmax(result.mean), result.mean.shape)
+    print(f"peak pixel {tuple(int(v) for v in i)}: {result.mean[i] - 273.15:.1f} °C, u = "
+          f"{result.std[i]:.2f} K, 95 % [{low[i] - 273.15:.1f}, {high[i] - 273.15:.1f}] °C, "
+          f"scene {result.truth[i] - 273.15:.1f} °C")
+    print(f"wrote {out.path / 'budget.csv'}, uncertainty.exr, budget.png")
     return 0
 
 
@@ -414,6 +490,26 @@ def build_parser() -> argparse.ArgumentParser:
     measure.add_argument("--out", help="write the measurement to this .exr file (a new one)")
     measure.add_argument("--overwrite", action="store_true", help="replace --out if it exists")
     measure.set_defaults(func=_measure)
+    unc = sub.add_parser("uncertainty", help="the Monte Carlo uncertainty budget of a study",
+                         description="Propagate a study's [uncertainty] inputs through its "
+                         "camera (GUM Supplement 1 Monte Carlo on Dask) and write budget.csv, "
+                         "uncertainty.exr and budget.png in --out.")
+    unc.add_argument("study", help="a study TOML file with an [uncertainty] table")
+    unc.add_argument("--draws", type=int, default=None,
+                     help="Monte Carlo draws (default: the study's, else adaptive)")
+    unc.add_argument("--seed", type=parse_seed, default=None,
+                     help="seed ≥ 0 (default: the study's)")
+    unc.add_argument("--scheduler", default=None,
+                     help="Dask scheduler: synchronous, threads or tcp://HOST:PORT (default: "
+                     "$RADIOSIM_SCHEDULER, else in this process)")
+    unc.add_argument("--workers", type=int, default=None,
+                     help="start a local cluster of N worker processes")
+    unc.add_argument("--out", help="output folder, new or empty (default "
+                     "radiosim-STUDY-uncertainty)")
+    unc.add_argument("--overwrite", action="store_true",
+                     help="replace the files of radiosim's previous run in --out")
+    unc.add_argument("-q", "--quiet", action="store_true", help="no progress bar")
+    unc.set_defaults(func=_uncertainty)
     sse = sub.add_parser("sse", help="the size-of-source curve of a camera",
                          description="Image uniform blackbody discs of increasing diameter "
                          "through the camera's optics (MSL Technical Guide 26) and print the "

@@ -52,6 +52,7 @@ from radiosim.errors import RadiosimError, RadiosimWarning
 from radiosim.files import atomic_write
 from radiosim.measurement import Measurement
 from radiosim.scenes.base import Scene
+from radiosim.uncertainty import INPUTS, distribution_from_table, propagate
 from radiosim.units import shift, to_celsius
 
 __all__ = ["Study", "Sweep", "StudyResult", "available_studies", "summarise", "STUDY_DIRECTORY",
@@ -70,7 +71,10 @@ RESULT_COLUMNS = [
 ]
 ALIGNMENTS = ("centred", "starting", "ending")
 #: The top-level keys of a study file.
-STUDY_KEYS = ("name", "description", "scene", "cameras", "sweeps", "hooks")
+STUDY_KEYS = ("name", "description", "scene", "cameras", "sweeps", "hooks", "uncertainty")
+#: The keys of an [uncertainty] table (its inputs in [uncertainty.inputs]).
+UNCERTAINTY_KEYS = ("camera", "integration_time_us", "t_start_us", "draws", "seed", "batch",
+                    "inputs")
 #: The keys of a [[sweeps]] table.
 SWEEP_KEYS = ("name", "cameras", "response", "pixel_pitch_um", "pixel_samples",
               "integration_time_us", "integration_time_frames", "alignment", "kind")
@@ -118,6 +122,58 @@ def format_value(value):
 def available_studies() -> tuple[str, ...]:
     """Names of the shipped studies."""
     return tuple(sorted(p.stem for p in STUDY_DIRECTORY.glob("*.toml")))
+
+
+@dataclass(frozen=True)
+class UncertaintySpec:
+    """
+    A study's uncertainty budget: ``[uncertainty]`` with ``camera`` (a study camera's name),
+    ``integration_time_us``, optional ``t_start_us``, ``draws`` (absent: adaptive), ``seed``,
+    ``batch``, and ``[uncertainty.inputs]`` tables of distributions in each input's edge unit
+    (``{distribution = "uniform", low = 0.2, high = 0.4}``; µm for lengths, µs for times; see
+    :data:`radiosim.uncertainty.INPUTS`).
+    """
+
+    camera: str
+    integration_time: float
+    t_start: float | None
+    draws: int | None
+    seed: int
+    batch: int
+    inputs: dict
+
+    @classmethod
+    def from_dict(cls, table: dict, cameras: dict) -> UncertaintySpec:
+        if not isinstance(table, dict):
+            raise RadiosimError(f"[uncertainty] must be a table, got {table!r}")
+        table = dict(table)
+        reject_unknown([k for k in table if k not in UNCERTAINTY_KEYS], UNCERTAINTY_KEYS,
+                       "[uncertainty]")
+        camera = table.get("camera")
+        if camera not in cameras:
+            raise RadiosimError(f"[uncertainty] camera must be one of the study's cameras "
+                                f"({', '.join(cameras)}), got {camera!r}")
+        t_int = read_number(table, "integration_time_us", "[uncertainty]", 1e-6)
+        if t_int is None:
+            raise RadiosimError("[uncertainty] needs integration_time_us")
+        t_start = read_number(table, "t_start_us", "[uncertainty]", 1e-6)
+        counts = {}
+        for key, default in (("draws", None), ("seed", 0), ("batch", 50)):
+            value = table.get(key, default)
+            if value is not None and (isinstance(value, bool) or not isinstance(value, int)
+                                      or value < (2 if key == "draws" else 0 if key == "seed"
+                                                  else 1)):
+                raise RadiosimError(f"[uncertainty] {key} must be a whole number "
+                                    f"{'≥ 2' if key == 'draws' else '≥ 0'}, got {value!r}")
+            counts[key] = value
+        inputs = table.get("inputs", {})
+        if not isinstance(inputs, dict) or not inputs:
+            raise RadiosimError("[uncertainty.inputs] must name at least one input: "
+                                f"{', '.join(INPUTS)}")
+        reject_unknown([k for k in inputs if k not in INPUTS], INPUTS, "[uncertainty.inputs]")
+        return cls(camera, check_positive(t_int, "integration_time", "s"), t_start,
+                   counts["draws"], counts["seed"], counts["batch"],
+                   {name: distribution_from_table(t, name) for name, t in inputs.items()})
 
 
 @dataclass(frozen=True)
@@ -239,6 +295,8 @@ class Study:
         self.scene_spec, self.cameras, self.sweeps = dict(scene), cameras, sweeps
         self.base = base or Path.cwd()
         self.hooks = dict(hooks or {})
+        #: The study's uncertainty budget (:class:`UncertaintySpec`), if it has one.
+        self.uncertainty: UncertaintySpec | None = None
         reject_unknown([k for k in self.hooks if k not in HOOKS], HOOKS, "[hooks]")
         self._scene = None
 
@@ -283,12 +341,17 @@ class Study:
             raise RadiosimError("sweeps must be an array of tables: write each as [[sweeps]] "
                                 "(two brackets), not [sweeps]")
         sweeps = [Sweep.from_dict(s, cameras) for s in sweep_tables]
-        if not sweeps:
-            raise RadiosimError("a study needs at least one [[sweeps]] table")
+        uncertainty = data.pop("uncertainty", None)
+        uncertainty = None if uncertainty is None else UncertaintySpec.from_dict(uncertainty,
+                                                                                 cameras)
+        if not sweeps and uncertainty is None:
+            raise RadiosimError("a study needs at least one [[sweeps]] table or an "
+                                "[uncertainty] table")
         hooks = data.pop("hooks", {})
         if not isinstance(hooks, dict):
             raise RadiosimError(f"[hooks] must be a table, got {hooks!r}")
         study = cls(name, scene, cameras, sweeps, description, base, hooks)
+        study.uncertainty = uncertainty
         for name in study.hooks:
             study.hook(name)  # fail now, not after the first measurements
         return study
@@ -332,6 +395,21 @@ class Study:
     def columns(self) -> list[str]:
         """Columns of the results table: :data:`RESULT_COLUMNS` and the summary hook's."""
         return result_columns(self, self.hook("summary"))
+
+    def propagate(self, draws: int | None = None, seed: int | None = None, scheduler=None,
+                  workers: int | None = None, progress=None):
+        """
+        The study's uncertainty budget (its ``[uncertainty]`` table) through
+        :func:`radiosim.uncertainty.propagate`; ``draws`` and ``seed`` override the table's.
+        """
+        spec = self.uncertainty
+        if spec is None:
+            raise RadiosimError(f"study {self.name} has no [uncertainty] table")
+        return propagate(self.cameras[spec.camera], self.scene, spec.integration_time,
+                         spec.inputs, draws=draws if draws is not None else spec.draws,
+                         rng=spec.seed if seed is None else seed, scheduler=scheduler,
+                         t_start=spec.t_start, workers=workers, batch=spec.batch,
+                         progress=progress)
 
     def run(self, out=None, rng=0, write_exr: bool = True,
             progress: Callable[[int, int, str], None] | None = None) -> StudyResult:

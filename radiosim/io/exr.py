@@ -39,7 +39,8 @@ from radiosim.errors import RadiosimError, RadiosimIOError
 from radiosim.files import native_output_silenced
 from radiosim.measurement import Measurement
 
-__all__ = ["CHANNELS", "write_exr", "read_exr", "write_exr_sequence", "read_exr_sequence"]
+__all__ = ["CHANNELS", "write_exr", "read_exr", "write_exr_sequence", "read_exr_sequence",
+           "write_channels", "UNCERTAINTY_CHANNELS", "write_uncertainty_exr"]
 
 #: Channel name → unit (``signal_mean``'s unit is the measurement's ``signal_unit``).
 CHANNELS = {
@@ -96,21 +97,14 @@ def write_exr(path, measurement: Measurement) -> Path:
     pathlib.Path
         The path written.
     """
-    import OpenEXR
-
     from radiosim import __version__
 
-    path = Path(path)
-    if not path.parent.is_dir():
-        raise RadiosimError(f"cannot write {path}: folder {path.parent} does not exist")
     m = measurement
     channels = {}
     for name in CHANNELS:
         values = getattr(m, name)
         channels[name] = np.ascontiguousarray(values, dtype=np.float32)
     header = {
-        "compression": OpenEXR.ZIP_COMPRESSION,
-        "type": OpenEXR.scanlineimage,
         _PREFIX + "version": __version__,
         _PREFIX + "integration_time_s": _typed(m.integration_time),
         _PREFIX + "t_start_s": _typed(m.t_start),
@@ -125,6 +119,22 @@ def write_exr(path, measurement: Measurement) -> Path:
         header[f"{_PREFIX}unit:{name}"] = unit or m.signal_unit
     for key, value in m.scene.items():
         header[f"scene:{key}"] = _typed(value)
+    return write_channels(path, channels, header)
+
+
+def write_channels(path, channels: dict, header: dict) -> Path:
+    """
+    Write float32 ``channels`` (name → 2-D array) and ``header`` attributes (typed with
+    :func:`_typed` by the caller) to one EXR file, atomically (a temporary name, renamed; an
+    error or interrupt leaves nothing behind).
+    """
+    import OpenEXR
+
+    path = Path(path)
+    if not path.parent.is_dir():
+        raise RadiosimError(f"cannot write {path}: folder {path.parent} does not exist")
+    header = {"compression": OpenEXR.ZIP_COMPRESSION, "type": OpenEXR.scanlineimage, **header}
+    channels = {k: np.ascontiguousarray(v, dtype=np.float32) for k, v in channels.items()}
     temporary = path.with_name(f".{path.name}.{os.getpid()}.partial")
     try:
         with OpenEXR.File(header, channels) as exr:
@@ -136,6 +146,28 @@ def write_exr(path, measurement: Measurement) -> Path:
             raise
         raise RadiosimIOError(f"cannot write {path}: {exc}") from exc
     return path
+
+
+#: Channels of an uncertainty evaluation's EXR file, with their units.
+UNCERTAINTY_CHANNELS = {"mean": "K", "std": "K", "low_95": "K", "high_95": "K",
+                        "gum_std": "K", "truth": "K", "error": "K", "valid_fraction": "1"}
+
+
+def write_uncertainty_exr(path, result, camera, integration_time: float) -> Path:
+    """The per-pixel maps of an :class:`~radiosim.uncertainty.UncertaintyResult` as one EXR
+    file (channels :data:`UNCERTAINTY_CHANNELS`; the camera as TOML in the header)."""
+    from radiosim import __version__
+
+    low, high = result.interval(0.95)
+    channels = {"mean": result.mean, "std": result.std, "low_95": low, "high_95": high,
+                "gum_std": result.gum_std, "truth": result.truth, "error": result.error,
+                "valid_fraction": result.valid_fraction}
+    header = {_PREFIX + "version": __version__, _PREFIX + "draws": int(result.draws),
+              _PREFIX + "integration_time_s": _typed(integration_time),
+              _PREFIX + "camera_name": camera.name, _PREFIX + "camera": camera.to_toml()}
+    for name, unit in UNCERTAINTY_CHANNELS.items():
+        header[f"{_PREFIX}unit:{name}"] = unit
+    return write_channels(path, channels, header)
 
 
 def read_exr(path) -> Measurement:
