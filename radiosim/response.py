@@ -41,7 +41,6 @@ __all__ = ["Response", "LinearResponse", "PlanckResponse", "RESPONSES",
 #: hotter ones are refused. Its relative error against quadrature stays below 1e-7 over the
 #: range (measured: 6e-10 for the nist-ir band; see BandRadianceTable).
 PLANCK_TABLE_RANGE = (130.0, 4000.0)
-_TABLE_MARGIN = 30.0  # [K] the spline starts this far below the range, clear of its end effects
 
 
 def reflectance(emissivity):
@@ -209,8 +208,6 @@ class PlanckResponse(Response):
         self.band = tuple(band)
         self.responsivity = responsivity
         self.temperature_range = tuple(float(t) for t in temperature_range)
-        self._table_range = (max(self.temperature_range[0] - _TABLE_MARGIN,
-                                 0.5 * self.temperature_range[0]), self.temperature_range[1])
         self._tables: dict[int, tuple[SpectralDistribution | None, BandRadianceTable]] = {}
         self._kernel_tables: dict[tuple, RadianceKernelTable] = {}
         self._split: dict[int, list] = {}

@@ -45,6 +45,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from radiosim.checks import check_positive
+from radiosim.config import si_value
 from radiosim.errors import RadiosimError, RadiosimWarning
 from radiosim.psf import GaussianBlur, ScatterHalo
 
@@ -261,7 +262,11 @@ def distribution_from_table(table: dict, name: str) -> Distribution:
     scale = INPUTS[name][2] if name in INPUTS else 1.0  # the edge unit (µm, µs) → SI
     if table["distribution"] == "samples":
         return cls(np.asarray(table["values"], dtype=float) * scale)
-    return cls(*(float(table[k]) * scale for k in keys))
+    for k in keys:
+        if isinstance(table[k], bool) or not isinstance(table[k], (int, float)):
+            raise RadiosimError(f"[uncertainty.inputs] {name}: {k} must be a number, got "
+                                f"{table[k]!r}")
+    return cls(*(si_value(float(table[k]), scale) for k in keys))
 
 
 # -- the inputs ------------------------------------------------------------------------------
