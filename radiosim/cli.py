@@ -18,6 +18,7 @@ from __future__ import annotations
 import argparse
 import logging
 import math
+import os
 import signal
 import sys
 import warnings
@@ -115,7 +116,8 @@ def _run(args) -> int:
         if study.description:
             print(f"  {study.description}")
         result = study.run(out.staging, rng=args.seed, write_exr=not args.no_exr,
-                           progress=None if args.quiet else _Progress())
+                           progress=None if args.quiet else _Progress(),
+                           scheduler=args.scheduler, workers=args.workers)
         figures = [] if draw is None else draw(out.staging, study.scene)
         written = out.commit()
         completed = True
@@ -463,6 +465,12 @@ def build_parser() -> argparse.ArgumentParser:
                      help="write no EXR files (then no maps nor profiles either)")
     run.add_argument("--no-figures", action="store_true", help="write no figures")
     run.add_argument("-q", "--quiet", action="store_true", help="no progress bar")
+    run.add_argument("--scheduler", default=os.environ.get("RADIOSIM_SCHEDULER"),
+                     help="run every measurement as a Dask task: synchronous, threads or "
+                     "tcp://HOST:PORT (default $RADIOSIM_SCHEDULER; none: one pass in this "
+                     "process)")
+    run.add_argument("--workers", type=int, default=None,
+                     help="run on a local Dask cluster of N worker processes")
     run.set_defaults(func=_run)
     measure = sub.add_parser("measure", help="measure one scene file with one camera",
                              description="Measure a scene file (.npy, .npz, a folder or glob "

@@ -52,7 +52,7 @@ from radiosim.errors import RadiosimError, RadiosimWarning
 from radiosim.files import atomic_write
 from radiosim.measurement import Measurement
 from radiosim.scenes.base import Scene
-from radiosim.uncertainty import INPUTS, distribution_from_table, propagate
+from radiosim.uncertainty import INPUTS, connect, distribution_from_table, propagate
 from radiosim.units import shift, to_celsius
 
 __all__ = ["Study", "Sweep", "StudyResult", "available_studies", "summarise", "STUDY_DIRECTORY",
@@ -412,7 +412,8 @@ class Study:
                          progress=progress)
 
     def run(self, out=None, rng=0, write_exr: bool = True,
-            progress: Callable[[int, int, str], None] | None = None) -> StudyResult:
+            progress: Callable[[int, int, str], None] | None = None, scheduler=None,
+            workers: int | None = None) -> StudyResult:
         """
         Run every measurement of the study.
 
@@ -427,8 +428,22 @@ class Study:
             Write each field measurement as an EXR file.
         progress
             Called as ``progress(done, total, label)`` after each measurement.
+        scheduler, workers
+            Run on Dask (:func:`radiosim.uncertainty.connect`): every measurement is a task,
+            the scene travels as its recipe, and each measurement's noise comes from its own
+            seed spawned from ``rng`` (an integer), so the results are the same bits on any
+            scheduler and any number of workers. Without them, the measurements of a scene
+            share one pass over its frames in this process, drawing their noise from one
+            generator in turn (a different, equally valid, sequence).
         """
-        rng = check_rng(rng)
+        engine = None
+        if scheduler is not None or workers is not None:
+            if isinstance(rng, bool) or not isinstance(rng, (int, np.integer)) or rng < 0:
+                raise RadiosimError(f"a study on a Dask scheduler needs an integer seed ≥ 0, got "
+                                    f"{rng!r}")
+            seed_sequence = np.random.SeedSequence(int(rng))
+        else:
+            rng = check_rng(rng)
         plan = list(self.plan())
         summary, pick_pixel = self.hook("summary"), self.hook("pixel")
         columns = self.columns()
@@ -448,8 +463,10 @@ class Study:
         result = StudyResult(rows=[], exr_directory=exr_dir, columns=columns)
         history = {}
         try:
+            if scheduler is not None or workers is not None:
+                engine = (connect(scheduler, workers), seed_sequence)
             self._measure_all(plan, result, history, summary, pick_pixel, exr_dir, rng,
-                              progress)
+                              progress, engine)
         except BaseException:
             if out is not None and result.rows:  # what completed, as a table of its own
                 _write_csv(out / "results.csv", columns, result.rows)
@@ -457,6 +474,9 @@ class Study:
                 with contextlib.suppress(OSError):
                     folder.rmdir()
             raise
+        finally:
+            if engine is not None:
+                engine[0][1]()  # close the cluster or client it opened
         if out is not None:
             result.table = out / "results.csv"
             _write_csv(result.table, columns, result.rows)
@@ -465,7 +485,8 @@ class Study:
                 self._write_history(result.history, history)
         return result
 
-    def _measure_all(self, plan, result, history, summary, pick_pixel, exr_dir, rng, progress):
+    def _measure_all(self, plan, result, history, summary, pick_pixel, exr_dir, rng, progress,
+                     engine=None):
         """
         Measure every planned case into ``result.rows`` (and ``history``). Consecutive cases on
         the same scene are measured in one pass over its frames
@@ -488,14 +509,24 @@ class Study:
                 scene = pixels[pitch]
             cases.append((sweep, name, camera, t_int, alignment, scene))
         groups = [list(g) for _, g in itertools.groupby(cases, key=lambda c: id(c[5]))]
+        seeds = iter(engine[1].spawn(len(cases))) if engine is not None else None
         done = 0
         for group in groups:
             scene = group[0][5]
-            with warnings.catch_warnings():
-                warnings.simplefilter("ignore", RadiosimWarning)
-                measurements = measure_many(scene, [
-                    (camera, t_int, self._window_start(t_int, alignment))
-                    for _, _, camera, t_int, alignment, _ in group], rng)
+            starts = [self._window_start(t_int, alignment)
+                      for _, _, _, t_int, alignment, _ in group]
+            if engine is not None:  # one task per measurement, the scene shared as a recipe
+                run = engine[0][0]
+                measurements = run(_measure_task, [
+                    (camera, t_int, start, next(seeds))
+                    for (_, _, camera, t_int, _, _), start in zip(group, starts)],
+                    shared=(scene,))
+            else:
+                with warnings.catch_warnings():
+                    warnings.simplefilter("ignore", RadiosimWarning)
+                    measurements = measure_many(scene, [
+                        (camera, t_int, start)
+                        for (_, _, camera, t_int, _, _), start in zip(group, starts)], rng)
             for (sweep, name, camera, t_int, alignment, scene), m in zip(group, measurements):
                 done += 1
                 result.rows.append(self._row(sweep, name, camera, t_int, alignment, scene, m,
@@ -611,6 +642,13 @@ def _camera_from(table: dict, name: str, base: Path) -> Camera:
         pitch = _number(table, "pixel_pitch_um", f"[cameras.{name}]")
         camera = camera.with_pixel_pitch(shift(pitch, -6))
     return camera.replace(name=name, **changes)
+
+
+def _measure_task(scene: Scene, camera: Camera, integration_time: float, t_start, seed):
+    """One measurement of a study on Dask, its noise from its own seed."""
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", RadiosimWarning)
+        return camera.measure(scene, integration_time, t_start, np.random.default_rng(seed))
 
 
 def _scene_from(spec: dict, base: Path) -> Scene:

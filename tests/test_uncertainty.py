@@ -149,3 +149,70 @@ def test_bad_budgets_are_named(inputs, draws, message):
 def test_bad_distribution_tables_are_named(table, message):
     with pytest.raises(RadiosimError, match=message):
         distribution_from_table(table, "emissivity")
+
+
+def test_a_study_on_two_workers_equals_the_same_study_run_synchronously(tmp_path):
+    """Every measurement a task with its own spawned seed: the same bits on any scheduler."""
+    from conftest import frames_study
+
+    from radiosim.study import Study
+
+    rng = np.random.default_rng(0)
+    np.save(tmp_path / "frames.npy", 600.0 + 50.0 * rng.random((6, 24, 24)))
+    text = frames_study([1, 2, 3], 4.0)
+    text += '\n[cameras.real]\nfile = "cam.toml"\n[[sweeps]]\nname = "r"\ncameras = ["real"]\n' \
+            'integration_time_us = [1, 2]\n'
+    camera = rs.Camera.preset("nist-ir")
+    camera = camera.replace(fpa=dataclasses.replace(camera.fpa, pixel_pitch=4e-6, shape=None,
+                                                    detector_pitch=20e-6))
+    (tmp_path / "cam.toml").write_text(camera.to_toml())
+    (tmp_path / "s.toml").write_text(text)
+    study = Study.from_toml(tmp_path / "s.toml")
+    local = study.run(None, rng=7, scheduler="synchronous").rows
+    cluster = study.run(None, rng=7, workers=2).rows
+    assert len(local) == 5
+    assert local == cluster
+    assert {r["sweep"] for r in local} == {"t", "r"}
+
+
+def test_the_uncertainty_command_writes_its_budget(tmp_path, capsys):
+    import OpenEXR
+
+    from radiosim.cli import main
+    from radiosim.io.exr import UNCERTAINTY_CHANNELS
+
+    (tmp_path / "u.toml").write_text("""name = "u"
+[scene]
+type = "segmented-chip"
+dx_um = 8.0
+dt_us = 1.0
+emissivity = 0.3
+[cameras.nist]
+preset = "nist-ir"
+assumed_emissivity = 0.3
+[uncertainty]
+camera = "nist"
+integration_time_us = 5
+draws = 6
+batch = 3
+[uncertainty.inputs]
+emissivity = {distribution = "uniform", low = 0.25, high = 0.35}
+psf_sigma = {distribution = "uniform", low = 0.0, high = 4.0}
+""")
+    out = tmp_path / "out"
+    assert main(["uncertainty", str(tmp_path / "u.toml"), "--out", str(out), "-q"]) == 0
+    names = sorted(p.name for p in out.iterdir())
+    assert names == ["budget.csv", "budget.png", "radiosim-manifest.json", "uncertainty.exr"]
+    lines = (out / "budget.csv").read_text().splitlines()
+    assert lines[0].startswith("quantity,input,distribution")
+    assert len(lines) == 1 + 2 * 3  # peak and mean × (two inputs and the noise)
+    with OpenEXR.File(str(out / "uncertainty.exr")) as exr:
+        assert set(exr.channels()) == set(UNCERTAINTY_CHANNELS)
+    capsys.readouterr()
+    assert main(["uncertainty", str(tmp_path / "u.toml"), "--out", str(out)]) == 2
+    assert "is not empty" in capsys.readouterr().err
+    (tmp_path / "plain.toml").write_text((tmp_path / "u.toml").read_text().split(
+        "[uncertainty]")[0] + '[[sweeps]]\nname = "t"\ncameras = ["nist"]\n'
+        'integration_time_us = [1]\n')
+    assert main(["uncertainty", str(tmp_path / "plain.toml"), "--out", str(tmp_path / "o2")]) == 2
+    assert "no [uncertainty] table" in capsys.readouterr().err
