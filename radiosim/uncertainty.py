@@ -425,6 +425,9 @@ def connect(scheduler=None, workers: int | None = None):
     """
     import dask
 
+    if workers is not None and (isinstance(workers, bool) or int(workers) != workers
+                                or workers < 1):
+        raise RadiosimError(f"workers must be a whole number ≥ 1, got {workers!r}")
     scheduler = scheduler if scheduler is not None or workers else os.environ.get(
         "RADIOSIM_SCHEDULER")
     client, cluster = None, None
