@@ -23,6 +23,7 @@ from __future__ import annotations
 
 import dataclasses
 import warnings
+import math
 from dataclasses import dataclass, field
 from functools import cached_property
 from pathlib import Path
@@ -571,6 +572,69 @@ class Camera:
         nuc = NonUniformityCorrection.from_flat_fields(
             np.array(flats), temperatures, integration_time, np.any(saturated, axis=0))
         return self.replace(nuc=nuc)
+
+    # -- calibrating from measured points ---------------------------------------------------------
+
+    def fit_calibration(self, temperatures, counts, integration_time: float, frames: int = 1,
+                        emissivity: float = 1.0):
+        """
+        Fit the camera's free electrical parameters — system gain K [DN/e⁻] and offset [DN] —
+        to a measured calibration table: blackbody ``temperatures`` [K] against mean
+        ``counts`` [DN] at ``integration_time`` [s], each the mean of ``frames`` read-outs,
+        through radiosim's own radiometry with this camera's spectral curves and geometry
+        (the optics' emission at its instrument temperature included).
+
+        The model counts(T) = K · (e(T) + dark) + offset is linear in (K, offset) for the
+        charge e(T) the radiometry predicts, so the fit is weighted linear least squares, the
+        weights the counts' temporal noise (:meth:`Electronics.temporal_noise`, over
+        √frames). Residuals larger than that noise explains (χ²/dof > 4) are model error — a
+        spectral curve, the étendue or the non-linearity not as assumed — and warn, saying how
+        large it is in kelvin.
+
+        Returns
+        -------
+        camera : Camera
+            This camera with the fitted gain and offset.
+        residuals : numpy.ndarray
+            Measured minus fitted counts [DN].
+        """
+        t = np.asarray(temperatures, dtype=float)
+        y = np.asarray(counts, dtype=float)
+        if t.ndim != 1 or t.shape != y.shape or t.size < 3:
+            raise RadiosimError(f"a calibration table needs at least 3 (temperature, counts) "
+                                f"pairs of equal length, got {t.size} and {y.size}")
+        if not (np.all(np.isfinite(t)) and np.all(t > 0) and np.all(np.isfinite(y))):
+            raise RadiosimError("calibration temperatures must be finite and > 0 K, and the "
+                                "counts finite")
+        t_int = check_positive(integration_time, "integration_time", "s")
+        unit = self.replace(electronics=dataclasses.replace(
+            self.electronics, gain=1.0, offset=0.0, adc_bits=None), assumed_emissivity=emissivity)
+        charge = unit.calibration(t_int).electrons(t)  # [e⁻]: photo, optics' emission, dark
+        el = self.electronics
+        if el.nonlinearity and el.full_well is not None:
+            from radiosim.electronics import apply_nonlinearity
+
+            charge = apply_nonlinearity(charge, el.nonlinearity, el.full_well)
+        noise = el.gain * el.temporal_noise(charge) / math.sqrt(max(int(frames), 1))  # [DN]
+        noise = np.maximum(noise, 1e-12)
+        design = np.column_stack([charge, np.ones_like(charge)]) / noise[:, None]
+        (gain, offset), *_ = np.linalg.lstsq(design, y / noise, rcond=None)
+        if not gain > 0:
+            raise RadiosimError(f"the fitted gain is {gain:.3g} DN/e⁻: the counts do not rise "
+                                "with temperature as this camera's radiometry predicts")
+        fitted = self.replace(electronics=dataclasses.replace(el, gain=float(gain),
+                                                              offset=float(offset)))
+        residuals = y - (gain * charge + offset)
+        chi2 = float(np.sum((residuals / (gain / el.gain * noise)) ** 2)) / max(t.size - 2, 1)
+        if chi2 > 4:
+            slope = np.gradient(gain * charge, t)  # [DN/K]
+            worst = int(np.argmax(np.abs(residuals)))
+            warnings.warn(
+                f"{self.name}: the calibration residuals exceed the counts' noise (χ²/dof = "
+                f"{chi2:.3g}): up to {abs(residuals[worst]):.3g} DN at {t[worst]:g} K, "
+                f"{abs(residuals[worst] / slope[worst]):.3g} K of model error there",
+                RadiosimWarning, stacklevel=2)
+        return fitted, residuals
 
     # -- performance ----------------------------------------------------------------------------
 

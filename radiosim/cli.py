@@ -338,6 +338,56 @@ def _uncertainty(args) -> int:
     return 0
 
 
+def _calibrate(args) -> int:
+    import csv
+
+    import numpy as np
+
+    from radiosim.files import write_text
+
+    camera = _camera(args.camera)
+    path = Path(args.table)
+    if not path.is_file():
+        raise RadiosimError(f"{path} does not exist (expected a CSV of temperature_K or "
+                            "temperature_C, and counts)")
+    if args.out is not None:
+        if Path(args.out).suffix.lower() != ".toml":
+            raise RadiosimError(f"--out {args.out}: the fitted camera is a TOML file")
+        if Path(args.out).exists() and not args.overwrite:
+            raise RadiosimError(f"--out {args.out} exists; choose a new name or pass --overwrite")
+    try:
+        with path.open(newline="", encoding="utf-8") as handle:
+            rows = list(csv.DictReader(line for line in handle if not line.startswith("#")))
+    except (OSError, UnicodeDecodeError, csv.Error) as exc:
+        raise RadiosimError(f"cannot read {path}: {exc}") from None
+    columns = set(rows[0]) if rows else set()
+    unit = "K" if "temperature_K" in columns else "C" if "temperature_C" in columns else None
+    if unit is None or "counts" not in columns:
+        raise RadiosimError(f"{path}: needs columns temperature_K (or temperature_C) and "
+                            f"counts, found {sorted(columns)}")
+    try:
+        temperatures = np.array([float(r[f"temperature_{unit}"]) for r in rows])
+        counts = np.array([float(r["counts"]) for r in rows])
+    except (TypeError, ValueError) as exc:
+        raise RadiosimError(f"{path}: a value is not a number ({exc})") from None
+    if unit == "C":
+        temperatures = temperatures + 273.15
+    fitted, residuals = camera.fit_calibration(temperatures, counts, args.integration_time,
+                                               frames=args.frames)
+    el = fitted.electronics
+    print(f"{camera.name} fitted to {path.name} ({len(rows)} points, "
+          f"{args.integration_time * 1e6:g} µs): gain {el.gain:.6g} DN/e⁻ (was "
+          f"{camera.electronics.gain:.6g}), offset {el.offset:.6g} DN (was "
+          f"{camera.electronics.offset:.6g})")
+    print(f"{'T [K]':>10}{'counts':>12}{'residual':>10}")
+    for t, c, r in zip(temperatures, counts, residuals):
+        print(f"{t:>10.2f}{c:>12.1f}{r:>10.2f}")
+    if args.out:
+        write_text(args.out, fitted.replace(name=f"{camera.name}-fitted").to_toml())
+        print(f"wrote {args.out}")
+    return 0
+
+
 def _report(args) -> int:
     import csv
     import io
@@ -534,6 +584,20 @@ def build_parser() -> argparse.ArgumentParser:
     sse.add_argument("--out", help="write the curve to this .csv file (a new one)")
     sse.add_argument("--overwrite", action="store_true", help="replace --out if it exists")
     sse.set_defaults(func=_sse)
+    cal = sub.add_parser("calibrate", help="fit a camera's gain and offset to a measured "
+                         "calibration table",
+                         description="Fit the camera's system gain and offset to a CSV of "
+                         "blackbody temperatures (temperature_K or temperature_C) and mean "
+                         "counts, through radiosim's radiometry with the camera's curves.")
+    cal.add_argument("table", help="CSV with temperature_K (or temperature_C) and counts")
+    cal.add_argument("--camera", required=True, help="preset name or camera TOML")
+    cal.add_argument("--integration-time", type=parse_time, required=True, metavar="T",
+                     help="integration time of the table, e.g. 100us")
+    cal.add_argument("--frames", type=int, default=1,
+                     help="read-outs averaged in each counts value (default 1)")
+    cal.add_argument("--out", help="write the fitted camera to this TOML file (a new one)")
+    cal.add_argument("--overwrite", action="store_true", help="replace --out if it exists")
+    cal.set_defaults(func=_calibrate)
     report = sub.add_parser("report", help="an EMVA 1288-style datasheet of a camera",
                             description="Characterise a camera as an EMVA 1288 report does: "
                             "gain, dark noise, saturation capacity, DSNU, PRNU, linearity "

@@ -420,3 +420,69 @@ def test_calibration_counts_use_the_electronics_mean_counts(nist):
     np.testing.assert_array_equal(
         cal.counts(temperature),
         nist.electronics.mean_counts(cal.photoelectrons(temperature), 10e-6))
+
+
+# -- fitting a camera to a measured calibration table ------------------------------------------
+
+
+def _measured_table(camera, temperatures, t_int, frames, seed):
+    """Mean counts of one pixel over ``frames`` read-outs of blackbodies (radiosim's chain)."""
+    small = camera.replace(fpa=replace(camera.fpa, shape=(4, 4)))
+    rng = np.random.default_rng(seed)
+    return np.array([small.flat_fields(t, t_int, frames, rng)[0][:, 0, 0].mean()
+                     for t in temperatures])
+
+
+def test_fit_calibration_recovers_gain_and_offset_within_the_noise_of_the_counts():
+    """Counts simulated at K = 1.5e-3 DN/e⁻ and offset 800 DN; the fit's standard errors come
+    from the weighted least-squares covariance (AᵀWA)⁻¹ with the counts' temporal noise; the
+    fitted values lie within four of them."""
+    camera = Camera.preset("nist-ir")
+    truth = camera.replace(electronics=replace(camera.electronics, gain=1.5e-3,
+                                                  offset=800.0))
+    t = np.linspace(300.0, 600.0, 16)
+    frames = 4
+    counts = _measured_table(truth, t, 100e-6, frames, seed=1)
+    fitted, residuals = camera.fit_calibration(t, counts, 100e-6, frames=frames)
+    ideal = truth.replace(electronics=replace(truth.electronics, gain=1.0, offset=0.0,
+                                                 adc_bits=None))
+    charge = ideal.calibration(100e-6).electrons(t)
+    sigma = 1.5e-3 * truth.electronics.temporal_noise(charge) / np.sqrt(frames)  # [DN]
+    design = np.column_stack([charge, np.ones_like(charge)]) / sigma[:, None]
+    errors = np.sqrt(np.diag(np.linalg.inv(design.T @ design)))
+    assert abs(fitted.electronics.gain - 1.5e-3) < 4 * errors[0]
+    assert abs(fitted.electronics.offset - 800.0) < 4 * errors[1]
+    assert np.sqrt(np.mean((residuals / sigma) ** 2)) < 2  # χ²/dof about 1
+
+
+def test_fit_calibration_warns_of_model_error():
+    """A table measured through a different filter is not what the camera's curves predict:
+    the residuals exceed the noise and the fit says by how many kelvin."""
+    camera = Camera.preset("nist-ir")
+    other = camera.replace(optics=replace(camera.optics, spectral_filter=0.7,
+                                             band=(3.0e-6, 5.0e-6)))
+    t = np.linspace(300.0, 600.0, 12)
+    counts = _measured_table(other, t, 100e-6, 4, seed=2)
+    with pytest.warns(RadiosimWarning, match="K of model error"):
+        camera.fit_calibration(t, counts, 100e-6, frames=4)
+
+
+def test_the_calibrate_command_writes_the_fitted_camera(tmp_path, capsys):
+    from radiosim.cli import main
+
+    camera = Camera.preset("nist-ir")
+    truth = camera.replace(electronics=replace(camera.electronics, gain=1.45e-3))
+    t = np.linspace(320.0, 580.0, 8)
+    counts = _measured_table(truth, t, 100e-6, 8, seed=3)
+    table = tmp_path / "table.csv"
+    table.write_text("# blackbody calibration\ntemperature_C,counts\n" + "".join(
+        f"{a - 273.15:.2f},{c:.3f}\n" for a, c in zip(t, counts)))
+    out = tmp_path / "fitted.toml"
+    assert main(["calibrate", str(table), "--camera", "nist-ir", "--integration-time", "100us",
+                 "--frames", "8", "--out", str(out)]) == 0
+    assert Camera.from_toml(out).electronics.gain == pytest.approx(1.45e-3, rel=2e-3)
+    capsys.readouterr()
+    (tmp_path / "bad.csv").write_text("T,counts\n300,1000\n")
+    assert main(["calibrate", str(tmp_path / "bad.csv"), "--camera", "nist-ir",
+                 "--integration-time", "100us"]) == 2
+    assert "temperature_K" in capsys.readouterr().err
