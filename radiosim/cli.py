@@ -119,6 +119,10 @@ def _run(args) -> int:
                            progress=None if args.quiet else _Progress(),
                            scheduler=args.scheduler, workers=args.workers)
         figures = [] if draw is None else draw(out.staging, study.scene)
+        if args.format == "netcdf":  # the results as one labelled dataset, next to the CSV
+            from radiosim.io.netcdf import write_netcdf
+
+            write_netcdf(out.staging / "results.nc", result.to_xarray(study.name))
         written = out.commit()
         completed = True
     finally:
@@ -514,6 +518,9 @@ def build_parser() -> argparse.ArgumentParser:
     run.add_argument("--no-exr", action="store_true",
                      help="write no EXR files (then no maps nor profiles either)")
     run.add_argument("--no-figures", action="store_true", help="write no figures")
+    run.add_argument("--format", choices=["exr", "netcdf"], default="exr",
+                     help="netcdf: also write results.nc, the results as one xarray dataset "
+                     "with the sweep parameters as dimensions (default: CSV and EXR only)")
     run.add_argument("-q", "--quiet", action="store_true", help="no progress bar")
     run.add_argument("--scheduler", default=os.environ.get("RADIOSIM_SCHEDULER"),
                      help="run every measurement as a Dask task: synchronous, threads or "

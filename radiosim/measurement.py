@@ -94,6 +94,12 @@ class Measurement:
         "t_start": "s",
     }
 
+    #: The per-pixel arrays and their units (``signal_mean``'s is :attr:`signal_unit`).
+    ARRAYS: ClassVar[dict[str, str | None]] = {
+        "apparent_temperature": "K", "counts": "DN", "electrons": "e-", "saturated": "1",
+        "under_range": "1", "over_range": "1", "tensor_max": "K", "tensor_mean": "K",
+        "tensor_std": "K", "signal_mean": None}
+
     apparent_temperature: np.ndarray
     counts: np.ndarray
     electrons: np.ndarray
@@ -128,6 +134,48 @@ class Measurement:
                 f"{self.alignment}); reads {reading}; {int(self.saturated.sum())} saturated, "
                 f"{int(self.under_range.sum())} under range, "
                 f"{int(self.over_range.sum())} over range>")
+
+    def to_xarray(self):
+        """
+        The measurement as an :class:`xarray.Dataset`: dimensions ``y``, ``x`` with the pixel
+        centres' coordinates [m] (object space, from the array's origin), every array a
+        variable with its unit (``attrs["units"]``), flags as booleans, and as attributes the
+        camera (TOML), the window and the scene (``scene:<key>``).
+        :func:`radiosim.io.from_xarray` turns it back, and
+        :func:`radiosim.io.write_netcdf` writes it.
+
+        Examples
+        --------
+        >>> from radiosim import Camera, UniformBlackbody
+        >>> scene = UniformBlackbody(500.0, (6, 8), 1e-6, 1e-6)
+        >>> ds = Camera.linear_ideal(2e-6).measure(scene, 1e-6).to_xarray()
+        >>> ds.apparent_temperature.dims, ds.apparent_temperature.units, ds.x.units
+        (('y', 'x'), 'K', 'm')
+        >>> (ds.x.values * 1e6).round(9).tolist()  # pixel centres [µm]
+        [1.0, 3.0, 5.0, 7.0]
+        """
+        import xarray as xr
+
+        from radiosim import __version__
+
+        fpa = self.camera.fpa
+        rows, cols = self.shape
+        y = fpa.origin[0] + (np.arange(rows) + 0.5) * fpa.pixel_pitch
+        x = fpa.origin[1] + (np.arange(cols) + 0.5) * fpa.pixel_pitch
+        flags = ("saturated", "under_range", "over_range")
+        data = {}
+        for name, unit in self.ARRAYS.items():
+            values = np.asarray(getattr(self, name))
+            values = values.astype(bool) if name in flags else values.astype(np.float64)
+            data[name] = (("y", "x"), values, {"units": unit or self.signal_unit})
+        attrs = {"radiosim_version": __version__, "camera": self.camera.to_toml(),
+                 "camera_name": self.camera.name, "signal_unit": self.signal_unit,
+                 "alignment": self.alignment, "integration_time_s": self.integration_time,
+                 "t_start_s": self.t_start, "n_frames": self.n_frames}
+        for key, value in self.scene.items():
+            attrs[f"scene:{key}"] = value
+        return xr.Dataset(data, coords={"y": ("y", y, {"units": "m"}),
+                                        "x": ("x", x, {"units": "m"})}, attrs=attrs)
 
     @property
     def peak_error(self) -> np.ndarray:

@@ -252,6 +252,13 @@ class StudyResult:
     history: Path | None = None
     columns: list[str] = field(default_factory=lambda: list(RESULT_COLUMNS))
 
+    def to_xarray(self, name: str = "study"):
+        """The rows as one :class:`xarray.Dataset` with the sweep parameters (sweep, camera,
+        integration time, pixel pitch) as dimensions (:func:`radiosim.io.results_to_xarray`)."""
+        from radiosim.io.netcdf import results_to_xarray
+
+        return results_to_xarray(self.rows, name)
+
 
 def summarise(m: Measurement) -> dict:
     """

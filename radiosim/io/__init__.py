@@ -1,6 +1,6 @@
 """
 Files in and out: scenes from NumPy stacks, EXR frame sequences and FEA nodal exports;
-measurements to and from multi-channel EXR.
+measurements to and from multi-channel EXR, and to and from labelled xarray datasets and NetCDF.
 
 Every reader states units explicitly (from the file's header or the caller) and rejects what it
 cannot read with an error naming the file, the line or frame, and the problem.
@@ -9,6 +9,8 @@ cannot read with an error naming the file, the line or frame, and the problem.
 from radiosim.io.exr import read_exr, read_exr_sequence, write_exr, write_exr_sequence
 from radiosim.io.fea import read_fea_nodes
 from radiosim.io.frames import read_frames
+from radiosim.io.netcdf import (from_xarray, read_netcdf, results_to_xarray, to_xarray,
+                                write_netcdf)
 
 __all__ = [
     "read_frames",
@@ -17,4 +19,9 @@ __all__ = [
     "read_exr",
     "write_exr_sequence",
     "read_exr_sequence",
+    "to_xarray",
+    "from_xarray",
+    "write_netcdf",
+    "read_netcdf",
+    "results_to_xarray",
 ]
