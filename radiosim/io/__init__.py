@@ -7,7 +7,7 @@ cannot read with an error naming the file, the line or frame, and the problem.
 """
 
 from radiosim.io.exr import read_exr, read_exr_sequence, write_exr, write_exr_sequence
-from radiosim.io.fea import read_fea_nodes
+from radiosim.io.fea import read_fea_mesh, read_fea_nodes
 from radiosim.io.frames import read_frames
 from radiosim.io.netcdf import (from_xarray, read_netcdf, results_to_xarray, to_xarray,
                                 write_netcdf)
@@ -15,6 +15,7 @@ from radiosim.io.netcdf import (from_xarray, read_netcdf, results_to_xarray, to_
 __all__ = [
     "read_frames",
     "read_fea_nodes",
+    "read_fea_mesh",
     "write_exr",
     "read_exr",
     "write_exr_sequence",

@@ -14,17 +14,19 @@ outside the mesh get the stated ``fill`` temperature.
 
 from __future__ import annotations
 
+import contextlib
 import csv
+import io
 import math
 from pathlib import Path
 
 import numpy as np
 from radiosim.checks import check_positive
 from radiosim.errors import RadiosimError
-from radiosim.scenes.fea_nodes import FeaNodes, triangulate
+from radiosim.scenes.fea_nodes import FeaMesh, FeaNodes, triangulate
 from radiosim.units import TEMPERATURE_OFFSETS, UNITS, to_kelvin
 
-__all__ = ["read_fea_nodes", "FeaNodes"]
+__all__ = ["read_fea_nodes", "FeaNodes", "read_fea_mesh", "FeaMesh"]
 
 #: Length and time units accepted for FEA files, with their factor to SI.
 LENGTH_UNITS = {unit: 10.0**exponent for unit, (exponent, _) in UNITS["length"].items()}
@@ -219,3 +221,194 @@ def read_fea_nodes(path, dx, dt=None, units=None, fill=293.15, bounds=None, max_
     if dt is not None:
         scene.dt = check_positive(dt, "dt", "s")
     return scene
+
+
+# -- FEA meshes through meshio ---------------------------------------------------------------
+
+#: 2-D cell types and the corner nodes that make their triangles.
+_TRIANGLES_OF = {"triangle": [(0, 1, 2)], "triangle6": [(0, 1, 2)], "triangle7": [(0, 1, 2)],
+                 "quad": [(0, 1, 2), (0, 2, 3)], "quad8": [(0, 1, 2), (0, 2, 3)],
+                 "quad9": [(0, 1, 2), (0, 2, 3)]}
+
+
+def _mesh_steps(source, times, time_unit):
+    """(time [s] or None, points, cells, point_data, cell_data) of each step of ``source``."""
+    import meshio
+
+    def read(path):
+        path = Path(path)
+        if not path.is_file():
+            raise RadiosimError(f"FEA mesh file {path} does not exist")
+        try:  # meshio reports some failures on stderr and exits: keep both to one line
+            with contextlib.redirect_stderr(io.StringIO()), \
+                    contextlib.redirect_stdout(io.StringIO()):
+                return meshio.read(path)
+        except (Exception, SystemExit) as exc:
+            detail = str(exc) if not isinstance(exc, SystemExit) else "not a readable mesh"
+            raise RadiosimError(f"cannot read FEA mesh {path}: {detail}") from None
+
+    if isinstance(source, (str, Path)) and Path(source).suffix.lower() == ".pvd":
+        import xml.etree.ElementTree as ElementTree
+
+        path = Path(source)
+        try:
+            sets = ElementTree.parse(path).getroot().iter("DataSet")
+            entries = [(float(d.get("timestep")), path.parent / d.get("file")) for d in sets]
+        except (OSError, ElementTree.ParseError, TypeError, ValueError) as exc:
+            raise RadiosimError(f"cannot read the ParaView collection {path}: {exc}") from None
+        if not entries:
+            raise RadiosimError(f"{path} lists no DataSet")
+        if time_unit is None:
+            raise RadiosimError(f"{path}: its timesteps' unit is stated nowhere; pass "
+                                f"units={{'time': …}} ({', '.join(TIME_UNITS)})")
+        for t, file in sorted(entries):
+            mesh = read(file)
+            yield t * TIME_UNITS[time_unit], mesh.points, mesh.cells, mesh.point_data, \
+                mesh.cell_data
+        return
+    if isinstance(source, (str, Path)) and Path(source).suffix.lower() in (".xdmf", ".xmf"):
+        from meshio.xdmf import TimeSeriesReader
+
+        path = Path(source)
+        if time_unit is None:
+            raise RadiosimError(f"{path}: its times' unit is stated nowhere; pass "
+                                f"units={{'time': …}} ({', '.join(TIME_UNITS)})")
+        try:
+            with TimeSeriesReader(path) as reader:
+                points, cells = reader.read_points_cells()
+                for k in range(reader.num_steps):
+                    t, point_data, cell_data = reader.read_data(k)
+                    yield float(t) * TIME_UNITS[time_unit], points, cells, point_data, cell_data
+        except RadiosimError:
+            raise
+        except Exception as exc:
+            raise RadiosimError(f"cannot read the XDMF time series {path}: {exc}") from None
+        return
+    files = [source] if isinstance(source, (str, Path)) else list(source)
+    if times is None or len(times) != len(files):
+        raise RadiosimError(f"a list of {len(files)} mesh file(s) needs times [s], one per file "
+                            f"(got {None if times is None else len(times)})")
+    for t, file in zip(times, files):
+        mesh = read(file)
+        yield float(t), mesh.points, mesh.cells, mesh.point_data, mesh.cell_data
+
+
+def _triangles(cells, where):
+    """The triangles of every 2-D cell, and for each the index of its cell (block, row)."""
+    triangles, owners = [], []
+    for b, block in enumerate(cells):
+        kind, data = block.type, np.asarray(block.data)
+        if kind in _TRIANGLES_OF:
+            corners = _TRIANGLES_OF[kind]
+        elif kind.startswith("polygon"):
+            corners = [(0, i, i + 1) for i in range(1, data.shape[1] - 1)]
+        else:
+            continue  # points, lines and 3-D cells are not part of a 2-D field
+        for c in corners:
+            triangles.append(data[:, c])
+            owners.append(np.column_stack([np.full(data.shape[0], b), np.arange(data.shape[0])]))
+    if not triangles:
+        raise RadiosimError(f"{where}: no 2-D cells (triangles, quads or polygons)")
+    return np.concatenate(triangles).astype(np.intp), np.concatenate(owners)
+
+
+def _temperature_unit(field: str, units: dict, where: str) -> str:
+    if "temperature" in units:
+        return units["temperature"]
+    for unit in TEMPERATURE_OFFSETS:
+        if field.endswith(f"_{unit}") or field.endswith(f"[{unit}]"):
+            return unit
+    raise RadiosimError(f"{where}: the temperature unit of field {field!r} is stated nowhere; "
+                        f"pass units={{'temperature': …}} ({', '.join(TEMPERATURE_OFFSETS)}) or "
+                        "name the field with a unit suffix (temperature_C)")
+
+
+def read_fea_mesh(source, dx, times=None, field: str = "temperature", units=None,
+                  fill=293.15, bounds=None, emissivity=1.0) -> FeaMesh:
+    """
+    Read a time series of FEA meshes (meshio: VTU, VTK, XDMF, Exodus, …) and resample it onto a
+    regular grid, inside the mesh by its own cells, outside by ``fill``.
+
+    Parameters
+    ----------
+    source
+        A list of mesh files (with ``times``), a ParaView ``.pvd`` collection, or an XDMF time
+        series (``.xdmf``).
+    dx
+        Sample pitch of the output grid [m].
+    times
+        The list's times [s].
+    field
+        Name of the temperature data, point data (interpolated linearly in each triangle) or
+        cell data (constant over its cell).
+    units
+        ``length`` (m, mm, um) of the coordinates, ``temperature`` (K, C; else read from the
+        field's suffix, ``temperature_C``) and ``time`` (of a collection's or series' times).
+    fill
+        Temperature outside the mesh [K].
+    bounds
+        (x_min, x_max, y_min, y_max) of the grid [m]; ``None``: the meshes' extent.
+    emissivity
+        As for :class:`~radiosim.FrameStack`.
+
+    Returns
+    -------
+    FeaMesh
+        A scene with one frame per step; the steps must be evenly spaced in time.
+    """
+    units = dict(units or {})
+    where = str(source if isinstance(source, (str, Path)) else "the mesh files")
+    if units.get("length") not in LENGTH_UNITS:
+        raise RadiosimError(f"{where}: the length unit of the coordinates must be stated: "
+                            f"units={{'length': …}} ({', '.join(LENGTH_UNITS)})")
+    if "temperature" in units and units["temperature"] not in TEMPERATURE_OFFSETS:
+        raise RadiosimError(f"temperature unit {units['temperature']!r} is not one of "
+                            f"{', '.join(TEMPERATURE_OFFSETS)}")
+    if "time" in units and units["time"] not in TIME_UNITS:
+        raise RadiosimError(f"time unit {units['time']!r} is not one of {', '.join(TIME_UNITS)}")
+    dx = check_positive(dx, "dx (sample pitch)", "m")
+    fill = check_positive(fill, "fill (temperature outside the mesh)", "K")
+    scale = LENGTH_UNITS[units["length"]]
+    steps, step_times = [], []
+    for k, (t, points, cells, point_data, cell_data) in enumerate(
+            _mesh_steps(source, times, units.get("time"))):
+        here = f"{where}, step {k}"
+        xy = np.asarray(points, dtype=float)[:, :2] * scale
+        triangles, owners = _triangles(cells, here)
+        if field in point_data:
+            values, kind = np.asarray(point_data[field], dtype=float).reshape(-1), "point"
+        elif field in cell_data:
+            blocks = [np.asarray(b, dtype=float).reshape(-1) for b in cell_data[field]]
+            values, kind = np.array([blocks[b][i] for b, i in owners]), "cell"
+        else:
+            names = sorted({*point_data, *cell_data})
+            raise RadiosimError(f"{here}: no field {field!r}; the mesh holds "
+                                f"{', '.join(names) or 'no data'}")
+        values = to_kelvin(values, _temperature_unit(field, units, here))
+        if not np.all(np.isfinite(values)) or np.any(values <= 0):
+            bad = values[~(np.isfinite(values) & (values > 0))][0]
+            raise RadiosimError(f"{here}: field {field!r} holds {bad!r} K (NaN, infinite or "
+                                "≤ 0: wrong unit?)")
+        steps.append((xy, triangles, values, kind))
+        step_times.append(float(t))
+    step_times = np.asarray(step_times)
+    if step_times.size > 1:
+        step = np.diff(step_times)
+        if np.any(step <= 0) or np.any(np.abs(step - step.mean()) > 1e-6 * step.mean()):
+            raise RadiosimError(f"{where}: the steps are not evenly spaced and increasing in "
+                                f"time ({step_times.tolist()} s)")
+        dt = float(step.mean())
+    else:
+        raise RadiosimError(f"{where}: a single step; a scene needs at least two")
+    if bounds is None:
+        allxy = np.concatenate([s[0] for s in steps])
+        bounds = (allxy[:, 0].min(), allxy[:, 0].max(), allxy[:, 1].min(), allxy[:, 1].max())
+    x0, x1, y0, y1 = (float(b) for b in bounds)
+    shape = (int(math.floor((y1 - y0) / dx + 1e-9)), int(math.floor((x1 - x0) / dx + 1e-9)))
+    if min(shape) < 1:
+        raise RadiosimError(f"{where}: the grid {bounds} holds no {dx:g} m sample")
+    if shape[0] * shape[1] > MAX_GRID_SAMPLES:
+        raise RadiosimError(f"{where}: the mesh spans {x1 - x0:.3g} × {y1 - y0:.3g} m, a grid "
+                            f"of {shape[0]} × {shape[1]} samples at dx = {dx:g} m; is the "
+                            f"length unit right?")
+    return FeaMesh(steps, step_times, dt, dx, (x0, y1), shape, float(fill), emissivity, where)

@@ -6,7 +6,7 @@ Every scene type lives here; :mod:`radiosim.io` keeps the readers that build the
 from radiosim.scenes.analytic import MovingGaussianBand, StepEdge, UniformBlackbody
 from radiosim.scenes.base import CroppedScene, Scene, SceneFrame
 from radiosim.scenes.exr_sequence import ExrSequence
-from radiosim.scenes.fea_nodes import FeaNodes
+from radiosim.scenes.fea_nodes import FeaMesh, FeaNodes
 from radiosim.scenes.framestack import FrameStack
 from radiosim.scenes.segmented_chip import ChipParameters, SegmentedChip
 
@@ -17,6 +17,7 @@ __all__ = [
     "FrameStack",
     "ExrSequence",
     "FeaNodes",
+    "FeaMesh",
     "UniformBlackbody",
     "MovingGaussianBand",
     "StepEdge",

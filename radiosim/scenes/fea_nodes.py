@@ -1,9 +1,15 @@
 """
-A scene resampled from scattered FEA nodes, one frame per simulation step.
+Scenes resampled from FEA output, one frame per simulation step.
 
-Each step is triangulated (Delaunay) and interpolated linearly inside the mesh; triangles whose
-longest edge exceeds ``max_edge`` are not part of the mesh, and samples outside it get the stated
-``fill`` temperature. :func:`radiosim.io.read_fea_nodes` builds it from a nodal CSV export.
+-   :class:`FeaNodes`: scattered nodes (a nodal CSV export, :func:`radiosim.io.read_fea_nodes`);
+    each step is triangulated (Delaunay) and interpolated linearly inside the mesh; triangles
+    whose longest edge exceeds ``max_edge`` are not part of the mesh.
+-   :class:`FeaMesh`: the solver's own mesh (:func:`radiosim.io.read_fea_mesh`, via meshio):
+    every 2-D cell split into triangles, point data interpolated linearly inside each triangle
+    (barycentric), cell data constant over its cell; the mesh may move or be remeshed from step
+    to step.
+
+Samples outside the mesh get the stated ``fill`` temperature.
 """
 
 from __future__ import annotations
@@ -14,7 +20,7 @@ from scipy.spatial import Delaunay
 from radiosim.errors import RadiosimError
 from radiosim.scenes.base import Region, Scene, check_emissivity
 
-__all__ = ["FeaNodes", "triangulate"]
+__all__ = ["FeaNodes", "FeaMesh", "triangulate"]
 
 
 def triangulate(points: np.ndarray, where: str):
@@ -94,3 +100,70 @@ class FeaNodes(Scene):
                                      "max_edge_m": self.max_edge}
 
 
+
+
+class FeaMesh(Scene):
+    """
+    A scene resampled from an FEA mesh's own cells, one frame per step.
+
+    Build it with :func:`radiosim.io.read_fea_mesh`. Each step holds its nodes (x, y) [m], its
+    triangles (node indices; quads and higher-order cells split by the reader), and its
+    temperature [K] per node or per triangle; a sample at a triangle's inside takes the
+    triangle's linear interpolation (or its cell's value), elsewhere ``fill``.
+    """
+
+    def __init__(self, steps, times, dt, dx, origin, shape, fill, emissivity, source):
+        self._steps = steps  # list of (points [m], triangles, values [K], "point" | "cell")
+        self.times = times
+        self.dt = dt
+        self.dx = dx
+        self.origin = origin  # (x of column 0's left edge, y of row 0's top edge) [m]
+        self.shape = shape
+        self.n_frames = len(steps)
+        self.fill = fill
+        self.emissivity = check_emissivity(emissivity, shape)
+        self.event_time = None
+        self._source = source
+        self._finders: dict[int, object] = {}
+
+    def _finder(self, k):
+        if k not in self._finders:
+            from matplotlib.tri import Triangulation
+
+            points, triangles, _, _ = self._steps[k]
+            try:
+                mesh = Triangulation(points[:, 0], points[:, 1], triangles)
+                finder = mesh.get_trifinder()
+            except (ValueError, RuntimeError) as exc:
+                raise RadiosimError(f"step {k} of {self._source}: its cells do not form a valid "
+                                    f"2-D mesh (overlapping or degenerate triangles: "
+                                    f"{exc})") from None
+            self._finders = {k: finder}  # keep the latest only
+        return self._finders[k]
+
+    def _read(self, k: int, region: Region) -> np.ndarray:
+        points, triangles, values, kind = self._steps[k]
+        rows = np.arange(region[0].start, region[0].stop)
+        cols = np.arange(region[1].start, region[1].stop)
+        x = np.tile(self.origin[0] + (cols + 0.5) * self.dx, rows.size)
+        y = np.repeat(self.origin[1] - (rows + 0.5) * self.dx, cols.size)
+        cell = self._finder(k)(x, y)
+        inside = cell >= 0
+        out = np.full(x.size, self.fill)
+        c = cell[inside]
+        if kind == "cell":
+            out[inside] = values[c]
+        else:  # barycentric weights of each sample in its own triangle
+            a, b, d = (points[triangles[c, i]] for i in range(3))
+            px, py = x[inside], y[inside]
+            det = (b[:, 1] - d[:, 1]) * (a[:, 0] - d[:, 0]) + (d[:, 0] - b[:, 0]) * (
+                a[:, 1] - d[:, 1])
+            w1 = ((b[:, 1] - d[:, 1]) * (px - d[:, 0]) + (d[:, 0] - b[:, 0]) * (py - d[:, 1])) / det
+            w2 = ((d[:, 1] - a[:, 1]) * (px - d[:, 0]) + (a[:, 0] - d[:, 0]) * (py - d[:, 1])) / det
+            w3 = 1.0 - w1 - w2
+            out[inside] = (w1 * values[triangles[c, 0]] + w2 * values[triangles[c, 1]]
+                           + w3 * values[triangles[c, 2]])
+        return out.reshape(rows.size, cols.size)
+
+    def describe(self) -> dict:
+        return super().describe() | {"source": self._source, "fill_K": self.fill}

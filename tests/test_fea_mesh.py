@@ -1,0 +1,134 @@
+"""FEA meshes through meshio, resampled on their own cells."""
+
+import math
+
+import meshio
+import numpy as np
+import pytest
+from scipy.interpolate import LinearNDInterpolator
+from scipy.spatial import Delaunay
+
+import radiosim as rs
+from radiosim.errors import RadiosimError
+from radiosim.io import read_fea_mesh
+
+SIGMA, SPEED = 20.0, 5.0  # [µm], [µm/µs]
+
+
+def field(x, y, t):
+    """An analytic band moving along x [K], coordinates in µm, time in µs."""
+    return 300.0 + 400.0 * np.exp(-((x - 40.0 - SPEED * t) ** 2 + (y - 50.0) ** 2)
+                                  / (2 * SIGMA**2))
+
+
+def mesh_points(step: float, jitter: int = 0):
+    """A perturbed grid of nodes over 0–100 µm (its Delaunay triangles are the mesh)."""
+    g = np.arange(0.0, 100.0 + step / 2, step)
+    x, y = np.meshgrid(g, g)
+    rng = np.random.default_rng(jitter)
+    inner = (x > 0) & (x < 100) & (y > 0) & (y < 100)
+    x = x + inner * rng.uniform(-0.2, 0.2, x.shape) * step
+    y = y + inner * rng.uniform(-0.2, 0.2, y.shape) * step
+    return np.column_stack([x.ravel(), y.ravel()])
+
+
+def write_series(folder, times, step=5.0, moving=False):
+    files = []
+    for k, t in enumerate(times):
+        points = mesh_points(step, jitter=k if moving else 0)  # remeshed when moving
+        triangles = Delaunay(points).simplices
+        values = field(points[:, 0], points[:, 1], t)
+        path = folder / f"step_{k:03d}.vtu"
+        meshio.write(path, meshio.Mesh(np.column_stack([points, np.zeros(len(points))]),
+                                       [("triangle", triangles)],
+                                       point_data={"temperature": values}))
+        files.append((path, points, triangles, values))
+    return files
+
+
+def test_a_vtu_series_resamples_to_its_field_and_to_scipys_interpolation(tmp_path):
+    """Inside each triangle the scene is the linear interpolation of its nodes: it equals
+    scipy's LinearNDInterpolator on the same (Delaunay) triangles to rounding, and the
+    analytic field within the linear-interpolation bound R²·M/2 (R the largest circumradius,
+    ≈ 0.7·1.4 h for these perturbed cells, M the field's largest second derivative)."""
+    times = [0.0, 1.0, 2.0]
+    files = write_series(tmp_path, times, moving=True)
+    scene = read_fea_mesh([f[0] for f in files], dx=1e-6, times=[t * 1e-6 for t in times],
+                          units={"length": "um", "temperature": "K"}, fill=250.0)
+    assert scene.shape == (100, 100) and scene.n_frames == 3 and scene.dt == pytest.approx(1e-6)
+    x = (np.arange(100) + 0.5)
+    y = 100.0 - (np.arange(100) + 0.5)
+    gx, gy = np.meshgrid(x, y)
+    h = 5.0 * 1.4  # longest edge of a perturbed 5 µm cell [µm]
+    second = 400.0 / SIGMA**2  # max |∂²T| of the Gaussian band [K/µm²]
+    bound = (0.75 * h) ** 2 * second / 2
+    for k, (path, points, triangles, values) in enumerate(files):
+        frame = scene.frame(k)
+        reference = LinearNDInterpolator(Delaunay(points), values)(gx, gy)
+        np.testing.assert_allclose(frame, reference, rtol=1e-12)
+        assert np.max(np.abs(frame - field(gx, gy, times[k]))) < bound
+
+
+def test_cell_data_quads_and_a_paraview_collection(tmp_path):
+    """Quads split in two triangles carry their cell's value; a .pvd lists the steps."""
+    g = np.arange(0.0, 60.0 + 1e-9, 10.0)
+    x, y = np.meshgrid(g, g)
+    points = np.column_stack([x.ravel(), y.ravel(), np.zeros(x.size)])
+    n = g.size
+    quads = np.array([[i * n + j, i * n + j + 1, (i + 1) * n + j + 1, (i + 1) * n + j]
+                      for i in range(n - 1) for j in range(n - 1)])
+    entries = []
+    for k in range(2):
+        cell_t = 400.0 + 10.0 * np.arange(len(quads)) + 100.0 * k  # [°C] per cell
+        meshio.write(tmp_path / f"q{k}.vtu", meshio.Mesh(points, [("quad", quads)],
+                                                       cell_data={"T_C": [cell_t]}))
+        entries.append(f'<DataSet timestep="{0.5 * k}" file="q{k}.vtu"/>')
+    (tmp_path / "run.pvd").write_text('<?xml version="1.0"?><VTKFile type="Collection">'
+                                      f'<Collection>{"".join(entries)}</Collection></VTKFile>')
+    scene = read_fea_mesh(tmp_path / "run.pvd", dx=1e-6, field="T_C",
+                          units={"length": "um", "time": "us"})
+    assert scene.dt == pytest.approx(0.5e-6) and scene.shape == (60, 60)
+    frame = scene.frame(1)
+    # The sample at (x, y) = (15.5, 44.5) µm lies in quad (row 4, column 1) of the mesh.
+    row, col = int(60 - 44.5), 15
+    cell = 4 * (n - 1) + 1
+    assert frame[row, col] == pytest.approx(400.0 + 10 * cell + 100 + 273.15)
+
+
+def test_an_xdmf_time_series(tmp_path, monkeypatch):
+    monkeypatch.chdir(tmp_path)  # meshio writes the series' HDF5 file in the working folder
+    points = mesh_points(10.0)
+    triangles = Delaunay(points).simplices
+    path = tmp_path / "series.xdmf"
+    with meshio.xdmf.TimeSeriesWriter(path) as writer:
+        writer.write_points_cells(np.column_stack([points, np.zeros(len(points))]),
+                                  [("triangle", triangles)])
+        for t in (0.0, 2.0, 4.0):
+            writer.write_data(t, point_data={"temperature": field(points[:, 0], points[:, 1],
+                                                                 t)})
+    scene = read_fea_mesh(path, dx=2e-6, units={"length": "um", "time": "us",
+                                                "temperature": "K"})
+    assert scene.n_frames == 3 and scene.dt == pytest.approx(2e-6)
+    m = rs.Camera.linear_ideal(10e-6).measure(scene, 2e-6, t_start=0.0)
+    assert np.all(np.isfinite(m.apparent_temperature)) and m.tensor_max.max() > 600
+
+
+@pytest.mark.parametrize("kwargs, message", [
+    (dict(units={"temperature": "K"}), "length unit"),
+    (dict(units={"length": "um"}), "temperature unit"),
+    (dict(units={"length": "um", "temperature": "K"}, field="T"), "no field 'T'"),
+    (dict(units={"length": "um", "temperature": "K"}, times=[0.0]), "needs times"),
+    (dict(units={"length": "um", "temperature": "F"}), "not one of"),
+])
+def test_bad_meshes_and_units_are_named(tmp_path, kwargs, message):
+    files = write_series(tmp_path, [0.0, 1.0])
+    kwargs = {"times": [0.0, 1e-6], **kwargs}
+    with pytest.raises(RadiosimError, match=message):
+        read_fea_mesh([f[0] for f in files], dx=1e-6, **kwargs)
+
+
+def test_a_broken_mesh_file_is_one_line(tmp_path):
+    (tmp_path / "bad.vtu").write_text("<VTKFile>not a mesh")
+    with pytest.raises(RadiosimError, match="cannot read FEA mesh"):
+        read_fea_mesh([tmp_path / "bad.vtu", tmp_path / "bad.vtu"], dx=1e-6, times=[0, 1e-6],
+                      units={"length": "um", "temperature": "K"})
