@@ -553,8 +553,10 @@ class UncertaintyResult:
 
     Attributes
     ----------
-    mean, std : numpy.ndarray
-        Mean apparent temperature and its standard uncertainty [K] (over valid draws).
+    mean : numpy.ndarray
+        Mean apparent temperature [K] (over valid draws).
+    std : numpy.ndarray
+        Its standard uncertainty [K].
     truth : numpy.ndarray
         The scene truth each pixel measures: the tensor mean of the nominal window [K].
     valid_fraction : numpy.ndarray
