@@ -227,3 +227,39 @@ def test_study_results_are_one_dataset_with_the_sweeps_as_dimensions(tmp_path):
         assert set(ds.dims) == {"sweep", "camera", "integration_time_us", "pixel_pitch_um"}
         assert ds.integration_time_us.values.tolist() == [1.0, 2.0, 3.0]
         np.testing.assert_allclose(ds.peak_C.values.ravel(), 650.0 - 273.15)
+
+
+# -- the nodal CSV's column names --------------------------------------------------------------
+
+
+def _nodal_rows():
+    return [f"{t},{x},{y},{500 + x}" for t in (0.0, 1.0) for x in range(0, 20, 2)
+            for y in range(0, 20, 2)]
+
+
+@pytest.mark.parametrize("header", ["time_us, x_um, y_um, temperature_C",
+                                    "time [us],x (um),y [µm],temperature [C]",
+                                    "Time_us,X_um,Y_um,Temperature_C"])
+def test_unit_suffixes_in_column_names_state_the_units(tmp_path, header):
+    """A header such as time_s, x_um, y_um, temperature_C needs no other unit: the nodes at
+    x µm carry 500 + x °C, so the sample at x = 5.5 µm reads 505.5 °C (linear in x)."""
+    path = tmp_path / "nodes.csv"
+    path.write_text(header + "\n" + "\n".join(_nodal_rows()) + "\n")
+    scene = read_fea_nodes(path, dx=1e-6)
+    assert scene.dt == pytest.approx(1e-6)
+    np.testing.assert_allclose(scene.frame(0)[4, 5], 505.5 + 273.15, rtol=1e-12)
+
+
+def test_a_column_mapping_names_a_solvers_columns(tmp_path):
+    path = tmp_path / "abaqus.csv"
+    path.write_text("Frame time,COORD1,COORD2,NT11\n" + "\n".join(_nodal_rows()) + "\n")
+    scene = read_fea_nodes(path, dx=1e-6, units={"time": "us", "length": "um",
+                                                 "temperature": "C"},
+                           columns={"time": "Frame time", "x": "COORD1", "y": "COORD2",
+                                    "temperature": "NT11"})
+    np.testing.assert_allclose(scene.frame(1)[4, 5], 505.5 + 273.15, rtol=1e-12)
+    with pytest.raises(RadiosimError, match="no column 'NT12'"):
+        read_fea_nodes(path, dx=1e-6, columns={"temperature": "NT12"})
+    path.write_text("time_us,x_um,y_mm,temperature_C\n" + "\n".join(_nodal_rows()) + "\n")
+    with pytest.raises(RadiosimError, match="two length units"):
+        read_fea_nodes(path, dx=1e-6)

@@ -18,6 +18,7 @@ import contextlib
 import csv
 import io
 import math
+import re
 from pathlib import Path
 
 import numpy as np
@@ -53,8 +54,58 @@ class _decoding:
         return False
 
 
-def _parse(path: Path):
-    """Rows of (time, x, y, temperature) and the units stated in the header, if any."""
+#: The quantity of each column, whose unit a suffix in its name may state.
+_QUANTITY = {"time": "time", "x": "length", "y": "length", "temperature": "temperature"}
+_SUFFIX = re.compile(r"^(?P<name>time|x|y|temperature)(?:\s*[_ ]\s*|\s*)"
+                     r"(?:[\[(]\s*(?P<bracketed>[^\])]+?)\s*[\])]|(?P<plain>[A-Za-zµ]+))?$",
+                     re.IGNORECASE)
+
+
+def _header(path, number, line, columns):
+    """Indices of (time, x, y, temperature) in a header row, and the units its names state
+    (``time_us``, ``x [um]``, ``temperature_C``); ``columns`` maps a column to its name."""
+    names = [c.strip() for c in line]
+    lower = [n.lower() for n in names]
+    columns = {k: v for k, v in (columns or {}).items()}
+    unknown = set(columns) - set(_COLUMNS)
+    if unknown:
+        raise RadiosimError(f"columns maps {sorted(unknown)}; it maps {', '.join(_COLUMNS)} to "
+                            "the file's column names")
+    found, stated = {}, {}
+    for column in _COLUMNS:
+        if column in columns:
+            wanted = str(columns[column]).strip().lower()
+            if wanted not in lower:
+                raise RadiosimError(f"{path}, line {number}: no column {columns[column]!r} "
+                                    f"(for {column}); the header has {', '.join(names)}")
+            index, name = lower.index(wanted), column
+        else:
+            matches = [(i, _SUFFIX.match(n)) for i, n in enumerate(names)]
+            matches = [(i, m) for i, m in matches if m and m["name"].lower() == column]
+            if not matches:
+                continue
+            index, match = matches[0]
+            unit = match["bracketed"] or match["plain"]
+            if unit:
+                unit = unit.replace("µ", "u")
+                quantity = _QUANTITY[column]
+                if quantity in stated and stated[quantity] != unit:
+                    raise RadiosimError(f"{path}, line {number}: the columns state two "
+                                        f"{quantity} units, {stated[quantity]} and {unit}")
+                stated[quantity] = unit
+        found[column] = index
+    missing = [c for c in _COLUMNS if c not in found]
+    if missing:
+        raise RadiosimError(f"{path}, line {number}: header lacks column(s) "
+                            f"{', '.join(missing)}; expected {', '.join(_COLUMNS)} (unit "
+                            "suffixes such as time_us or temperature_C are read), or map "
+                            "them with columns={…}")
+    return [found[c] for c in _COLUMNS], len(names), stated
+
+
+def _parse(path: Path, columns=None):
+    """Rows of (time, x, y, temperature) and the units stated in the file (a ``# units:``
+    comment, or suffixes of the column names), if any."""
     stated = {}
     try:
         handle = path.open(newline="", encoding="utf-8-sig")  # a BOM (Excel's CSV UTF-8) too
@@ -76,13 +127,8 @@ def _parse(path: Path):
                             stated[key.strip().lower()] = value.strip()
                 continue
             if header is None:
-                names = [c.strip().lower() for c in line]
-                missing = [c for c in _COLUMNS if c not in names]
-                if missing:
-                    raise RadiosimError(f"{path}, line {number}: header lacks column(s) "
-                                        f"{', '.join(missing)}; expected {', '.join(_COLUMNS)}")
-                header = [names.index(c) for c in _COLUMNS]
-                width = len(names)
+                header, width, suffixes = _header(path, number, line, columns)
+                stated.update(suffixes)
                 continue
             if len(line) != width:
                 raise RadiosimError(f"{path}, line {number}: expected {width} fields, got "
@@ -122,7 +168,7 @@ def _unique_nodes(path, k, t, rows, xy, temperature, units):
 
 
 def read_fea_nodes(path, dx, dt=None, units=None, fill=293.15, bounds=None, max_edge=None,
-                   emissivity=1.0) -> FeaNodes:
+                   emissivity=1.0, columns=None) -> FeaNodes:
     """
     Read an FEA nodal CSV (time, x, y, temperature) and resample it onto a regular grid.
 
@@ -149,6 +195,10 @@ def read_fea_nodes(path, dx, dt=None, units=None, fill=293.15, bounds=None, max_
         the first step's triangulation.
     emissivity
         As for :class:`~radiosim.FrameStack`.
+    columns
+        The file's names of the columns ``time``, ``x``, ``y``, ``temperature``, where they
+        differ (``{"temperature": "NT11"}``); names with a unit suffix (``time_s``,
+        ``x_um``, ``temperature [C]``) are found without it, and state their unit.
 
     Returns
     -------
@@ -160,7 +210,7 @@ def read_fea_nodes(path, dx, dt=None, units=None, fill=293.15, bounds=None, max_
     dx = check_positive(dx, "dx (sample pitch; --dx on the command line)", "m")
     if dt is not None:
         dt = check_positive(dt, "dt (frame interval; --dt on the command line)", "s")
-    data, stated = _parse(path)
+    data, stated = _parse(path, columns)
     units = {**stated, **(units or {})}
     for key, table in (("time", TIME_UNITS), ("length", LENGTH_UNITS),
                        ("temperature", TEMPERATURE_OFFSETS)):
