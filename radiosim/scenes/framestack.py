@@ -7,7 +7,7 @@ from __future__ import annotations
 import numpy as np
 
 from radiosim.errors import RadiosimError
-from radiosim.units import TEMPERATURE_OFFSETS, to_kelvin
+from radiosim.units import TEMPERATURE_OFFSETS, UNITS, to_kelvin
 from radiosim.checks import check_non_negative
 from radiosim.scenes.base import Region, Scene, check_emissivity, check_grid
 
@@ -92,6 +92,46 @@ class FrameStack(Scene):
     def describe(self) -> dict:
         return super().describe() | {"source_units": self.units} | self._extra
 
+    @classmethod
+    def from_xarray(cls, variable, dt: float | None = None, dx: float | None = None,
+                    units: str | None = None, emissivity=1.0, event_time=None) -> FrameStack:
+        """
+        A stack from an xarray variable of dimensions (time, y, x) — lazily loaded from a
+        NetCDF file or a zarr store (``xr.open_dataset(..., chunks=…)``, ``xr.open_zarr``):
+        frames are read one at a time over the region the camera sees, never the whole.
+
+        ``dt`` [s] and ``dx`` [m] default to the spacing of the ``time`` and ``x``
+        coordinates (in seconds and metres, or with a ``units`` attribute of s/ms/us/ns,
+        m/mm/um), ``units`` (K or C) to the variable's ``units`` attribute.
+        """
+        if getattr(variable, "ndim", None) != 3 or not hasattr(variable, "dims"):
+            raise RadiosimError(f"need an xarray variable with 3 dimensions (time, y, x), got "
+                                f"{type(variable).__name__}")
+
+        def spacing(dim, given, kind):
+            if given is not None:
+                return given
+            if dim not in variable.coords or variable.sizes[dim] < 2:
+                raise RadiosimError(f"the variable has no {dim!r} coordinate to read d{dim} "
+                                    f"from; pass {'dt' if kind == 'time' else 'dx'}")
+            values = np.asarray(variable[dim].values, dtype=float)
+            step = np.diff(values)
+            if np.any(np.abs(step - step.mean()) > 1e-6 * abs(step.mean())):
+                raise RadiosimError(f"the {dim!r} coordinate is not evenly spaced")
+            unit = variable[dim].attrs.get("units", "s" if kind == "time" else "m")
+            table = UNITS[kind]
+            if unit.replace("µ", "u") not in table:
+                raise RadiosimError(f"the {dim!r} coordinate's unit {unit!r} is not one of "
+                                    f"{', '.join(table)}")
+            return float(step.mean()) * 10.0 ** table[unit.replace("µ", "u")][0]
+
+        time, y, x = variable.dims
+        unit = units or variable.attrs.get("units", "K")
+        unit = {"degC": "C", "°C": "C", "celsius": "C", "kelvin": "K"}.get(unit, unit)
+        return cls(_LazyFrames(variable), spacing(time, dt, "time"), spacing(x, dx, "length"),
+                   emissivity=emissivity, event_time=event_time, units=unit,
+                   description={"source": f"xarray variable {variable.name!r}"})
+
     def __reduce__(self):
         """Pickled as a recipe where the frames are a file (a memory map: its path, offset,
         dtype and shape; another process maps the same file), else with its array."""
@@ -104,6 +144,19 @@ class FrameStack(Scene):
             frames = (np.asarray, (stack,))
         state = {k: v for k, v in self.__dict__.items() if k != "_stack"}
         return (_rebuild_stack, (frames, state))
+
+
+class _LazyFrames:
+    """An xarray variable seen as an array of frames: indexing loads only what it asks for."""
+
+    def __init__(self, variable):
+        self.variable = variable
+        self.ndim = 3
+        self.shape = tuple(int(n) for n in variable.shape)
+        self.dtype = np.dtype(variable.dtype)
+
+    def __getitem__(self, key):
+        return np.asarray(self.variable[key].values)
 
 
 class _MappedFrames:
