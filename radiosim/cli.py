@@ -27,7 +27,7 @@ from pathlib import Path
 from radiosim import __version__
 from radiosim.camera import Camera, available_presets
 from radiosim.errors import RadiosimError, RadiosimIOError, RadiosimWarning
-from radiosim.units import parse_quantity
+from radiosim.units import parse_quantity, to_celsius, to_kelvin
 
 __all__ = ["main", "parse_time", "parse_length", "parse_temperature", "EXIT_INPUT",
            "EXIT_FAILURE", "EXIT_INTERRUPTED"]
@@ -237,15 +237,15 @@ def _sse(args) -> int:
     curve = size_of_source(camera, diameters, args.temperature, args.background,
                            args.integration_time)
     psf = ", ".join(type(p).__name__ for p in camera.optics.psf or ()) or "perfect lens"
-    print(f"{camera.name} ({psf}): size-of-source effect, a {args.temperature - 273.15:g} °C "
-          f"disc on {args.background - 273.15:g} °C, {args.integration_time * 1e6:g} µs")
+    print(f"{camera.name} ({psf}): size-of-source effect, a {to_celsius(args.temperature):g} °C "
+          f"disc on {to_celsius(args.background):g} °C, {args.integration_time * 1e6:g} µs")
     print(f"{'diameter':>10}{'SSE':>10}{'reading':>10}")
     print(f"{'[µm]':>10}{'[1]':>10}{'[°C]':>10}")
     lines = ["diameter_um,signal,sse,apparent_C"]
     for d, sig, sse, t in zip(curve.diameter, curve.signal, curve.sse,
                               curve.apparent_temperature):
-        print(f"{d * 1e6:>10.1f}{sse:>10.5f}{t - 273.15:>10.1f}")
-        lines.append(f"{d * 1e6:.6g},{sig:.10g},{sse:.10g},{t - 273.15:.6g}")
+        print(f"{d * 1e6:>10.1f}{sse:>10.5f}{to_celsius(t):>10.1f}")
+        lines.append(f"{d * 1e6:.6g},{sig:.10g},{sse:.10g},{to_celsius(t):.6g}")
     large = curve.diameter >= 10 * pitch
     if large.sum() >= 4 and np.ptp(curve.sse[large]) > 1e-9:
         fit = fit_scatter_halo(curve.diameter[large], curve.sse[large])
@@ -335,9 +335,9 @@ def _uncertainty(args) -> int:
               f"{r['mc_contribution_K']:>10.3g}{r['share_percent']:>7.1f}%")
     low, high = result.interval(0.95)
     i = np.unravel_index(np.nanargmax(result.mean), result.mean.shape)
-    print(f"peak pixel {tuple(int(v) for v in i)}: {result.mean[i] - 273.15:.1f} °C, u = "
-          f"{result.std[i]:.2f} K, 95 % [{low[i] - 273.15:.1f}, {high[i] - 273.15:.1f}] °C, "
-          f"scene {result.truth[i] - 273.15:.1f} °C")
+    print(f"peak pixel {tuple(int(v) for v in i)}: {to_celsius(result.mean[i]):.1f} °C, u = "
+          f"{result.std[i]:.2f} K, 95 % [{to_celsius(low[i]):.1f}, {to_celsius(high[i]):.1f}] °C, "
+          f"scene {to_celsius(result.truth[i]):.1f} °C")
     print(f"wrote {out.path / 'budget.csv'}, uncertainty.exr, budget.png")
     return 0
 
@@ -375,7 +375,7 @@ def _calibrate(args) -> int:
     except (TypeError, ValueError) as exc:
         raise RadiosimError(f"{path}: a value is not a number ({exc})") from None
     if unit == "C":
-        temperatures = temperatures + 273.15
+        temperatures = to_kelvin(temperatures, "C")
     fitted, residuals = camera.fit_calibration(temperatures, counts, args.integration_time,
                                                frames=args.frames)
     el = fitted.electronics
