@@ -576,25 +576,28 @@ class Camera:
     # -- calibrating from measured points ---------------------------------------------------------
 
     def fit_calibration(self, temperatures, counts, integration_time: float, frames: int = 1,
-                        emissivity: float = 1.0):
+                        emissivity: float = 1.0, instrument_temperatures=None):
         """
-        Fit the camera's free electrical parameters — system gain K [DN/e⁻] and offset [DN] —
-        to a measured calibration table: blackbody ``temperatures`` [K] against mean
-        ``counts`` [DN] at ``integration_time`` [s], each the mean of ``frames`` read-outs,
-        through radiosim's own radiometry with this camera's spectral curves and geometry
-        (the optics' emission at its instrument temperature included).
+        Fit the camera's free electrical parameters — system gain K [DN/e⁻] and offset [DN],
+        and, with several ``instrument_temperatures``, the optics' emissivity — to a measured
+        calibration table: blackbody ``temperatures`` [K] against mean ``counts`` [DN] at
+        ``integration_time`` [s], each the mean of ``frames`` read-outs, through radiosim's
+        own radiometry with this camera's spectral curves and geometry.
 
-        The model counts(T) = K · (e(T) + dark) + offset is linear in (K, offset) for the
-        charge e(T) the radiometry predicts, so the fit is weighted linear least squares, the
-        weights the counts' temporal noise (:meth:`Electronics.temporal_noise`, over
-        √frames). Residuals larger than that noise explains (χ²/dof > 4) are model error — a
+        The model counts = K · (e(T) + ε_o·E(T_i) + dark) + offset is linear in (K, K·ε_o,
+        offset) for the charge e(T) the radiometry predicts from the blackbody and E(T_i) that
+        a black lens at the instrument temperature would emit into the pixel, so the fit is
+        weighted linear least squares, the weights the counts' temporal noise
+        (:meth:`Electronics.temporal_noise`, over √frames). Without instrument temperatures the
+        optics' emission at the camera's own instrument temperature is part of e(T) (and of the
+        offset). Residuals larger than the noise explains (χ²/dof > 4) are model error — a
         spectral curve, the étendue or the non-linearity not as assumed — and warn, saying how
         large it is in kelvin.
 
         Returns
         -------
         camera : Camera
-            This camera with the fitted gain and offset.
+            This camera with the fitted gain and offset (and optics emissivity).
         residuals : numpy.ndarray
             Measured minus fitted counts [DN].
         """
@@ -607,27 +610,59 @@ class Camera:
             raise RadiosimError("calibration temperatures must be finite and > 0 K, and the "
                                 "counts finite")
         t_int = check_positive(integration_time, "integration_time", "s")
-        unit = self.replace(electronics=dataclasses.replace(
-            self.electronics, gain=1.0, offset=0.0, adc_bits=None), assumed_emissivity=emissivity)
-        charge = unit.calibration(t_int).electrons(t)  # [e⁻]: photo, optics' emission, dark
         el = self.electronics
+        optics = self.optics
+        columns = []
+        if instrument_temperatures is not None:
+            t_i = np.asarray(instrument_temperatures, dtype=float)
+            if t_i.shape != t.shape or not np.all(np.isfinite(t_i) & (t_i > 0)):
+                raise RadiosimError("instrument_temperatures must give one temperature > 0 K "
+                                    "per row of the table")
+            if np.ptp(t_i) == 0 or t.size < 4:
+                raise RadiosimError("the optics' emission needs at least two different "
+                                    "instrument temperatures (and 4 rows) to be told from the "
+                                    "offset")
+            optics = dataclasses.replace(optics, instrument_temperature=None)
+            black = dataclasses.replace(optics, emissivity=1.0)
+            emission = np.array([black.emitted_radiance(self.fpa.quantum_efficiency, ti)
+                                 for ti in t_i]) * self.rate_per_signal * t_int  # [e⁻]
+            columns.append(emission)
+        unit = self.replace(optics=optics, electronics=dataclasses.replace(
+            el, gain=1.0, offset=0.0, adc_bits=None), assumed_emissivity=emissivity)
+        charge = unit.calibration(t_int).electrons(t)  # [e⁻]: photo (and emission), dark
+        signal = charge
         if el.nonlinearity and el.full_well is not None:
             from radiosim.electronics import apply_nonlinearity
 
-            charge = apply_nonlinearity(charge, el.nonlinearity, el.full_well)
-        noise = el.gain * el.temporal_noise(charge) / math.sqrt(max(int(frames), 1))  # [DN]
-        noise = np.maximum(noise, 1e-12)
-        design = np.column_stack([charge, np.ones_like(charge)]) / noise[:, None]
-        (gain, offset), *_ = np.linalg.lstsq(design, y / noise, rcond=None)
+            signal = apply_nonlinearity(charge, el.nonlinearity, el.full_well)
+        design = np.column_stack([signal, *columns, np.ones_like(signal)])
+        total = charge
+        for _ in range(2):  # weights from the charge, then with the fitted optics' emission
+            noise = el.gain * el.temporal_noise(total) / math.sqrt(max(int(frames), 1))  # [DN]
+            noise = np.maximum(noise, 1e-12)
+            solution, *_ = np.linalg.lstsq(design / noise[:, None], y / noise, rcond=None)
+            if not columns:
+                break
+            total = charge + max(float(solution[1] / solution[0]), 0.0) * columns[0]
+        gain, offset = float(solution[0]), float(solution[-1])
         if not gain > 0:
             raise RadiosimError(f"the fitted gain is {gain:.3g} DN/e⁻: the counts do not rise "
                                 "with temperature as this camera's radiometry predicts")
-        fitted = self.replace(electronics=dataclasses.replace(el, gain=float(gain),
-                                                              offset=float(offset)))
-        residuals = y - (gain * charge + offset)
-        chi2 = float(np.sum((residuals / (gain / el.gain * noise)) ** 2)) / max(t.size - 2, 1)
+        changes = {"electronics": dataclasses.replace(el, gain=gain, offset=offset)}
+        if columns:
+            optics_emissivity = float(solution[1]) / gain
+            if not 0 <= optics_emissivity <= 1:
+                warnings.warn(f"{self.name}: the fitted optics emissivity {optics_emissivity:.3g}"
+                              " lies outside [0, 1]; it is clipped", RadiosimWarning,
+                              stacklevel=2)
+            changes["optics"] = dataclasses.replace(
+                self.optics, emissivity=float(np.clip(optics_emissivity, 0.0, 1.0)))
+        fitted = self.replace(**changes)
+        residuals = y - design @ solution
+        chi2 = float(np.sum((residuals / (gain / el.gain * noise)) ** 2)) / max(
+            t.size - design.shape[1], 1)
         if chi2 > 4:
-            slope = np.gradient(gain * charge, t)  # [DN/K]
+            slope = np.gradient(gain * signal, t)  # [DN/K]
             worst = int(np.argmax(np.abs(residuals)))
             warnings.warn(
                 f"{self.name}: the calibration residuals exceed the counts' noise (χ²/dof = "

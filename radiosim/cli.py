@@ -376,13 +376,25 @@ def _calibrate(args) -> int:
         raise RadiosimError(f"{path}: a value is not a number ({exc})") from None
     if unit == "C":
         temperatures = to_kelvin(temperatures, "C")
+    instrument = None
+    for suffix in ("K", "C"):
+        if f"instrument_temperature_{suffix}" in columns:
+            try:
+                instrument = to_kelvin(np.array([float(r[f"instrument_temperature_{suffix}"])
+                                                 for r in rows]), suffix)
+            except (TypeError, ValueError) as exc:
+                raise RadiosimError(f"{path}: an instrument temperature is not a number "
+                                    f"({exc})") from None
     fitted, residuals = camera.fit_calibration(temperatures, counts, args.integration_time,
-                                               frames=args.frames)
+                                               frames=args.frames,
+                                               instrument_temperatures=instrument)
     el = fitted.electronics
     print(f"{camera.name} fitted to {path.name} ({len(rows)} points, "
           f"{args.integration_time * 1e6:g} µs): gain {el.gain:.6g} DN/e⁻ (was "
           f"{camera.electronics.gain:.6g}), offset {el.offset:.6g} DN (was "
-          f"{camera.electronics.offset:.6g})")
+          f"{camera.electronics.offset:.6g})"
+          + (f", optics emissivity {fitted.optics.emissivity:.4g}" if instrument is not None
+             else ""))
     print(f"{'T [K]':>10}{'counts':>12}{'residual':>10}")
     for t, c, r in zip(temperatures, counts, residuals):
         print(f"{t:>10.2f}{c:>12.1f}{r:>10.2f}")
@@ -595,7 +607,9 @@ def build_parser() -> argparse.ArgumentParser:
                          "calibration table",
                          description="Fit the camera's system gain and offset to a CSV of "
                          "blackbody temperatures (temperature_K or temperature_C) and mean "
-                         "counts, through radiosim's radiometry with the camera's curves.")
+                         "counts, through radiosim's radiometry with the camera's curves; with "
+                         "an instrument_temperature_K (or _C) column, the optics' emissivity "
+                         "too.")
     cal.add_argument("table", help="CSV with temperature_K (or temperature_C) and counts")
     cal.add_argument("--camera", required=True, help="preset name or camera TOML")
     cal.add_argument("--integration-time", type=parse_time, required=True, metavar="T",

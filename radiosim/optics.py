@@ -111,6 +111,10 @@ class Optics:
     instrument_temperature : float or None
         Temperature of the lens and windows [K], which emit (1 − transmission); ``None``: cold
         optics, no emission.
+    emissivity : float or None
+        The optics' grey emissivity as seen by the pixel [1], where it is measured
+        (:meth:`radiosim.camera.Camera.fit_calibration` with several instrument temperatures);
+        ``None``: 1 − transmission (Kirchhoff's law for a non-scattering lens).
 
     Examples
     --------
@@ -133,6 +137,8 @@ class Optics:
                                              doc="point-spread functions (tables with a type)")
     instrument_temperature: float | None = edge_field(
         None, "instrument_temperature_K", doc="temperature of the emitting lens and windows [K]")
+    emissivity: float | None = edge_field(None, "emissivity",
+                                          doc="the optics' grey emissivity (default 1 − τ)")
 
     def __post_init__(self):
         try:
@@ -157,6 +163,8 @@ class Optics:
         if self.instrument_temperature is not None:
             object.__setattr__(self, "instrument_temperature", check_positive(
                 self.instrument_temperature, "instrument_temperature", "K"))
+        if self.emissivity is not None and not 0 <= self.emissivity <= 1:
+            raise RadiosimError(f"optics emissivity must be in [0, 1], got {self.emissivity!r}")
 
     def image_f_number(self, fpa: FocalPlaneArray) -> float:
         """
@@ -183,8 +191,9 @@ class Optics:
     def emitted_radiance(self, quantum_efficiency, temperature: float | None = None) -> float:
         """
         In-band photon radiance the optics emit into a pixel [photons s⁻¹ m⁻² sr⁻¹]:
-        ∫ (1 − τ(λ)) · filter(λ) · QE(λ) · L_q(λ, T_i) dλ, at ``temperature`` [K] (default the
-        instrument temperature; 0 for cold optics).
+        ∫ ε_o(λ) · filter(λ) · QE(λ) · L_q(λ, T_i) dλ with ε_o = 1 − τ(λ) (or the measured
+        grey :attr:`emissivity`), at ``temperature`` [K] (default the instrument temperature;
+        0 for cold optics).
 
         Examples
         --------
@@ -194,9 +203,11 @@ class Optics:
         t = self.instrument_temperature if temperature is None else temperature
         if t is None:
             return 0.0
+        emissivity = reflectance(self.transmission) if self.emissivity is None else \
+            self.emissivity
         return float(band_radiance(check_positive(t, "instrument temperature", "K"), self.band,
                                    "photon", [self.spectral_filter, quantum_efficiency],
-                                   reflectance(self.transmission)))
+                                   emissivity))
 
 
 def collect(signal_mean, rate_per_signal: float, integration_time: float):
