@@ -1,6 +1,6 @@
 """Sphinx configuration: tutorial, how-to guides and physics reference (Markdown), the
-validation notebooks with their stored outputs (myst-nb, not re-executed), API from docstrings;
-the pydata theme."""
+validation notebooks with their stored outputs (myst-nb, not re-executed), API from numpydoc
+docstrings; the pydata theme."""
 
 import datetime
 
@@ -9,7 +9,7 @@ author = "radiosim developers"
 copyright = f"2025–{datetime.date.today().year}, radiosim developers"
 extensions = [
     "sphinx.ext.autodoc",
-    "sphinx.ext.napoleon",
+    "numpydoc",
     "sphinx.ext.mathjax",
     "myst_nb",
 ]
@@ -19,9 +19,9 @@ nb_execution_mode = "off"  # the notebooks are committed with their outputs
 nb_merge_streams = True
 myst_enable_extensions = ["dollarmath"]
 myst_heading_anchors = 3
-napoleon_numpy_docstring = True
-napoleon_google_docstring = False
-napoleon_use_ivar = True
+numpydoc_show_class_members = False  # autodoc lists the members
+numpydoc_class_members_toctree = False
+numpydoc_attributes_as_param_list = True
 autodoc_member_order = "bysource"
 autodoc_typehints = "none"
 autodoc_default_options = {"members": True, "undoc-members": False}
@@ -55,6 +55,8 @@ def setup(app):
     names = {name for _, name in fields}
 
     def skip(app, what, name, obj, would_skip, options):
+        if name == "Region":  # a type alias (tuple[slice, slice]), described in its module
+            return True
         if what == "class" and name in names and not callable(obj) and not isinstance(
                 obj, property):
             return True
