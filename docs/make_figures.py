@@ -24,7 +24,7 @@ def radiance_figure():
             "[photons s⁻¹ m⁻² sr⁻¹]", title="nist-ir: 3.8–5.1 µm")
     ax2.plot(t - 273.15, response.slope(t) * t / signal)
     ax2.set(xlabel="blackbody temperature [°C]", ylabel="d ln L / d ln T",
-            title="why a pixel's mean reads low")
+            title="how steeply radiance rises")
     save_figure(fig, STATIC / "radiance.png")
 
 
