@@ -26,7 +26,8 @@ from pathlib import Path
 
 from radiosim.errors import RadiosimError, RadiosimIOError
 
-__all__ = ["atomic_write", "write_text", "OutputFolder", "MANIFEST", "native_output_silenced"]
+__all__ = ["atomic_write", "atomic_path", "write_text", "OutputFolder", "MANIFEST",
+           "native_output_silenced"]
 
 _NATIVE = threading.Lock()
 
@@ -98,6 +99,27 @@ def atomic_write(path, mode: str = "w", **kwargs):
     except BaseException:
         temporary.unlink(missing_ok=True)
         raise
+
+
+@contextlib.contextmanager
+def atomic_path(path):
+    """
+    A temporary path beside ``path`` for a library that writes by file name (OpenEXR,
+    xarray); renamed to ``path`` when the block completes, removed on any exit before. A
+    library's own error becomes a :class:`~radiosim.errors.RadiosimIOError` naming ``path``.
+    """
+    path = Path(path)
+    if not path.parent.is_dir():
+        raise RadiosimError(f"cannot write {path}: folder {path.parent} does not exist")
+    temporary = path.with_name(f".{path.name}.{os.getpid()}.partial")
+    try:
+        yield temporary
+        os.replace(temporary, path)
+    except BaseException as exc:  # interrupts too: no temporary file is left behind
+        temporary.unlink(missing_ok=True)
+        if not isinstance(exc, Exception) or isinstance(exc, RadiosimError):
+            raise
+        raise RadiosimIOError(f"cannot write {path}: {exc}") from exc
 
 
 def _umask() -> int:

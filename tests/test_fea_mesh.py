@@ -1,6 +1,5 @@
 """FEA meshes through meshio, resampled on their own cells."""
 
-import math
 
 import meshio
 import numpy as np

@@ -117,7 +117,7 @@ def test_a_study_states_the_scene_environment_and_the_camera_setting(tmp_path):
     """A reflecting scene read by a camera whose setting matches reads the truth; one set to a
     black room reads the reflection as a bias (ε = 0.5: as much reflected as emitted)."""
     np.save(tmp_path / "frames.npy", np.full((4, 24, 24), 700.0))
-    text = f"""name = "room"
+    text = """name = "room"
 [scene]
 type = "frames"
 path = "frames.npy"

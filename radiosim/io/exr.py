@@ -29,14 +29,13 @@ plain floats would be stored as 32-bit): ``radiosim:version``, ``radiosim:integr
 
 from __future__ import annotations
 
-import os
 import tomllib
 from pathlib import Path
 
 import numpy as np
 
-from radiosim.errors import RadiosimError, RadiosimIOError
-from radiosim.files import native_output_silenced
+from radiosim.errors import RadiosimError
+from radiosim.files import atomic_path, native_output_silenced
 from radiosim.measurement import Measurement
 
 __all__ = ["CHANNELS", "write_exr", "read_exr", "write_exr_sequence", "read_exr_sequence",
@@ -131,20 +130,10 @@ def write_channels(path, channels: dict, header: dict) -> Path:
     import OpenEXR
 
     path = Path(path)
-    if not path.parent.is_dir():
-        raise RadiosimError(f"cannot write {path}: folder {path.parent} does not exist")
     header = {"compression": OpenEXR.ZIP_COMPRESSION, "type": OpenEXR.scanlineimage, **header}
     channels = {k: np.ascontiguousarray(v, dtype=np.float32) for k, v in channels.items()}
-    temporary = path.with_name(f".{path.name}.{os.getpid()}.partial")
-    try:
-        with OpenEXR.File(header, channels) as exr:
-            exr.write(str(temporary))
-        os.replace(temporary, path)
-    except BaseException as exc:  # interrupts too: no temporary file is left behind
-        temporary.unlink(missing_ok=True)
-        if not isinstance(exc, Exception) or isinstance(exc, RadiosimError):
-            raise
-        raise RadiosimIOError(f"cannot write {path}: {exc}") from exc
+    with atomic_path(path) as temporary, OpenEXR.File(header, channels) as exr:
+        exr.write(str(temporary))
     return path
 
 

@@ -78,7 +78,7 @@ def _header(path, number, line, columns):
             if wanted not in lower:
                 raise RadiosimError(f"{path}, line {number}: no column {columns[column]!r} "
                                     f"(for {column}); the header has {', '.join(names)}")
-            index, name = lower.index(wanted), column
+            index = lower.index(wanted)
         else:
             matches = [(i, _SUFFIX.match(n)) for i, n in enumerate(names)]
             matches = [(i, m) for i, m in matches if m and m["name"].lower() == column]

@@ -14,13 +14,13 @@ integration time, pixel pitch) and whose variables are the results table's numer
 
 from __future__ import annotations
 
-import os
 import tomllib
 from pathlib import Path
 
 import numpy as np
 
-from radiosim.errors import RadiosimError, RadiosimIOError
+from radiosim.errors import RadiosimError
+from radiosim.files import atomic_path
 from radiosim.measurement import Measurement
 
 __all__ = ["to_xarray", "from_xarray", "write_netcdf", "read_netcdf", "results_to_xarray"]
@@ -60,19 +60,10 @@ def from_xarray(dataset) -> Measurement:
 def write_netcdf(path, measurement_or_dataset) -> Path:
     """Write a measurement (or a dataset) to a NetCDF-4 file, atomically."""
     path = Path(path)
-    if not path.parent.is_dir():
-        raise RadiosimError(f"cannot write {path}: folder {path.parent} does not exist")
     dataset = (to_xarray(measurement_or_dataset)
                if isinstance(measurement_or_dataset, Measurement) else measurement_or_dataset)
-    temporary = path.with_name(f".{path.name}.{os.getpid()}.partial")
-    try:
+    with atomic_path(path) as temporary:
         dataset.to_netcdf(temporary, engine="h5netcdf")
-        os.replace(temporary, path)
-    except BaseException as exc:  # interrupts too: no temporary file is left behind
-        temporary.unlink(missing_ok=True)
-        if not isinstance(exc, Exception) or isinstance(exc, RadiosimError):
-            raise
-        raise RadiosimIOError(f"cannot write {path}: {exc}") from exc
     return path
 
 
