@@ -434,8 +434,12 @@ def connect(scheduler=None, workers: int | None = None):
     if workers:
         from distributed import Client, LocalCluster
 
+        # Each worker's compiled kernels get their share of the cores (not all of them each:
+        # N workers × all cores would oversubscribe the machine).
+        threads = str(max(1, (os.cpu_count() or 1) // int(workers)))
         cluster = LocalCluster(n_workers=int(workers), threads_per_worker=1, processes=True,
-                               dashboard_address=":0")  # any free port
+                               dashboard_address=":0",  # any free port
+                               env={"NUMBA_NUM_THREADS": threads, "OMP_WAIT_POLICY": "PASSIVE"})
         client = Client(cluster)
     elif isinstance(scheduler, str) and "://" in scheduler:
         from distributed import Client
