@@ -248,10 +248,8 @@ class Calibration:
         t = np.asarray(temperature, dtype=float)
         h = 1e-4 * t
         slope = (self.photoelectrons(t + h) - self.photoelectrons(t - h)) / (2 * h)  # [e⁻/K]
-        saturation = self.saturation_temperature
         low, high = self.temperature_range
-        beyond = (t < low) | (t > high) | (t >= saturation if not math.isnan(saturation)
-                                            else True)
+        beyond = (t < low) | (t > high) | (t >= self.saturation_temperature)
         return np.where(beyond, np.nan, self.noise(t) / slope)
 
     def lowest_measurable_temperature(self, snr: float = 1.0) -> float:
@@ -268,8 +266,7 @@ class Calibration:
             return float(self.photoelectrons(t) - background - snr * self.noise(t))
 
         low, top = self.temperature_range
-        saturation = self.saturation_temperature
-        high = top if not np.isfinite(saturation) else min(saturation, top)
+        high = min(self.saturation_temperature, top)  # −∞: everything saturates
         if margin(low) >= 0:
             return float(low)
         if not high > low or margin(high) < 0:
@@ -288,15 +285,21 @@ class Calibration:
     @property
     def saturation_temperature(self) -> float:
         """
-        Lowest grey-body temperature [K] that fills the well or the converter: ∞ if nothing
-        saturates, NaN if it lies beyond the calibration's temperature range.
+        Lowest grey-body temperature [K] that fills the well or the converter: +∞ if nothing
+        in (or above) the calibration's range saturates, −∞ if even its lowest temperature
+        does.
         """
         charge = self.electronics.saturation_charge
         if not math.isfinite(charge):
             return math.inf
         el = self.electronics
-        return float(self.temperature(
-            el.gain * apply_nonlinearity(charge, el.nonlinearity, el.full_well) + el.offset))
+        temperature, below, above = self.invert(
+            el.gain * apply_nonlinearity(charge, el.nonlinearity, el.full_well) + el.offset)
+        if bool(above):
+            return math.inf
+        if bool(below):
+            return -math.inf
+        return float(temperature)
 
     @property
     def counts_span(self) -> float:

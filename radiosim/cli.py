@@ -422,50 +422,61 @@ def _report(args) -> int:
     calibration = camera.calibration(t_int)
     low = calibration.lowest_measurable_temperature()
     saturation = calibration.saturation_temperature
-    if not (np.isfinite(low) and np.isfinite(saturation)):
+    if not (np.isfinite(low) and saturation > low):
         raise RadiosimError(f"at {t_int * 1e6:g} µs {camera.name} has no measurable range "
                             f"within its calibration (floor {low:g} K, saturation "
                             f"{saturation:g} K): choose another --integration-time")
+    if args.frames < 2:
+        raise RadiosimError(f"--frames must be ≥ 2 (temporal variances need two read-outs), "
+                            f"got {args.frames}")
     top = min(saturation * 1.2, camera.calibration_range[1])
+    saturation = min(saturation, camera.calibration_range[1])
     longest = 1.0 / camera.frame_rate if camera.frame_rate else 10e-3
     times = np.geomspace(1e-6, longest, 13)
     out = OutputFolder(Path(args.out or f"radiosim-report-{camera.name}"),
                        overwrite=args.overwrite)
     print(f"radiosim {__version__}: datasheet of {camera.name} at {t_int * 1e6:g} µs → "
           f"{out.path}/")
-    sheet = datasheet(camera, t_int, np.linspace(low, top, 25),
-                      np.linspace(low, saturation, 12, endpoint=False), times,
-                      frames=args.frames, rng=args.seed)
-    text = io.StringIO()
-    writer = csv.DictWriter(text, ["quantity", "condition", "value", "unit"],
-                            lineterminator="\n")
-    writer.writeheader()
-    writer.writerows({**r, "value": f"{r['value']:.6g}"} for r in sheet.rows)
-    write_text(out.staging / "datasheet.csv", text.getvalue())
-    ptc = sheet.ptc
-    fig = figure(6, 4)
-    ax = fig.add_subplot()
-    ax.plot(ptc.mean - ptc.dark_mean, ptc.variance - ptc.dark_variance, "o")
-    ax.set(xlabel="μ_y − μ_y,dark [DN]", ylabel="σ²_y − σ²_y,dark [DN²]",
-           title=f"{camera.name}: photon transfer at {t_int * 1e6:g} µs")
-    save_figure(fig, out.staging / "photon_transfer.png")
-    fig = figure(6, 4)
-    ax = fig.add_subplot()
-    ax.semilogy(*sheet.netd, "o-")
-    ax.set(xlabel="blackbody temperature [K]", ylabel="NETD [K]",
-           title=f"{camera.name}: NETD at {t_int * 1e6:g} µs")
-    save_figure(fig, out.staging / "netd.png")
-    fig = figure(6, 4)
-    ax = fig.add_subplot()
-    t_range, lowest, highest = sheet.range
-    ax.fill_between(t_range * 1e6, lowest, highest, alpha=0.3)
-    ax.semilogx(t_range * 1e6, lowest, label="lowest measurable (SNR = 1)")
-    ax.semilogx(t_range * 1e6, highest, label="saturation")
-    ax.set(xlabel="integration time [µs]", ylabel="temperature [K]",
-           title=f"{camera.name}: measurable range")
-    ax.legend()
-    save_figure(fig, out.staging / "range.png")
-    out.commit()
+    completed = False
+    try:
+        sheet = datasheet(camera, t_int, np.linspace(low, top, 25),
+                          np.linspace(low, saturation, 12, endpoint=False), times,
+                          frames=args.frames, rng=args.seed)
+        text = io.StringIO()
+        writer = csv.DictWriter(text, ["quantity", "condition", "value", "unit"],
+                                lineterminator="\n")
+        writer.writeheader()
+        writer.writerows({**r, "value": f"{r['value']:.6g}"} for r in sheet.rows)
+        write_text(out.staging / "datasheet.csv", text.getvalue())
+        ptc = sheet.ptc
+        fig = figure(6, 4)
+        ax = fig.add_subplot()
+        ax.plot(ptc.mean - ptc.dark_mean, ptc.variance - ptc.dark_variance, "o")
+        ax.set(xlabel="μ_y − μ_y,dark [DN]", ylabel="σ²_y − σ²_y,dark [DN²]",
+               title=f"{camera.name}: photon transfer at {t_int * 1e6:g} µs")
+        save_figure(fig, out.staging / "photon_transfer.png")
+        fig = figure(6, 4)
+        ax = fig.add_subplot()
+        ax.semilogy(*sheet.netd, "o-")
+        ax.set(xlabel="blackbody temperature [K]", ylabel="NETD [K]",
+               title=f"{camera.name}: NETD at {t_int * 1e6:g} µs")
+        save_figure(fig, out.staging / "netd.png")
+        fig = figure(6, 4)
+        ax = fig.add_subplot()
+        t_range, lowest, highest = sheet.range
+        highest = np.minimum(highest, camera.calibration_range[1])  # +∞: not within the range
+        ax.fill_between(t_range * 1e6, lowest, highest, alpha=0.3)
+        ax.semilogx(t_range * 1e6, lowest, label="lowest measurable (SNR = 1)")
+        ax.semilogx(t_range * 1e6, highest, label="saturation")
+        ax.set(xlabel="integration time [µs]", ylabel="temperature [K]",
+               title=f"{camera.name}: measurable range")
+        ax.legend()
+        save_figure(fig, out.staging / "range.png")
+        out.commit()
+        completed = True
+    finally:
+        if not completed:
+            out.abandon(keep=False)
     for r in sheet.rows[:6]:
         print(f"  {r['quantity']:<22}{r['value']:>12.4g} {r['unit']:<6} ({r['condition']})")
     print(f"wrote {out.path / 'datasheet.csv'} ({len(sheet.rows)} rows), photon_transfer.png, "

@@ -554,7 +554,12 @@ def integrate_many(scene: Scene, jobs: list[Job], progress=None,
         return []
     frames = sorted(set().union(*(range(a.first, a.stop) for a in accumulators)))
     region = _union([a.job.integrator.region for a in accumulators])
-    if engine == "compiled" and all(a.job.response.has_kernel for a in accumulators):
+    # The compiled kernels integrate each sample's own emission; a scene that reflects is
+    # integrated by the numpy engine, whose Planck signal adds (1 − ε)·L(T_refl).
+    reflects = scene.reflected_temperature is not None and any(
+        a.job.response.radiometric for a in accumulators)
+    if engine == "compiled" and not reflects and all(a.job.response.has_kernel
+                                                     for a in accumulators):
         return _integrate_compiled(scene, accumulators, frames, region, progress)
     for done, frame in enumerate(_prefetched(scene, frames, region), start=1):
         k = frame.index

@@ -281,7 +281,8 @@ class TabulatedPSF(PSF):
 
     def bandwidth(self, wavelength, object_na):
         # Cells have sharp edges, so the OTF never vanishes: its sinc envelope 1/(π f pitch)
-        # times the aliases' own sinc² (≤ 1/(π k)²) falls below 1e-6 within 30/pitch.
+        # times the aliases' own sinc² (≤ 1/(π k)²) falls below 1e-6 within 30/pitch (not the
+        # 1e-13 of the smooth models; the per-axis sum beyond is bounded in _axis_sum).
         return 30.0 / self.pitch
 
     def reach(self, wavelength, object_na):
@@ -298,7 +299,8 @@ class TabulatedPSF(PSF):
                 * np.exp(-2j * math.pi * np.outer(f, self._centres(axis))))
 
     def to_table(self) -> dict:
-        raise RadiosimError("a tabulated PSF is given in Python or as a file path, not inline")
+        return {"type": "tabulated", "kernel": self.kernel.tolist(),
+                "pitch_um": edge_value(self.pitch, 1e-6)}
 
 
 def _read_kernel(path: Path) -> np.ndarray:
@@ -326,7 +328,8 @@ PSF_TYPES = {
     "diffraction": (Diffraction, {"sub_bands": ("sub_bands", 1)}),
     "gaussian": (GaussianBlur, {"sigma_um": ("sigma", 1e-6)}),
     "scatter_halo": (ScatterHalo, {"fraction": ("fraction", 1), "width_um": ("width", 1e-6)}),
-    "tabulated": (TabulatedPSF, {"file": ("kernel", None), "pitch_um": ("pitch", 1e-6)}),
+    "tabulated": (TabulatedPSF, {"file": ("kernel", None), "kernel": ("kernel", "inline"),
+                                 "pitch_um": ("pitch", 1e-6)}),
 }
 
 
@@ -362,6 +365,8 @@ def as_psf(value, base: Path | None = None) -> tuple[PSF, ...] | None:
                 raw = item[key]
                 if scale is None:  # a file path, relative to the camera file
                     raw = Path(raw) if base is None else base / raw
+                elif scale == "inline":  # the values themselves (rows of numbers)
+                    raw = np.asarray(raw, dtype=float)
                 elif isinstance(raw, bool) or not isinstance(raw, (int, float)):
                     raise RadiosimError(f"PSF {kind!r}: {key} must be a number, got {raw!r}")
                 else:

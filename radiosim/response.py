@@ -41,6 +41,9 @@ __all__ = ["Response", "LinearResponse", "PlanckResponse", "RESPONSES",
 #: hotter ones are refused. Its relative error against quadrature stays below 1e-7 over the
 #: range (measured: 6e-10 for the nist-ir band; see BandRadianceTable).
 PLANCK_TABLE_RANGE = (130.0, 4000.0)
+#: Tables a response keeps per emissivity (Monte Carlo draws of a grey emissivity each pack
+#: one): the oldest goes first.
+_CACHED_TABLES = 64
 
 
 def reflectance(emissivity):
@@ -232,6 +235,8 @@ class PlanckResponse(Response):
         """
         curve = emissivity if isinstance(emissivity, SpectralDistribution) else None
         key = id(curve)
+        if key not in self._tables and len(self._tables) >= _CACHED_TABLES:
+            self._tables.pop(next(k for k in self._tables if k != id(None)))  # bounded
         if key not in self._tables:
             # u·L, cubic in u = 1/T (BandRadianceTable); its grid runs a few intervals past
             # the range, clear of the spline's end effects, and it answers (and the kernels
@@ -294,6 +299,8 @@ class PlanckResponse(Response):
         """The tables of ``entries`` (grey scalars or curves) packed for the kernels, cached."""
         key = tuple(id(e) if isinstance(e, SpectralDistribution) else float(e) for e in entries)
         packed = self._kernel_tables.get(key)
+        if packed is None and len(self._kernel_tables) >= _CACHED_TABLES:
+            self._kernel_tables.pop(next(iter(self._kernel_tables)))  # the oldest: bounded
         if packed is None:
             tables, exact, grey = [], [], []
             for value in entries:

@@ -163,8 +163,9 @@ class UncertaintySpec:
             if value is not None and (isinstance(value, bool) or not isinstance(value, int)
                                       or value < (2 if key == "draws" else 0 if key == "seed"
                                                   else 1)):
-                raise RadiosimError(f"[uncertainty] {key} must be a whole number "
-                                    f"{'≥ 2' if key == 'draws' else '≥ 0'}, got {value!r}")
+                least = {"draws": 2, "seed": 0, "batch": 1}[key]
+                raise RadiosimError(f"[uncertainty] {key} must be a whole number ≥ {least}, "
+                                    f"got {value!r}")
             counts[key] = value
         inputs = table.get("inputs", {})
         if not isinstance(inputs, dict) or not inputs:

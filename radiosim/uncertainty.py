@@ -18,7 +18,7 @@ frames.
 
 Memory is bounded in the number of draws: moments are streamed (Welford's update), and the
 coverage interval's quantiles come from a per-pixel histogram of :data:`HISTOGRAM_BINS` bins
-spanning ±8 standard deviations of the first batch around its mean, interpolated linearly
+spanning ±8 standard deviations of the first 20 draws around their mean, interpolated linearly
 within a bin (a quantile is resolved to 16/400 = 0.04 standard deviations; draws outside the
 span are counted, and a pixel with more than 0.5 % of them there has no interval, NaN).
 
@@ -56,6 +56,7 @@ __all__ = ["Distribution", "Normal", "Uniform", "Triangular", "TruncatedNormal",
 #: Bins of each pixel's histogram (the quantile method, module docstring).
 HISTOGRAM_BINS = 400
 _SPAN_SIGMAS = 8.0
+_SPAN_DRAWS = 20  # draws that set each pixel's histogram span
 _MAX_OUTSIDE = 0.005
 
 
@@ -273,7 +274,7 @@ def distribution_from_table(table: dict, name: str) -> Distribution:
 
 
 def _emissivity(camera, scene, settings, value):
-    return camera, scene.with_emissivity(float(np.clip(value, 0.0, 1.0))), settings
+    return camera, scene.with_emissivity(float(value)), settings
 
 
 def _reflected(camera, scene, settings, value):
@@ -298,7 +299,6 @@ def _psf_sigma(camera, scene, settings, value):
 
 
 def _halo_fraction(camera, scene, settings, value):
-    value = float(np.clip(value, 0.0, 1.0))
     psfs = list(camera.optics.psf or ())
     halos = [i for i, p in enumerate(psfs) if isinstance(p, ScatterHalo)]
     if halos:
@@ -339,7 +339,8 @@ INPUTS = {
     "assumed_reflected_temperature": ("the camera's reflected-temperature setting", "K", 1.0,
                                       _camera_field("assumed_reflected_temperature")),
     "psf_sigma": ("a Gaussian blur added to the optics' PSF", "m", 1e-6, _psf_sigma),
-    "halo_fraction": ("the scatter halo's fraction", "1", 1.0, _halo_fraction),
+    "halo_fraction": ("the scatter halo's fraction (a 50 µm halo if the optics have none)",
+                      "1", 1.0, _halo_fraction),
     "calibration_scale": ("the calibration's radiometric scale", "1", 1.0,
                           _camera_field("calibration_scale")),
     "t_start": ("the integration window's start, added to the nominal", "s", 1e-6,
@@ -351,6 +352,41 @@ INPUTS = {
     "registration_y": ("the array's registration along y, added to its origin", "m", 1e-6,
                        _registration(0)),
 }
+
+
+def _domain(name: str, model) -> tuple[float, float, bool]:
+    """(low, high, low is open) of the values input ``name`` accepts, for the nominal model."""
+    if name in ("emissivity",):
+        return 0.0, 1.0, False
+    if name in ("assumed_emissivity", "halo_fraction"):
+        return 0.0, 1.0, True
+    if name in ("calibration_scale", "reflected_temperature", "assumed_reflected_temperature"):
+        return 0.0, math.inf, True
+    if name == "t_start":
+        return -model.t_start, math.inf, False
+    if name == "integration_time":
+        return -model.integration_time, math.inf, True
+    if name in ("registration_x", "registration_y"):
+        return -model.camera.fpa.origin[1 if name == "registration_x" else 0], math.inf, False
+    return -math.inf, math.inf, False
+
+
+#: An input's distribution may put at most this probability outside the values it accepts.
+_OUTSIDE_DOMAIN = 1e-9
+
+
+def _check_domains(model) -> None:
+    """Every draw of every input must be a value the chain accepts: each distribution's
+    support, less 1e-9 of probability at either end (a normal's ±6σ), is checked once before
+    any draw, not found out by a failing task."""
+    for name, dist in model.inputs.items():
+        low, high, open_low = _domain(name, model)
+        lo, hi = (float(v) for v in dist.ppf(np.array([_OUTSIDE_DOMAIN, 1 - _OUTSIDE_DOMAIN])))
+        if lo < low or (open_low and lo <= low) or hi > high:
+            raise RadiosimError(
+                f"input {name!r}: {type(dist).__name__} draws values in [{lo:.6g}, {hi:.6g}], "
+                f"outside what it accepts ({'(' if open_low else '['}{low:.6g}, {high:.6g}]); "
+                "narrow it or use a bounded distribution (Uniform, Triangular, TruncatedNormal)")
 
 
 def _check_inputs(inputs: dict) -> dict:
@@ -494,7 +530,8 @@ class _Moments:
         self.draws = 0
         self.edges = None
         self.counts = None
-        self.outside = np.zeros(shape)
+        self.below = np.zeros(shape)
+        self.above = np.zeros(shape)
 
     def add(self, values: np.ndarray):
         self.draws += 1
@@ -507,11 +544,11 @@ class _Moments:
             self._bin(values)
 
     def start_histogram(self, first: list[np.ndarray]):
-        """Fix each pixel's histogram span from the first batch, and bin it."""
+        """Fix each pixel's histogram span from the first draws, and bin them."""
         std = np.sqrt(self.variance)
         half = _SPAN_SIGMAS * np.where(std > 0, std, 1e-9 * np.abs(self.mean) + 1e-12)
         self.edges = (self.mean - half, self.mean + half)
-        self.counts = np.zeros((*self.mean.shape, HISTOGRAM_BINS), dtype=np.int64)
+        self.counts = np.zeros((*self.mean.shape, HISTOGRAM_BINS), dtype=np.int32)
         for values in first:
             self._bin(values)
 
@@ -520,7 +557,8 @@ class _Moments:
         valid = np.isfinite(values)
         position = (values - low) / (high - low) * HISTOGRAM_BINS
         inside = valid & (position >= 0) & (position < HISTOGRAM_BINS)
-        self.outside += valid & ~inside
+        self.below += valid & (position < 0)
+        self.above += valid & (position >= HISTOGRAM_BINS)
         flat = np.flatnonzero(inside)
         index = flat * HISTOGRAM_BINS + position.ravel()[flat].astype(np.int64)
         np.add.at(self.counts.reshape(-1), index, 1)
@@ -534,16 +572,18 @@ class _Moments:
         many draws fell outside its span)."""
         low, high = self.edges
         counts = self.counts
-        total = counts.sum(axis=-1) + self.outside
+        outside = self.below + self.above
+        total = counts.sum(axis=-1) + outside
         cdf = np.cumsum(counts, axis=-1)
-        target = q * counts.sum(axis=-1)
+        target = q * total - self.below  # the rank among all draws, within the span
         k = np.sum(cdf < target[..., None], axis=-1).clip(0, HISTOGRAM_BINS - 1)
         before = np.take_along_axis(cdf, np.maximum(k - 1, 0)[..., None], -1)[..., 0]
         before = np.where(k > 0, before, 0)
         inbin = np.take_along_axis(counts, k[..., None], -1)[..., 0]
         fraction = np.where(inbin > 0, (target - before) / np.maximum(inbin, 1), 0.5)
         value = low + (k + fraction) / HISTOGRAM_BINS * (high - low)
-        bad = (total == 0) | (self.outside > _MAX_OUTSIDE * np.maximum(total, 1))
+        bad = (total == 0) | (outside > _MAX_OUTSIDE * np.maximum(total, 1)) | (
+            target < 0) | (target > counts.sum(axis=-1))
         return np.where(bad, np.nan, value)
 
 
@@ -663,13 +703,25 @@ def propagate(camera, scene, integration_time: float, inputs: dict, draws: int |
     """
     inputs = _check_inputs(inputs)
     t_int = check_positive(integration_time, "integration_time", "s")
-    if draws is not None and (isinstance(draws, bool) or int(draws) != draws or draws < 2):
-        raise RadiosimError(f"draws must be a whole number ≥ 2, got {draws!r}")
-    seed = rng if isinstance(rng, np.random.SeedSequence) else np.random.SeedSequence(
-        None if rng is None else int(rng))
+    for name, value, least in (("draws", draws, 2), ("batch", batch, 1),
+                               ("max_draws", max_draws, 2), ("digits", digits, 1),
+                               ("budget_draws", budget_draws, 2)):
+        if value is None and name in ("draws", "budget_draws"):
+            continue
+        if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < least:
+            raise RadiosimError(f"{name} must be a whole number ≥ {least}, got {value!r}")
+    if isinstance(rng, np.random.SeedSequence):  # a copy: the caller's sequence is not spent
+        seed = np.random.SeedSequence(entropy=rng.entropy, spawn_key=rng.spawn_key)
+    elif rng is None or (isinstance(rng, (int, np.integer)) and not isinstance(rng, bool)
+                         and rng >= 0):
+        seed = np.random.SeedSequence(None if rng is None else int(rng))
+    else:
+        raise RadiosimError(f"rng must be a seed ≥ 0 or a numpy SeedSequence (each draw spawns "
+                            f"its own generator from it), got {rng!r}")
     main_seed, budget_seed, noise_seed = seed.spawn(3)
     start = camera.window(scene, t_int, t_start).start
     model = _Model(camera, scene, t_int, start, inputs)
+    _check_domains(model)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", RadiosimWarning)
         nominal = camera.measure(scene, t_int, start, np.random.default_rng(noise_seed))
@@ -693,16 +745,19 @@ def _monte_carlo(run, model, seed, draws, batch, digits, max_draws, shape, progr
     total = draws if draws is not None else max_draws
     children = seed.spawn(total)
     vary = tuple(model.inputs)
-    done, batch_stats = 0, []
+    done, batch_stats, first = 0, [], []
     while done < total:
         size = min(batch, total - done)
         results = run(_draw, [(children[done + i], vary, None) for i in range(size)],
                       shared=(model,))
         for values in results:
             moments.add(values)
-        if moments.edges is None:
-            moments.start_histogram(results)
+            if moments.edges is None:
+                first.append(values)
         done += size
+        if moments.edges is None and (done >= _SPAN_DRAWS or done >= total):
+            moments.start_histogram(first)  # the span from at least 20 draws
+            first = []
         if progress is not None:
             progress(done, draws)
         if draws is None:
@@ -743,7 +798,7 @@ def _budget(run, model, seed, noise_seed, draws, shape):
     for i, (name, dist) in enumerate(model.inputs.items()):
         plus, minus = differences[2 * i], differences[2 * i + 1]
         sensitivity = (plus - minus) / (2 * dist.std)  # [K per input unit]
-        gum_var = gum_var + np.nan_to_num((sensitivity * dist.std) ** 2)
+        gum_var = gum_var + (sensitivity * dist.std) ** 2  # NaN where a step had no reading
         oat = run(_draw, [(child, (name,), fixed_noise) for child in children[i].spawn(draws)],
                   shared=(model,))
         contributions[name] = (dist, sensitivity, plus, minus, oat)
@@ -752,7 +807,7 @@ def _budget(run, model, seed, noise_seed, draws, shape):
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", RuntimeWarning)
         noise_var = np.nanvar(np.stack(noise), axis=0, ddof=1)
-    gum_var = gum_var + np.nan_to_num(noise_var)
+    gum_var = gum_var + noise_var
     for summary, reduce in _SUMMARIES.items():
         summary_rows = []
         for name, (dist, _, plus, minus, oat) in contributions.items():

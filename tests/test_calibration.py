@@ -200,13 +200,15 @@ def test_saturation_temperature_by_bisection(nist, t_int):
     assert saturation == pytest.approx(expected, abs=1e-6 + forward.table_tolerance(expected))
 
 
-def test_saturation_temperature_beyond_the_range_is_nan(nist):
+def test_saturation_temperature_beyond_the_range_is_infinite(nist):
     t_int = 1e-6
     forward = Forward(nist, t_int)
     # Independently: 3000 K does not fill the well at 1 µs...
     assert float(forward.photo(3000.0)) + forward.dark() < nist.electronics.full_well
-    # ...so no temperature of the range saturates.
-    assert math.isnan(nist.calibration(t_int).saturation_temperature)
+    # ...so no temperature of the range saturates, and the NETD is defined up to its top.
+    calibration = nist.calibration(t_int)
+    assert calibration.saturation_temperature == math.inf
+    assert np.isfinite(calibration.netd(2900.0))
 
 
 def test_noise_free_unquantised_electronics_have_no_saturation_or_floor():

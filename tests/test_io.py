@@ -224,7 +224,8 @@ def test_study_results_are_one_dataset_with_the_sweeps_as_dimensions(tmp_path):
                  "--format", "netcdf", "--no-figures", "-q"]) == 0
 
     with xr.open_dataset(tmp_path / "out" / "results.nc", engine="h5netcdf") as ds:
-        assert set(ds.dims) == {"sweep", "camera", "integration_time_us", "pixel_pitch_um"}
+        assert set(ds.dims) == {"sweep", "camera", "response", "alignment",
+                                "integration_time_us", "pixel_pitch_um"}
         assert ds.integration_time_us.values.tolist() == [1.0, 2.0, 3.0]
         np.testing.assert_allclose(ds.peak_C.values.ravel(), 650.0 - 273.15)
 

@@ -85,14 +85,16 @@ def read_netcdf(path) -> Measurement:
 
 
 #: The results table's columns that label a measurement: the dataset's dimensions.
-RESULT_DIMENSIONS = ("sweep", "camera", "integration_time_us", "pixel_pitch_um")
+RESULT_DIMENSIONS = ("sweep", "camera", "response", "alignment", "integration_time_us",
+                     "pixel_pitch_um")
 
 
 def results_to_xarray(rows: list[dict], name: str = "study"):
     """
-    A study's results table as one dataset: dimensions ``sweep``, ``camera``,
-    ``integration_time_us`` and ``pixel_pitch_um``, a variable per numeric column (NaN where a
-    combination was not measured).
+    A study's results table as one dataset: dimensions ``sweep``, ``camera``, ``response``,
+    ``alignment``, ``integration_time_us`` and ``pixel_pitch_um``, a variable per numeric
+    column (NaN where a combination was not measured). Two rows with the same labels (a study
+    that measured a case twice) are refused rather than merged.
     """
     import pandas as pd
 
@@ -103,7 +105,9 @@ def results_to_xarray(rows: list[dict], name: str = "study"):
                and pd.api.types.is_numeric_dtype(frame[c])]
     frame = frame.set_index(list(RESULT_DIMENSIONS))[numeric]
     if frame.index.has_duplicates:
-        frame = frame[~frame.index.duplicated(keep="first")]
+        twice = frame.index[frame.index.duplicated()][0]
+        raise RadiosimError(f"two results share the labels {dict(zip(RESULT_DIMENSIONS, twice))}:"
+                            " a dataset can hold each case once")
     dataset = frame.to_xarray()
     dataset.attrs["study"] = name
     for dim, unit in (("integration_time_us", "us"), ("pixel_pitch_um", "um")):

@@ -301,7 +301,23 @@ class Scene(ABC):
             "dt_s": self.dt,
             "n_frames": -1 if self.n_frames is None else self.n_frames,
             "emissivity": emissivity,
-        }
+        } | self._describe_environment()
+
+    def _describe_environment(self) -> dict:
+        """The environment, where it differs from a black room with no path."""
+        out = {}
+        reflected = self.reflected_temperature
+        if isinstance(reflected, np.ndarray):
+            out["reflected_temperature_K"] = (f"{'per frame' if reflected.ndim == 1 else 'map'}:"
+                                              f" {reflected.min():.6g}-{reflected.max():.6g}")
+        elif reflected is not None:
+            out["reflected_temperature_K"] = float(reflected)
+        if self.path_transmission < 1:
+            out["path_transmission"] = self.path_transmission
+            out["path_temperature_K"] = self.path_temperature
+        if self.surroundings_temperature != AMBIENT_TEMPERATURE:
+            out["surroundings_temperature_K"] = self.surroundings_temperature
+        return out
 
 
 class CroppedScene(Scene):

@@ -68,13 +68,15 @@ class FeaNodes(Scene):
         self._triangulations: dict[int, tuple] = {}
 
     def _mesh(self, k):
-        if k not in self._triangulations:
+        cached = self._triangulations.get(k)  # one read: another thread may replace the dict
+        if cached is None:
             points, _ = self._steps[k]
             tri = triangulate(points, f"step {k} (t = {self.times[k]:g} s) of {self._source}")
             corners = points[tri.simplices]
             edges = np.linalg.norm(corners - np.roll(corners, 1, axis=1), axis=2).max(axis=1)
-            self._triangulations = {k: (tri, edges <= self.max_edge)}  # keep the latest only
-        return self._triangulations[k]
+            cached = (tri, edges <= self.max_edge)
+            self._triangulations = {k: cached}  # keep the latest only
+        return cached
 
     def _read(self, k: int, region: Region) -> np.ndarray:
         tri, valid = self._mesh(k)
@@ -127,7 +129,8 @@ class FeaMesh(Scene):
         self._finders: dict[int, object] = {}
 
     def _finder(self, k):
-        if k not in self._finders:
+        finder = self._finders.get(k)  # one read: another thread may replace the dict
+        if finder is None:
             from matplotlib.tri import Triangulation
 
             points, triangles, _, _ = self._steps[k]
@@ -139,7 +142,7 @@ class FeaMesh(Scene):
                                     f"2-D mesh (overlapping or degenerate triangles: "
                                     f"{exc})") from None
             self._finders = {k: finder}  # keep the latest only
-        return self._finders[k]
+        return finder
 
     def _read(self, k: int, region: Region) -> np.ndarray:
         points, triangles, values, kind = self._steps[k]
