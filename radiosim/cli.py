@@ -168,6 +168,10 @@ def _measure(args) -> int:
         raise RadiosimError(f"{path} does not exist (expected a .npy/.npz stack, a folder or "
                             "glob of .exr frames, or an FEA nodal .csv)")
     suffix = path.suffix.lower()
+    if suffix in (".pvd", ".vtu", ".vtk", ".xdmf", ".xmf", ".exo", ".e", ".msh"):
+        raise RadiosimError(f"{path}: FEA meshes are read in Python, with their times and "
+                            "units: radiosim.io.read_fea_mesh (docs/howto.md); radiosim "
+                            "measure takes .npy/.npz stacks, EXR frames or a nodal .csv")
     needed = {".csv": ("dx",), ".npy": ("dt", "dx", "units"), ".npz": ("dt", "dx", "units")}
     missing = [f"--{flag}" for flag in needed.get(suffix, ()) if getattr(args, flag) is None]
     if missing:

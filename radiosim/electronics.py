@@ -94,6 +94,10 @@ def apply_nonlinearity(electrons, nonlinearity, full_well: float | None):
     """
     if full_well is None or np.all(np.asarray(nonlinearity) == 0):
         return electrons
+    # Past the parabola's top, FW/(2β) (beyond the well), the curve stays at its top: it never
+    # turns down (only unclipped forward models reach there).
+    top = full_well / (2.0 * np.maximum(nonlinearity, 1e-300))
+    electrons = np.minimum(electrons, top)
     return electrons * (1.0 - nonlinearity * electrons / full_well)
 
 

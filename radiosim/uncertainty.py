@@ -36,6 +36,7 @@ References
 from __future__ import annotations
 
 import dataclasses
+import logging
 import math
 import os
 import warnings
@@ -448,6 +449,23 @@ def _draw(model: _Model, seed: np.random.SeedSequence, vary, fixed_noise) -> np.
 # -- the engine ------------------------------------------------------------------------------
 
 
+class _quiet:
+    """Loggers raised to CRITICAL for a block (a cluster's shutdown chatter)."""
+
+    def __init__(self, *names):
+        self.loggers = [logging.getLogger(n) for n in names]
+
+    def __enter__(self):
+        self.levels = [log.level for log in self.loggers]
+        for log in self.loggers:
+            log.setLevel(logging.CRITICAL)
+
+    def __exit__(self, *exc):
+        for log, level in zip(self.loggers, self.levels):
+            log.setLevel(level)
+        return False
+
+
 def connect(scheduler=None, workers: int | None = None):
     """
     The Dask engine: ``(run, close)`` where ``run(function, argument_lists)`` returns the
@@ -475,6 +493,7 @@ def connect(scheduler=None, workers: int | None = None):
         threads = str(max(1, (os.cpu_count() or 1) // int(workers)))
         cluster = LocalCluster(n_workers=int(workers), threads_per_worker=1, processes=True,
                                dashboard_address=":0",  # any free port
+                               silence_logs=logging.ERROR,
                                env={"NUMBA_NUM_THREADS": threads, "OMP_WAIT_POLICY": "PASSIVE"})
         client = Client(cluster)
     elif isinstance(scheduler, str) and "://" in scheduler:
@@ -508,8 +527,10 @@ def connect(scheduler=None, workers: int | None = None):
 
     def close():
         if workers:
-            client.close()
-            cluster.close()
+            # The workers close before the scheduler; their goodbye is not an error to show.
+            with _quiet("distributed", "tornado", "asyncio"):
+                client.close()
+                cluster.close()
         elif client is not None and isinstance(scheduler, str):
             client.close()
 

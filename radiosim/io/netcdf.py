@@ -101,6 +101,11 @@ def results_to_xarray(rows: list[dict], name: str = "study"):
     if not rows:
         raise RadiosimError("no results to label")
     frame = pd.DataFrame(rows)
+    for column in frame.columns:  # numbers with gaps ("" where a summary has no value)
+        if column not in RESULT_DIMENSIONS and frame[column].dtype == object:
+            converted = pd.to_numeric(frame[column].replace("", np.nan), errors="coerce")
+            if converted.notna().sum() == (frame[column] != "").sum():
+                frame[column] = converted
     numeric = [c for c in frame.columns if c not in RESULT_DIMENSIONS
                and pd.api.types.is_numeric_dtype(frame[c])]
     frame = frame.set_index(list(RESULT_DIMENSIONS))[numeric]
