@@ -488,6 +488,11 @@ def connect(scheduler=None, workers: int | None = None):
     if workers:
         from distributed import Client, LocalCluster
 
+        for name in ("distributed", "distributed.scheduler", "distributed.http.proxy"):
+            # A local cluster is an engine here, not a service: its start-up chatter stays out.
+            logger = logging.getLogger(name)
+            logger.setLevel(max(logger.getEffectiveLevel(), logging.WARNING))
+
         # Each worker's compiled kernels get their share of the cores (not all of them each:
         # N workers × all cores would oversubscribe the machine).
         threads = str(max(1, (os.cpu_count() or 1) // int(workers)))
