@@ -193,11 +193,7 @@ def _measure(args) -> int:
                                 "length=…, temperature=…')") from None
     else:
         scene = read_frames(path, dt=args.dt, dx=args.dx, units=args.units)
-    if args.out is not None and Path(args.out).suffix.lower() != ".exr":
-        raise RadiosimError(f"--out {args.out}: radiosim measure writes one EXR file; give a "
-                            "path ending in .exr")
-    if args.out is not None and Path(args.out).exists() and not args.overwrite:
-        raise RadiosimError(f"--out {args.out} exists; choose a new name or pass --overwrite")
+    _check_out_file(args, ".exr", "radiosim measure writes one EXR file")
     m = camera.measure(scene, args.integration_time, t_start=args.start, rng=args.seed)
     summary = summarise(m)
     print(f"{camera.name}: {m.shape[1]} × {m.shape[0]} pixels, {m.integration_time * 1e6:g} µs "
@@ -210,6 +206,23 @@ def _measure(args) -> int:
     if args.out:
         print(f"wrote {write_exr(args.out, m)}")
     return 0
+
+
+def _check_out_file(args, suffix: str, what: str):
+    """``--out`` of a command that writes one file: the right suffix, and a new file unless
+    ``--overwrite`` (checked before any work)."""
+    if args.out is None:
+        return
+    if Path(args.out).suffix.lower() != suffix:
+        raise RadiosimError(f"--out {args.out}: {what}; give a path ending in {suffix}")
+    if Path(args.out).exists() and not args.overwrite:
+        raise RadiosimError(f"--out {args.out} exists; choose a new name or pass --overwrite")
+
+
+def _add_out_file(parser, what: str):
+    """The ``--out FILE`` and ``--overwrite`` options of a command that writes one file."""
+    parser.add_argument("--out", help=f"write {what} to this file (a new one)")
+    parser.add_argument("--overwrite", action="store_true", help="replace --out if it exists")
 
 
 def _camera(name: str, pixel_pitch: float | None = None) -> Camera:
@@ -229,12 +242,7 @@ def _sse(args) -> int:
     from radiosim.files import write_text
 
     camera = _camera(args.camera)
-    if args.out is not None:
-        if Path(args.out).suffix.lower() != ".csv":
-            raise RadiosimError(f"--out {args.out}: the SSE curve is a CSV table; give a path "
-                                "ending in .csv")
-        if Path(args.out).exists() and not args.overwrite:
-            raise RadiosimError(f"--out {args.out} exists; choose a new name or pass --overwrite")
+    _check_out_file(args, ".csv", "the SSE curve is a CSV table")
     pitch = camera.fpa.pixel_pitch
     diameters = (np.array(args.diameters) if args.diameters else
                  pitch * np.geomspace(2, 200, 13))
@@ -358,11 +366,7 @@ def _calibrate(args) -> int:
     if not path.is_file():
         raise RadiosimError(f"{path} does not exist (expected a CSV of temperature_K or "
                             "temperature_C, and counts)")
-    if args.out is not None:
-        if Path(args.out).suffix.lower() != ".toml":
-            raise RadiosimError(f"--out {args.out}: the fitted camera is a TOML file")
-        if Path(args.out).exists() and not args.overwrite:
-            raise RadiosimError(f"--out {args.out} exists; choose a new name or pass --overwrite")
+    _check_out_file(args, ".toml", "the fitted camera is a TOML file")
     try:
         with path.open(newline="", encoding="utf-8") as handle:
             rows = list(csv.DictReader(line for line in handle if not line.startswith("#")))
@@ -509,10 +513,7 @@ def _preview(args) -> int:
     from radiosim.paper import preview_scene
     from radiosim.scenes import SegmentedChip
 
-    if Path(args.out).suffix.lower() != ".png":
-        raise RadiosimError(f"--out {args.out}: the preview is a PNG; give a path ending in .png")
-    if Path(args.out).exists() and not args.overwrite:
-        raise RadiosimError(f"--out {args.out} exists; choose a new name or pass --overwrite")
+    _check_out_file(args, ".png", "the preview is a PNG")
     scene = SegmentedChip(args.params) if args.params else SegmentedChip()
     t = args.time if args.time is not None else scene.event_time
     preview_scene(scene, t, args.out)
@@ -579,8 +580,7 @@ def build_parser() -> argparse.ArgumentParser:
                          help="FEA: temperature outside the mesh, e.g. 20C (default 20C)")
     measure.add_argument("--seed", type=parse_seed, default=0,
                          help="noise seed ≥ 0 (default 0)")
-    measure.add_argument("--out", help="write the measurement to this .exr file (a new one)")
-    measure.add_argument("--overwrite", action="store_true", help="replace --out if it exists")
+    _add_out_file(measure, "the measurement (.exr)")
     measure.set_defaults(func=_measure)
     unc = sub.add_parser("uncertainty", help="the Monte Carlo uncertainty budget of a study",
                          description="Propagate a study's [uncertainty] inputs through its "
@@ -615,8 +615,7 @@ def build_parser() -> argparse.ArgumentParser:
                      help="disc diameters, e.g. 12um 60um 600um (default 2 to 200 pixels)")
     sse.add_argument("--integration-time", type=parse_time, default=10e-6, metavar="T",
                      help="integration time (default 10us)")
-    sse.add_argument("--out", help="write the curve to this .csv file (a new one)")
-    sse.add_argument("--overwrite", action="store_true", help="replace --out if it exists")
+    _add_out_file(sse, "the curve (.csv)")
     sse.set_defaults(func=_sse)
     cal = sub.add_parser("calibrate", help="fit a camera's gain and offset to a measured "
                          "calibration table",
@@ -631,8 +630,7 @@ def build_parser() -> argparse.ArgumentParser:
                      help="integration time of the table, e.g. 100us")
     cal.add_argument("--frames", type=int, default=1,
                      help="read-outs averaged in each counts value (default 1)")
-    cal.add_argument("--out", help="write the fitted camera to this TOML file (a new one)")
-    cal.add_argument("--overwrite", action="store_true", help="replace --out if it exists")
+    _add_out_file(cal, "the fitted camera (.toml)")
     cal.set_defaults(func=_calibrate)
     report = sub.add_parser("report", help="an EMVA 1288-style datasheet of a camera",
                             description="Characterise a camera as an EMVA 1288 report does: "

@@ -1127,6 +1127,18 @@ def _accumulate_numpy(frame2d, rows: _Axis, cols: _Axis, time_weight, reference,
         signal_acc += time_weight * _weighted_mean(response.signal(t, grey, index), rows, cols)
 
 
+def _checked(frame, rows, cols, reference, dev, sq, tmax, signal_acc, response):
+    """The axes and the 2-D frame of an accumulation, its per-pixel arrays checked."""
+    rows, cols = _axis(rows, "row"), _axis(cols, "column")
+    frame2d = _frame(frame, rows, cols)
+    shape = (rows.n_pixels, cols.n_pixels)
+    for name, array in (("reference", reference), ("dev", dev), ("sq", sq), ("tmax", tmax)):
+        _per_pixel(array, shape, name)
+    if response is not None:
+        _per_pixel(signal_acc, shape, "signal_acc")
+    return rows, cols, frame2d
+
+
 def accumulate_reference(frame, rows, cols, time_weight: float, reference: np.ndarray,
                          dev: np.ndarray, sq: np.ndarray, tmax: np.ndarray,
                          signal_acc: np.ndarray | None = None,
@@ -1135,13 +1147,9 @@ def accumulate_reference(frame, rows, cols, time_weight: float, reference: np.nd
     """:func:`accumulate` in plain numpy (float64, the integrator's reduceat arithmetic): the
     oracle, and the path for frames with samples below the radiance table. Same arguments,
     checks, errors and return value."""
-    rows, cols = _axis(rows, "row"), _axis(cols, "column")
-    frame2d = _frame(frame, rows, cols)
-    shape = (rows.n_pixels, cols.n_pixels)
-    for name, array in (("reference", reference), ("dev", dev), ("sq", sq), ("tmax", tmax)):
-        _per_pixel(array, shape, name)
+    rows, cols, frame2d = _checked(frame, rows, cols, reference, dev, sq, tmax, signal_acc,
+                                   response)
     if response is not None:
-        _per_pixel(signal_acc, shape, "signal_acc")
         response._check_maps(frame2d.shape)
     below = _check_samples(frame2d, rows, cols, frame_index, response)
     _accumulate_numpy(frame2d, rows, cols, float(time_weight), reference, dev, sq, tmax,
@@ -1300,13 +1308,8 @@ def accumulate(frame, rows, cols, time_weight: float, reference: np.ndarray, dev
         in full-scene coordinates, value, count), above its table, or has an index that is no
         entry. The accumulators are then partly updated: discard them.
     """
-    rows, cols = _axis(rows, "row"), _axis(cols, "column")
-    frame2d = _frame(frame, rows, cols)
-    shape = (rows.n_pixels, cols.n_pixels)
-    for name, array in (("reference", reference), ("dev", dev), ("sq", sq), ("tmax", tmax)):
-        _per_pixel(array, shape, name)
-    if response is not None:
-        _per_pixel(signal_acc, shape, "signal_acc")
+    rows, cols, frame2d = _checked(frame, rows, cols, reference, dev, sq, tmax, signal_acc,
+                                   response)
     if not reference.flags.writeable:  # the kernel takes one array type (it writes it only
         reference = reference.copy()  # when merging)
     status = _launch(frame2d, rows, cols, float(time_weight), reference, dev, sq, tmax,

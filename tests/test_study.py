@@ -117,28 +117,14 @@ def test_a_study_states_the_scene_environment_and_the_camera_setting(tmp_path):
     """A reflecting scene read by a camera whose setting matches reads the truth; one set to a
     black room reads the reflection as a bias (ε = 0.5: as much reflected as emitted)."""
     np.save(tmp_path / "frames.npy", np.full((4, 24, 24), 700.0))
-    text = """name = "room"
-[scene]
-type = "frames"
-path = "frames.npy"
-dt_us = 1.0
-dx_um = 1.0
-units = "K"
-emissivity = 0.5
-reflected_temperature_K = 500.0
-surroundings_temperature_K = 700.0
-[cameras.set]
-file = "cam.toml"
-assumed_emissivity = 0.5
-assumed_reflected_temperature_K = 500.0
-[cameras.dark]
-file = "cam.toml"
-assumed_emissivity = 0.5
-[[sweeps]]
-name = "t"
-cameras = ["set", "dark"]
-integration_time_us = [2]
-"""
+    scene = ('units = "K"\nemissivity = 0.5\nreflected_temperature_K = 500.0\n'
+             'surroundings_temperature_K = 700.0')
+    cameras = ('file = "cam.toml"\nassumed_emissivity = 0.5\n'
+               'assumed_reflected_temperature_K = 500.0\n'
+               '[cameras.dark]\nfile = "cam.toml"\nassumed_emissivity = 0.5')
+    text = frames_study([2], 4.0, name="room", camera="set").replace(
+        'units = "K"', scene).replace('preset = "linear-ideal"\npixel_pitch_um = 4.0', cameras)
+    text = text.replace('cameras = ["set"]', 'cameras = ["set", "dark"]')
     camera = Camera.preset("nist-ir").replace(electronics=Electronics.ideal())
     camera = camera.replace(fpa=dataclasses.replace(camera.fpa, pixel_pitch=4e-6, shape=None,
                                                     detector_pitch=None))

@@ -429,7 +429,8 @@ def read_fea_mesh(source, dx, times=None, field: str = "temperature", units=None
             values, kind = np.asarray(point_data[field], dtype=float).reshape(-1), "point"
         elif field in cell_data:
             blocks = [np.asarray(b, dtype=float).reshape(-1) for b in cell_data[field]]
-            values, kind = np.array([blocks[b][i] for b, i in owners]), "cell"
+            starts = np.cumsum([0] + [b.size for b in blocks[:-1]])  # each block's first cell
+            values, kind = np.concatenate(blocks)[starts[owners[:, 0]] + owners[:, 1]], "cell"
         else:
             names = sorted({*point_data, *cell_data})
             raise RadiosimError(f"{here}: no field {field!r}; the mesh holds "
