@@ -343,7 +343,9 @@ class Camera:
             return self.read_out(self._rolling(scene, window), window, scene, rng)
         # Scene frames (T [K], ε) → response signal per sample → mean per pixel over
         # footprint × window [signal unit], with the tensor's T statistics [K].
-        stats = integrate(scene, self.integrator(scene), window, self.response_model)
+        # (Reflections, where the scene has them, are the image stage's: below.)
+        stats = integrate(scene, self.integrator(scene), window, self.response_model,
+                          emission_only=True)
         if self.forms_image(scene):  # the statistics stay scene truth; the signal is imaged
             stats = dataclasses.replace(stats, signal_mean=self.image(scene, window))
         return self.read_out(stats, window, scene, rng)
@@ -724,7 +726,8 @@ def measure_many(scene: Scene, cases, rng=None, progress=None) -> list[Measureme
         if key not in integrators:  # cameras with the same footprints share them
             integrators[key] = camera.integrator(scene)
         jobs.append(Job(integrators[key], window, camera.response_model))
-    snapshot_statistics = dict(zip(snapshot, integrate_many(scene, jobs, progress)))
+    snapshot_statistics = dict(zip(snapshot, integrate_many(scene, jobs, progress,
+                                                            emission_only=True)))
     statistics = [snapshot_statistics[i] if i in snapshot_statistics
                   else camera._rolling(scene, window)  # its own pass, one job per row
                   for i, ((camera, _, _), window) in enumerate(zip(cases, windows))]

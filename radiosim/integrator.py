@@ -523,7 +523,8 @@ ENGINES = ("compiled", "numpy")
 
 
 def integrate_many(scene: Scene, jobs: list[Job], progress=None,
-                   engine: str = "compiled") -> list[TensorStatistics]:
+                   engine: str = "compiled", emission_only: bool = False
+                   ) -> list[TensorStatistics]:
     """
     Integrate several measurements of one scene in one pass: each frame any window touches is
     read (or generated) once, over the union of the jobs' regions, and feeds every job whose
@@ -546,6 +547,9 @@ def integrate_many(scene: Scene, jobs: list[Job], progress=None,
         Called as ``progress(done, total)`` after each frame.
     engine
         ``"compiled"`` or ``"numpy"`` (:data:`ENGINES`).
+    emission_only
+        The signal need hold each sample's own emission only (the caller adds reflections), so
+        a reflecting scene may take the compiled engine.
     """
     if engine not in ENGINES:
         raise RadiosimError(f"engine must be one of {', '.join(ENGINES)}, got {engine!r}")
@@ -555,8 +559,9 @@ def integrate_many(scene: Scene, jobs: list[Job], progress=None,
     frames = sorted(set().union(*(range(a.first, a.stop) for a in accumulators)))
     region = _union([a.job.integrator.region for a in accumulators])
     # The compiled kernels integrate each sample's own emission; a scene that reflects is
-    # integrated by the numpy engine, whose Planck signal adds (1 − ε)·L(T_refl).
-    reflects = scene.reflected_temperature is not None and any(
+    # integrated by the numpy engine, whose Planck signal adds (1 − ε)·L(T_refl) — unless the
+    # caller forms the reflected light itself (the camera's image stage: ``emission_only``).
+    reflects = not emission_only and scene.reflected_temperature is not None and any(
         a.job.response.radiometric for a in accumulators)
     if engine == "compiled" and not reflects and all(a.job.response.has_kernel
                                                      for a in accumulators):
@@ -704,6 +709,7 @@ def integrate(
     window: Window,
     response: Response,
     engine: str = "compiled",
+    emission_only: bool = False,
 ) -> TensorStatistics:
     """
     Stream the window's frames through the response and the integrator, and accumulate tensor
@@ -724,9 +730,12 @@ def integrate(
         Signal per sample (:class:`~radiosim.response.Response`).
     engine
         ``"compiled"`` (the numba kernels) or ``"numpy"`` (their reference).
+    emission_only
+        As for :func:`integrate_many`.
 
     Returns
     -------
     TensorStatistics
     """
-    return integrate_many(scene, [Job(integrator, window, response)], engine=engine)[0]
+    return integrate_many(scene, [Job(integrator, window, response)], engine=engine,
+                          emission_only=emission_only)[0]
