@@ -7,7 +7,7 @@ folder, is integrated by 9 × 9-sample pixels. In one run it reports, per frame:
 -   streaming read: numpy's sum of each frame (one pass over the data, the yardstick);
 -   kernel, linear: pixel_mean of the first frame, then accumulate per frame, no signal;
 -   kernel, Planck: the same with the in-band photon radiance of the nist-ir camera's curves
-    (3.75–5.15 µm, filter × optics × InSb quantum efficiency; table 150–3000 K, u·L cubic in 1/T);
+    (3.75–5.15 µm, filter × optics × InSb quantum efficiency; table 150–3000 K, L cubic in T);
 -   kernel, non-integer footprint: 7.3-sample pixels with fill factor 0.8, linear;
 -   numpy reference: accumulate_reference (linear, 9 × 9), on the first frames only;
 -   first call: compile time of the first pixel_mean + accumulate (linear and Planck) in a fresh
@@ -57,7 +57,7 @@ region = frame[rows.span, cols.span]
 t0 = time.perf_counter(); reference = k.pixel_mean(region, rows, cols)
 t1 = time.perf_counter(); k.accumulate(region, rows, cols, 1.0, reference, *out[:3])
 t2 = time.perf_counter()
-table = k.RadianceKernelTable(BandRadianceTable(temperature_range=(150.0, 3000.0), intervals=200))
+table = k.RadianceKernelTable(BandRadianceTable(temperature_range=(150.0, 3000.0), per_octave=64))
 t3 = time.perf_counter(); k.accumulate(region, rows, cols, 1.0, reference, *out, response=table)
 t4 = time.perf_counter()
 print(json.dumps({"import": imported, "pixel_mean": t1 - t0, "accumulate": t2 - t1,

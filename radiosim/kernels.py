@@ -27,21 +27,27 @@ How the kernels are fast (see ``benchmarks/bench_kernels.py``):
     columns, in sample space: one accumulator slot per sample (holding the first column piece
     that reads it), plus a slot per "duplicate" piece (a pixel edge inside a sample: the
     second piece reading it, filled from a small gathered row). The loops are contiguous and
-    vectorised; float32 frames are read as float32 and widened per sample, never copied. The
-    slots are reduced to pixels once per pixel row;
+    vectorised; float32 frames are read as float32 and widened per sample, never copied. A
+    pixel row's first sweep writes the accumulators (no clearing pass); the slots are reduced
+    to pixels, and checked, in one pass per pixel row; the accumulators sit in one buffer,
+    their starts 576 bytes apart modulo 4 kB (no false store-to-load aliasing between them);
 -   the checks are fused: NaN propagates into the sums, +inf into the maximum, and a running
     minimum per slot catches T ≤ 0 and T below the table, so a clean frame costs one vector
     max and one min per sample;
--   the radiance is the table's (:class:`~radiosim.radiometry.BandRadianceTable`) cubic of
-    u·L in u = 1/T, times T: no logarithm, no exponential. Per sample: one (vectorised)
-    division 1/T, the interval and position in it (vectorised), then the interval's four
-    coefficients, loaded as one 32-byte row for each of eight samples and transposed into
-    vectors by shuffles (:func:`_cubic8`, an LLVM intrinsic: LLVM would otherwise make four
-    scalar loads per sample, or slow gathers), and a vector Horner step; the table (about
-    40 kB for the nist-ir band) stays in the L1/L2 cache;
+-   the radiance is the table's (:class:`~radiosim.radiometry.BandRadianceTable`) cubic of L in
+    T on a grid whose nodes are the floats with only their top mantissa bits set: no division,
+    no logarithm, no exponential. Per sample row, two loops: the interval and position
+    (vectorised: a shift, a subtraction, an unsigned minimum and a mask of the bits of T),
+    into a small scratch; then the interval's four coefficients, loaded as one 32-byte row for
+    each of eight samples and transposed into vectors by shuffles (:func:`_cubic8_grey`,
+    :func:`_cubic8_map`: LLVM intrinsics; LLVM would otherwise make four scalar loads per
+    sample, or slow gathers), a vector Horner step and the accumulation, in registers. The
+    table (160 kB for the nist-ir band) is read where the scene's temperatures are, which
+    stays in the L1/L2 cache;
 -   ``fastmath`` is off: no reassociation, no automatic contraction into FMA, IEEE semantics;
     the radiance takes the same operations in the same order as
-    :meth:`~radiosim.radiometry.BandRadianceTable.evaluate_reference`, its numpy oracle.
+    :meth:`~radiosim.radiometry.BandRadianceTable.evaluate_reference`, its numpy oracle, so
+    the two agree exactly inside the table.
 
 Nothing is compiled at import (importing costs numba's own import). The first call with a new
 frame dtype (float32, float64) or index-map dtype (uint8, intp) compiles the one kernel that
@@ -207,45 +213,51 @@ _CHUNK = 512
 def _lin_source(k: int) -> str:
     """Source of ``_lin{k}``: k sample rows ``xs[0..k-1]`` (weights ``ws``) into the column
     accumulators: a1 += Σ w (T − c), a2 += Σ w (T − c)² (fused multiply-adds), am = max(am, T),
-    an = min(an, T), the maximum and minimum taken in the frame's own dtype (exact)."""
-    lines = [f"def _lin{k}(xs, ws, ce, a1, a2, am, an):"]
+    an = min(an, T), the maximum and minimum taken in the frame's own dtype (exact); with
+    ``first`` (a pixel row's first sweep) the accumulators start from 0, 0, −∞ and +∞ instead
+    of their contents (written, not read)."""
+    lines = [f"def _lin{k}(first, xs, ws, ce, a1, a2, am, an):"]
     lines += [f"    x{h} = xs[{h}]" for h in range(k)]
     lines += [f"    w{h} = ws[{h}]" for h in range(k)]
-    lines += ["    for q in range(ce.size):", "        c = ce[q]"]
-    for h in range(k):
-        lines.append(f"        d{h} = np.float64(x{h}[q]) - c")
-        lines.append(f"        e{h} = w{h} * d{h}")
-    lines.append("        a1[q] += " + " + ".join(f"e{h}" for h in range(k)))
-    square = "a2[q]"
-    for h in range(k):
-        square = f"_fma(e{h}, d{h}, {square})"
-    lines.append(f"        a2[q] = {square}")
-    lines.append("        m = x0[q]")
-    lines.append("        n = m")
-    for h in range(1, k):
-        lines.append(f"        v = x{h}[q]")
-        lines.append("        m = v if v > m else m")
-        lines.append("        n = v if v < n else n")
-    lines.append("        o = am[q]")
-    lines.append("        am[q] = m if m > o else o")
-    lines.append("        o = an[q]")
-    lines.append("        an[q] = n if n < o else o")
+    for start in (True, False):
+        lines.append("    if first:" if start else "    else:")
+        body = ["for q in range(ce.size):", "    c = ce[q]"]
+        for h in range(k):
+            body.append(f"    d{h} = np.float64(x{h}[q]) - c")
+            body.append(f"    e{h} = w{h} * d{h}")
+        total = " + ".join(f"e{h}" for h in range(k))
+        body.append(f"    a1[q] = {total}" if start else f"    a1[q] += {total}")
+        square = "0.0" if start else "a2[q]"
+        for h in range(k):
+            square = f"_fma(e{h}, d{h}, {square})"
+        body.append(f"    a2[q] = {square}")
+        body.append("    m = x0[q]")
+        body.append("    n = m")
+        for h in range(1, k):
+            body.append(f"    v = x{h}[q]")
+            body.append("    m = v if v > m else m")
+            body.append("    n = v if v < n else n")
+        body.append("    o = -_INF" if start else "    o = am[q]")
+        body.append("    am[q] = m if m > o else o")
+        body.append("    o = _INF" if start else "    o = an[q]")
+        body.append("    an[q] = n if n < o else o")
+        lines += ["        " + line for line in body]
     return "\n".join(lines) + "\n"
 
 
 def _lin_dispatch_source() -> str:
     """Source of ``_lin``: the sweep of ``n`` rows (1 … _MAX_ROWS) by ``_lin{n}``."""
-    lines = ["def _lin(n, xs, ws, ce, a1, a2, am, an):"]
+    lines = ["def _lin(n, first, xs, ws, ce, a1, a2, am, an):"]
     for k in range(1, _MAX_ROWS + 1):
         lines.append(f"    {'if' if k == 1 else 'elif'} n == {k}:")
-        lines.append(f"        _lin{k}(xs, ws, ce, a1, a2, am, an)")
+        lines.append(f"        _lin{k}(first, xs, ws, ce, a1, a2, am, an)")
     return "\n".join(lines) + "\n"
 
 
 def _make_sweeps():
     # Compiled with this file's name, so that numba's on-disk cache finds (and invalidates) them
     # with the module; generated because each row count needs its own unrolled loop body.
-    namespace = {"np": np, "_fma": _fma}
+    namespace = {"np": np, "_fma": _fma, "_INF": _INF, "__name__": __name__}
     source = "".join(_lin_source(k) for k in range(1, _MAX_ROWS + 1)) + _lin_dispatch_source()
     exec(compile(source, __file__, "exec"), namespace)
     for k in range(1, _MAX_ROWS + 1):
@@ -262,51 +274,89 @@ def _data(context, builder, array_type, array):
     return context.make_array(array_type)(context, builder, array).data
 
 
-@intrinsic
-def _cubic8(typingctx, coef, interval, position, out, q):
-    """out[q + k] = ((a r + b) r + c) r + d for k = 0 … 7, with (a, b, c, d) = row
-    ``interval[q + k]`` of the flat coefficient table ``coef`` (4 float64 per row) and
-    r = ``position[q + k]``. The eight rows are loaded whole (32 bytes each) and transposed
-    into four vectors of eight coefficients by shuffles, then Horner runs on the vectors
-    (separate multiply and add, as numpy): no gather, no scalar coefficient loads."""
-    signature = types.void(coef, interval, position, out, q)
+def _mask(*lanes):
+    """A constant vector of i32 lane numbers (a shuffle mask)."""
+    i32 = llvm_ir.IntType(32)
+    return llvm_ir.Constant(llvm_ir.VectorType(i32, len(lanes)),
+                            [llvm_ir.Constant(i32, k) for k in lanes])
 
-    def codegen(context, builder, sig, args):
-        double, i32, i64 = llvm_ir.DoubleType(), llvm_ir.IntType(32), llvm_ir.IntType(64)
-        row4, vec8 = llvm_ir.VectorType(double, 4), llvm_ir.VectorType(double, 8)
-        table, index, position, out = (_data(context, builder, sig.args[k], args[k])
-                                       for k in range(4))
-        q = args[4]
 
-        def mask(*lanes):
-            return llvm_ir.Constant(llvm_ir.VectorType(i32, len(lanes)),
-                                    [llvm_ir.Constant(i32, k) for k in lanes])
+def _transpose8(builder, rows):
+    """Four vectors (a, b, c, e) of eight doubles from eight rows of four (by shuffles)."""
+    pairs = [builder.shuffle_vector(rows[2 * k], rows[2 * k + 1], _mask(*range(8)))
+             for k in range(4)]  # (a b c e a' b' c' e') of rows 2k, 2k + 1
+    ab_lo = builder.shuffle_vector(pairs[0], pairs[1], _mask(0, 4, 8, 12, 1, 5, 9, 13))
+    cd_lo = builder.shuffle_vector(pairs[0], pairs[1], _mask(2, 6, 10, 14, 3, 7, 11, 15))
+    ab_hi = builder.shuffle_vector(pairs[2], pairs[3], _mask(0, 4, 8, 12, 1, 5, 9, 13))
+    cd_hi = builder.shuffle_vector(pairs[2], pairs[3], _mask(2, 6, 10, 14, 3, 7, 11, 15))
+    low, high = _mask(0, 1, 2, 3, 8, 9, 10, 11), _mask(4, 5, 6, 7, 12, 13, 14, 15)
+    return (builder.shuffle_vector(ab_lo, ab_hi, low), builder.shuffle_vector(ab_lo, ab_hi, high),
+            builder.shuffle_vector(cd_lo, cd_hi, low), builder.shuffle_vector(cd_lo, cd_hi, high))
 
-        rows = []
-        for k in range(8):
-            i = builder.load(builder.gep(index, [builder.add(q, llvm_ir.Constant(i64, k))]))
-            first = builder.gep(table, [builder.mul(i, llvm_ir.Constant(i64, 4))])
-            rows.append(builder.load(builder.bitcast(first, row4.as_pointer()), align=8))
-        pairs = [builder.shuffle_vector(rows[2 * k], rows[2 * k + 1], mask(*range(8)))
-                 for k in range(4)]  # (a b c d a' b' c' d') of rows 2k, 2k + 1
-        ab_lo = builder.shuffle_vector(pairs[0], pairs[1], mask(0, 4, 8, 12, 1, 5, 9, 13))
-        cd_lo = builder.shuffle_vector(pairs[0], pairs[1], mask(2, 6, 10, 14, 3, 7, 11, 15))
-        ab_hi = builder.shuffle_vector(pairs[2], pairs[3], mask(0, 4, 8, 12, 1, 5, 9, 13))
-        cd_hi = builder.shuffle_vector(pairs[2], pairs[3], mask(2, 6, 10, 14, 3, 7, 11, 15))
-        low, high = mask(0, 1, 2, 3, 8, 9, 10, 11), mask(4, 5, 6, 7, 12, 13, 14, 15)
-        a = builder.shuffle_vector(ab_lo, ab_hi, low)
-        b = builder.shuffle_vector(ab_lo, ab_hi, high)
-        c = builder.shuffle_vector(cd_lo, cd_hi, low)
-        d = builder.shuffle_vector(cd_lo, cd_hi, high)
-        r = builder.load(builder.bitcast(builder.gep(position, [q]), vec8.as_pointer()),
-                         align=8)
-        value = builder.fadd(builder.fmul(a, r), b)
-        value = builder.fadd(builder.fmul(value, r), c)
-        value = builder.fadd(builder.fmul(value, r), d)
-        builder.store(value, builder.bitcast(builder.gep(out, [q]), vec8.as_pointer()), align=8)
-        return context.get_dummy_value()
 
-    return signature, codegen
+def _make_cubic8(kind: str):
+    """The intrinsic ``_cubic8`` (``kind`` "store"), ``_cubic8_grey`` ("grey") or
+    ``_cubic8_map`` ("map"): eight samples' cubics, stored or accumulated."""
+
+    def cubic8(typingctx, coef, interval, position, g, w, grey, out, q):
+        signature = types.void(coef, interval, position, g, w, grey, out, q)
+
+        def codegen(context, builder, sig, args):
+            double, i32, i64 = llvm_ir.DoubleType(), llvm_ir.IntType(32), llvm_ir.IntType(64)
+            row4, vec8 = llvm_ir.VectorType(double, 4), llvm_ir.VectorType(double, 8)
+            table, index, position, factor, out = (_data(context, builder, sig.args[k], args[k])
+                                                   for k in (0, 1, 2, 3, 6))
+            w, grey, q = args[4], args[5], args[7]
+
+            def vector(pointer):
+                return builder.bitcast(builder.gep(pointer, [q]), vec8.as_pointer())
+
+            def splat(value):
+                one = builder.insert_element(llvm_ir.Constant(vec8, llvm_ir.Undefined), value,
+                                             llvm_ir.Constant(i32, 0))
+                return builder.shuffle_vector(one, llvm_ir.Constant(vec8, None), _mask(*[0] * 8))
+
+            rows = []
+            for k in range(8):
+                i = builder.load(builder.gep(index, [builder.add(q, llvm_ir.Constant(i64, k))]))
+                first = builder.gep(table, [builder.mul(i, llvm_ir.Constant(i64, 4))])
+                rows.append(builder.load(builder.bitcast(first, row4.as_pointer()), align=8))
+            a, b, c, d = _transpose8(builder, rows)
+            r = builder.load(vector(position), align=8)
+            value = builder.fadd(builder.fmul(a, r), b)
+            value = builder.fadd(builder.fmul(value, r), c)
+            value = builder.fadd(builder.fmul(value, r), d)
+            if kind == "store":
+                builder.store(value, vector(out), align=8)
+                return context.get_dummy_value()
+            if kind == "map":
+                factor = builder.fmul(splat(grey), builder.load(vector(factor), align=8))
+                term = builder.fmul(splat(w), builder.fmul(value, factor))
+            else:
+                term = builder.fmul(value, splat(w))
+            builder.store(builder.fadd(builder.load(vector(out), align=8), term), vector(out),
+                          align=8)
+            return context.get_dummy_value()
+
+        return signature, codegen
+
+    cubic8.__name__ = {"store": "_cubic8", "grey": "_cubic8_grey", "map": "_cubic8_map"}[kind]
+    cubic8.__doc__ = (
+        "For k = 0 … 7: " + {
+            "store": "out[q + k] = v",
+            "grey": "out[q + k] += v · w (w: the row weight times the grey factor)",
+            "map": "out[q + k] += w · (v · (grey · g[q + k]))"}[kind]
+        + """, where v = ((a r + b) r + c) r + d, with
+    (a, b, c, d) = row ``interval[q + k]`` of the flat coefficient table ``coef`` (4 float64 per
+    row) and r = ``position[q + k]``. The eight rows are loaded whole (32 bytes each) and
+    transposed into four vectors of eight coefficients by shuffles, then Horner runs on the
+    vectors (separate multiply and add, as numpy): no gather, no scalar coefficient loads.""")
+    return intrinsic(cubic8)
+
+
+_cubic8 = _make_cubic8("store")
+_cubic8_grey = _make_cubic8("grey")
+_cubic8_map = _make_cubic8("map")
 
 
 @numba.njit(**_JIT)
@@ -315,7 +365,7 @@ def _cubic(coef, interval, position, out, n):
     by :func:`_cubic8`, the rest one by one with the same operations)."""
     q = 0
     while q + 8 <= n:
-        _cubic8(coef, interval, position, out, q)
+        _cubic8(coef, interval, position, out, 1.0, 1.0, out, q)
         q += 8
     for k in range(q, n):
         i = interval[k] * np.uint64(4)
@@ -324,41 +374,90 @@ def _cubic(coef, interval, position, out, n):
 
 
 @numba.njit(**_JIT)
-def _locate(t, u0, inverse, last):
-    """Interval index and position r in it, as :meth:`BandRadianceTable.evaluate_reference`:
-    x = (1/T − u₀)/Δu, i = min(⌊x⌋, last), r = x − i. Out-of-table samples (flagged by the
-    checks) are clamped to a valid interval."""
-    x = (1.0 / t - u0) * inverse
-    xc = x if x > 0.0 else 0.0
-    xc = xc if xc < last else last
-    i = np.uint64(xc)
-    return i, x - np.float64(i)
+def _locate(t, key0, shift, last):
+    """Interval index k and d = T − T_k [K], as :meth:`BandRadianceTable.evaluate_reference`:
+    k = clip((bits(T) >> s) − k₀, 0, last), T_k = the bits of k + k₀ shifted back. Any T
+    (NaN, ≤ 0, out of the table: flagged by the checks) gives a valid interval."""
+    k = np.int64(np.uint64(np.float64(t).view(np.uint64)) >> shift) - key0
+    k = k if k > 0 else np.int64(0)
+    k = k if k < last else last
+    node = np.int64((k + key0) << shift).view(np.float64)
+    return np.uint64(k), t - node
 
 
 @numba.njit(**_JIT)
-def _signal_row(x, g, e, used, w, mode, grey, use_map, coef, u0, inverse, last, offset, t_min,
+def _cubic1(coef, i, r):
+    """The cubic of row i of ``coef`` at r, as one lane of :func:`_cubic8`."""
+    i = i * np.uint64(4)
+    return ((coef[i] * r + coef[i + 1]) * r + coef[i + 2]) * r + coef[i + 3]
+
+
+@numba.njit(**_JIT)
+def _signal_one(x, g, w, use_map, grey, coef, key0, shift, node_mask, last, interval, u, a3):
+    """a3 += w · S(x) along one row of samples (modes 1 and 2: S = L(T) · grey, or
+    L(T) · (grey · g) with ``g`` the grey-map row). Two loops: the intervals and positions
+    (vectorised: k = (bits(T) >> shift) − key0, clamped to ``last`` unsigned, so that a sample
+    below the table, ≤ 0 or NaN reads the last row and is flagged by the checks; d = T −
+    (bits(T) & node_mask) = T − T_k inside the table), into the scratch ``interval`` and ``u``;
+    then the cubics, accumulated eight at a time (:func:`_cubic8_grey`, :func:`_cubic8_map`),
+    the rest one by one with the same operations. ``coef``: the table's rows; ``last``,
+    ``shift``, ``node_mask``: uint64."""
+    nq = a3.size
+    first = np.uint64(key0)
+    for q in range(nq):
+        t = np.float64(x[q])
+        bits = t.view(np.uint64)
+        k = (bits >> shift) - first
+        interval[q] = k if k < last else last
+        u[q] = t - np.uint64(bits & node_mask).view(np.float64)
+    q = 0
+    if use_map:
+        while q + 8 <= nq:
+            _cubic8_map(coef, interval, u, g, w, grey, a3, q)
+            q += 8
+        for k in range(q, nq):
+            a3[k] += w * (_cubic1(coef, interval[k], u[k]) * (grey * g[k]))
+    else:
+        wg = w * grey
+        while q + 8 <= nq:
+            _cubic8_grey(coef, interval, u, g, wg, grey, a3, q)
+            q += 8
+        for k in range(q, nq):
+            a3[k] += _cubic1(coef, interval[k], u[k]) * wg
+
+
+@numba.njit(**_JIT)
+def _signal_rows(n, xs, ws, gs, use_map, grey, coef, key0, shift, last, interval, u, a3):
+    """a3 += Σₕ ws[h] · S(xs[h]) over the sample rows h < n of a sweep (modes 1 and 2; gs[h]:
+    the grey-map row of row h), by :func:`_signal_one`."""
+    node_mask = ~((np.uint64(1) << shift) - np.uint64(1))
+    for h in range(n):
+        _signal_one(xs[h], gs[h], ws[h], use_map, grey, coef, key0, shift, node_mask, last,
+                    interval, u, a3)
+
+
+@numba.njit(**_JIT)
+def _signal_row(x, g, e, used, w, mode, grey, use_map, coef, key0, shift, last, offset, t_min,
                 t_max, entry_table, entry_grey, interval, u, value, factor, a3):
     """a3 += w · S(T) along one row of pieces ``x`` (grey map row ``g``, index map row ``e``),
     with S = L(T) · grey (mode 1), L(T) · (grey · map) (mode 2) or L_e(T) · grey_e (· map)
-    with e from the index map (mode 3); L = T · (((a r + b) r + c) r + d) with the table's
-    coefficients (a row of the flat ``coef``, from the table's ``offset``) of the sample's
-    interval in 1/T. Three loops: locate (vectorised; the division 1/T), the cubics
-    (:func:`_cubic`, eight samples at a time), L and accumulation (vectorised). Returns the
-    status bits of the row's per-sample checks (mode 3: table range and index; modes 1–2
-    check the range from the row's min and max instead; ``used`` > 0 marks the slots a piece
-    reads, the only ones checked). ``interval``, ``u``, ``value``, ``factor``: scratch."""
+    with e from the index map (mode 3); L the cubic of the sample's table (a row of the flat
+    ``coef``, from the table's ``offset``) at its interval and position (:func:`_locate`).
+    Modes 1–2: :func:`_signal_one` (the rows of the sample slots go through
+    :func:`_signal_rows` instead, a sweep at a time); mode 3: three loops, the entry, checks
+    and interval per sample, the cubics (:func:`_cubic`, eight samples at a time), the
+    accumulation. Returns the status bits of the row's per-sample checks (mode 3: table range
+    and index; modes 1–2 check the range from the row's min and max instead; ``used`` > 0
+    marks the slots a piece reads, the only ones checked). ``interval``, ``u``, ``value``,
+    ``factor``: scratch."""
     nq = a3.size
     status = 0
     if mode == 1 or mode == 2:
         j = entry_table[0]
-        s, v, n, o = u0[j], inverse[j], np.float64(last[j]), np.uint64(offset[j])
-        for q in range(nq):
-            i, r = _locate(np.float64(x[q]), s, v, n)
-            interval[q] = i + o
-            u[q] = r
-        _cubic(coef, interval, u, value, nq)
-        for q in range(nq):  # mode 1: g is a row of ones (grey · 1 is grey, exactly)
-            a3[q] += w * ((value[q] * np.float64(x[q])) * (grey * g[q]))
+        s = np.uint64(shift[j])
+        node_mask = ~((np.uint64(1) << s) - np.uint64(1))
+        _signal_one(x, g, w, use_map, grey, coef[np.uint64(offset[j]) * np.uint64(4):],
+                    key0[j], s, node_mask, np.uint64(last[j]), interval, u, a3)
         return status
     else:
         n_entries = entry_table.size
@@ -376,7 +475,7 @@ def _signal_row(x, g, e, used, w, mode, grey, use_map, coef, u0, inverse, last, 
             n_low += checked * np.int64(t < t_min[j])
             n_high += checked * np.int64(t > t_max[j])
             factor[q] = entry_grey[h] * g[q] if use_map else entry_grey[h] * grey
-            i, r = _locate(t, u0[j], inverse[j], np.float64(last[j]))
+            i, r = _locate(t, key0[j], shift[j], np.int64(last[j]))
             interval[q] = i + np.uint64(offset[j])
             u[q] = r
         if n_low:
@@ -387,20 +486,16 @@ def _signal_row(x, g, e, used, w, mode, grey, use_map, coef, u0, inverse, last, 
             status |= 8
         _cubic(coef, interval, u, value, nq)
         for q in range(nq):
-            a3[q] += w * ((value[q] * np.float64(x[q])) * factor[q])
+            a3[q] += w * (value[q] * factor[q])
         return status
 
 
 @numba.njit(**_JIT)
-def _setup_row(reference_row, slot_pixel, with_signal, ce, a1, a2, a3, am, an):
-    """Start a pixel row: ce = the reference c of each slot's pixel, accumulators cleared."""
+def _setup_row(reference_row, slot_pixel, with_signal, ce, a3):
+    """Start a pixel row: ce = the reference c of each slot's pixel, the signal cleared (the
+    row's first sweep writes the other accumulators)."""
     for k in range(ce.size):
         ce[k] = reference_row[slot_pixel[k]]
-    for k in range(ce.size):
-        a1[k] = 0.0
-        a2[k] = 0.0
-        am[k] = -_INF
-        an[k] = _INF
     if with_signal:
         for k in range(ce.size):
             a3[k] = 0.0
@@ -411,9 +506,10 @@ def _commit_row(i, a1, a2, a3, am, an, slot_weight, slot_of_piece, col_bounds, i
                 time_weight, with_signal, t_low, t_high, reference_row, dev, sq, tmax, signal,
                 merge, moments, member_weight, member_count, signal_weight, m_mean, m_m2,
                 m_max, m_signal, s1, s2, s3, sm, status):
-    """Check the row's slots that pieces read (NaN propagates into a1, +inf into am, T ≤ 0 and
-    T below the table show in an), then add the pieces to the row's pixels (pixel row ``i``),
-    unless the row has a status (``status``: bits found so far). Returns the row's status.
+    """Add the pieces to the row's pixels (pixel row ``i``) and check the slots they read (NaN
+    propagates into a1, +inf into am, T ≤ 0 and T below the table show in an), in one pass;
+    commit them unless the row has a status (``status``: bits found so far). Returns the row's
+    status.
     ``identity``: slot q is piece q (the pieces are the samples); s1, s2, s3, sm: per-pixel
     scratch.
 
@@ -424,18 +520,34 @@ def _commit_row(i, a1, a2, a3, am, an, slot_weight, slot_of_piece, col_bounds, i
     δ = m − mean, M2 += w_b v + δ² n_b w_b / n', mean += δ w_b / n', n' = n_b + w_b; the
     maximum), unless ``moments`` is off; signals add signal_weight[b] × Σ w S; and the reference
     row becomes m (the next frame's c)."""
+    n_pixels = col_bounds.size - 1
     n_bad = 0
     n_low = 0
     n_high = 0
-    for k in range(a1.size):
-        w = slot_weight[k]
-        checked = np.int64(w > 0.0)
-        n_bad += checked * (np.int64(an[k] <= 0.0) + np.int64(am[k] == _INF)
-                            + np.int64(a1[k] != a1[k]))
-        n_low += checked * np.int64(an[k] < t_low)
-        n_high += checked * np.int64(am[k] > t_high)
-        a1[k] *= w
-        a2[k] *= w
+    for j in range(n_pixels):  # one pass over the slots the pixels' pieces read
+        v1 = 0.0
+        v2 = 0.0
+        v3 = 0.0
+        m = -_INF
+        n = _INF
+        for q in range(col_bounds[j], col_bounds[j + 1]):
+            k = q if identity else slot_of_piece[q]
+            w = slot_weight[k]
+            v1 += a1[k] * w
+            v2 += a2[k] * w
+            if with_signal:
+                v3 += a3[k] * w
+            a = np.float64(am[k])
+            m = a if a > m else m
+            a = np.float64(an[k])
+            n = a if a < n else n
+        s1[j] = v1
+        s2[j] = v2
+        s3[j] = v3
+        sm[j] = m
+        n_bad += np.int64(n <= 0.0) + np.int64(m == _INF) + np.int64(v1 != v1)
+        n_low += np.int64(n < t_low)
+        n_high += np.int64(m > t_high)
     if n_bad:
         status |= 1
     if n_low:
@@ -444,28 +556,6 @@ def _commit_row(i, a1, a2, a3, am, an, slot_weight, slot_of_piece, col_bounds, i
         status |= 4
     if status:
         return status
-    n_pixels = col_bounds.size - 1
-    for j in range(n_pixels):
-        v1 = 0.0
-        v2 = 0.0
-        m = -_INF
-        for q in range(col_bounds[j], col_bounds[j + 1]):
-            k = q if identity else slot_of_piece[q]
-            v1 += a1[k]
-            v2 += a2[k]
-            a = np.float64(am[k])
-            m = a if a > m else m
-        s1[j] = v1
-        s2[j] = v2
-        sm[j] = m
-    if with_signal:
-        for k in range(a3.size):
-            a3[k] *= slot_weight[k]
-        for j in range(n_pixels):
-            v3 = 0.0
-            for q in range(col_bounds[j], col_bounds[j + 1]):
-                v3 += a3[q if identity else slot_of_piece[q]]
-            s3[j] = v3
     if not merge:
         for j in range(n_pixels):
             dev[j] += time_weight * s1[j]
@@ -513,7 +603,7 @@ def _accumulate_rows(i_start, i_stop, base, row_length, row_source, row_weight, 
                      n_samples, slot_pixel, slot_weight, slot_of_piece, dup_source, col_bounds,
                      identity, time_weight, reference, dev, sq, tmax, signal, merge, moments,
                      member_weight, member_count, signal_weight, m_mean, m_m2, m_max, m_signal,
-                     mode, coef, u0, inverse, last, offset, t_min, t_max, entry_table, entry_grey,
+                     mode, coef, key0, shift, last, offset, t_min, t_max, entry_table, entry_grey,
                      grey,
                      grey_map, index_map, map_length, use_map, rows_w, rows_r, grey_w, grey_r,
                      index_w, index_r, am, an, status):
@@ -532,10 +622,14 @@ def _accumulate_rows(i_start, i_stop, base, row_length, row_source, row_weight, 
     n_dups = dup_source.size
     n_pixels = col_bounds.size - 1
     with_signal = mode != 0
-    a1 = np.empty(n_slots)
-    a2 = np.empty(n_slots)
-    a3 = np.empty(n_slots)
-    ce = np.empty(n_slots)
+    # The slot accumulators in one buffer, their starts 576 bytes apart modulo 4096: loads of
+    # one and stores to another never alias in the address bits the CPU compares first.
+    stride = (n_slots * 8 + 4095) // 4096 * 512 + 72
+    slots = np.empty(4 * stride)
+    a1 = slots[:n_slots]
+    a2 = slots[stride:stride + n_slots]
+    a3 = slots[2 * stride:2 * stride + n_slots]
+    ce = slots[3 * stride:3 * stride + n_slots]
     value = np.empty(_CHUNK)
     factor = np.empty(_CHUNK)
     interval = np.empty(_CHUNK, dtype=np.uint64)
@@ -547,10 +641,16 @@ def _accumulate_rows(i_start, i_stop, base, row_length, row_source, row_weight, 
     table = entry_table[0]
     t_low = t_min[table] if (mode == 1 or mode == 2) else -_INF
     t_high = t_max[table] if (mode == 1 or mode == 2) else _INF
+    # Modes 1 and 2: the one table's rows and grid.
+    table_rows = coef[np.uint64(offset[table]) * np.uint64(4):]
+    table_key0 = key0[table]
+    table_shift = np.uint64(shift[table])
+    table_last = np.uint64(last[table])
     for i in range(i_start, i_stop):
-        _setup_row(reference[i], slot_pixel, with_signal, ce, a1, a2, a3, am, an)
+        _setup_row(reference[i], slot_pixel, with_signal, ce, a3)
         row_status = np.int64(0)  # not a literal: one compilation of _commit_row
         p = row_bounds[i]
+        start = p
         stop = row_bounds[i + 1]
         while p < stop:
             n = min(_MAX_ROWS, stop - p)
@@ -595,8 +695,28 @@ def _accumulate_rows(i_start, i_stop, base, row_length, row_source, row_weight, 
                               rows_r[min(6, n - 1)][r:], rows_r[min(7, n - 1)][r:],
                               rows_r[min(8, n - 1)][r:], rows_r[min(9, n - 1)][r:],
                               rows_r[min(10, n - 1)][r:], rows_r[min(11, n - 1)][r:])
-                    _lin(n, xs, ws, ce[lo:hi], a1[lo:hi], a2[lo:hi], am[lo:hi], an[lo:hi])
-                    if with_signal:
+                    _lin(n, p == start, xs, ws, ce[lo:hi], a1[lo:hi], a2[lo:hi],
+                         am[lo:hi], an[lo:hi])
+                    if with_signal and part == 0 and mode != 3:
+                        m = (row_source[p] * map_length + lo,
+                             row_source[p + min(1, n - 1)] * map_length + lo,
+                             row_source[p + min(2, n - 1)] * map_length + lo,
+                             row_source[p + min(3, n - 1)] * map_length + lo,
+                             row_source[p + min(4, n - 1)] * map_length + lo,
+                             row_source[p + min(5, n - 1)] * map_length + lo,
+                             row_source[p + min(6, n - 1)] * map_length + lo,
+                             row_source[p + min(7, n - 1)] * map_length + lo,
+                             row_source[p + min(8, n - 1)] * map_length + lo,
+                             row_source[p + min(9, n - 1)] * map_length + lo,
+                             row_source[p + min(10, n - 1)] * map_length + lo,
+                             row_source[p + min(11, n - 1)] * map_length + lo)
+                        gs = (grey_map[m[0]:], grey_map[m[1]:], grey_map[m[2]:],
+                              grey_map[m[3]:], grey_map[m[4]:], grey_map[m[5]:],
+                              grey_map[m[6]:], grey_map[m[7]:], grey_map[m[8]:],
+                              grey_map[m[9]:], grey_map[m[10]:], grey_map[m[11]:])
+                        _signal_rows(n, xs, ws, gs, use_map, grey, table_rows, table_key0,
+                                     table_shift, table_last, interval, u, a3[lo:hi])
+                    elif with_signal:
                         for h in range(n):
                             m_off = row_source[p + h] * map_length
                             if part == 0:
@@ -613,7 +733,7 @@ def _accumulate_rows(i_start, i_stop, base, row_length, row_source, row_weight, 
                                 e = index_r
                             row_status |= _signal_row(
                                 xs[h], g, e, slot_weight[lo:hi], ws[h], mode, grey, use_map,
-                                coef, u0, inverse, last, offset, t_min, t_max, entry_table,
+                                coef, key0, shift, last, offset, t_min, t_max, entry_table,
                                 entry_grey, interval, u, value, factor, a3[lo:hi])
             p += n
         signal_row = signal[i] if with_signal else signal[0]
@@ -629,7 +749,7 @@ def _accumulate_kernel(n_blocks, base, row_length, row_source, row_weight, row_b
                        n_samples, slot_pixel, slot_weight, slot_of_piece, dup_source,
                        col_bounds, identity, time_weight, reference, dev, sq, tmax, signal,
                        merge, moments, member_weight, member_count, signal_weight, m_mean, m_m2,
-                       m_max, m_signal, mode, coef, u0, inverse, last, offset, t_min, t_max,
+                       m_max, m_signal, mode, coef, key0, shift, last, offset, t_min, t_max,
                        entry_table, entry_grey, grey, grey_map, index_map, map_length, use_map,
                        rows_w, rows_r, grey_w, grey_r, index_w, index_r, am, an, status):
     """The frame's pixel rows in ``n_blocks`` contiguous blocks, one per thread (block b uses
@@ -641,7 +761,7 @@ def _accumulate_kernel(n_blocks, base, row_length, row_source, row_weight, row_b
                          slot_weight, slot_of_piece, dup_source, col_bounds, identity,
                          time_weight, reference, dev, sq, tmax, signal, merge, moments,
                          member_weight, member_count, signal_weight, m_mean, m_m2, m_max,
-                         m_signal, mode, coef, u0, inverse, last, offset, t_min, t_max,
+                         m_signal, mode, coef, key0, shift, last, offset, t_min, t_max,
                          entry_table,
                          entry_grey, grey, grey_map, index_map, map_length, use_map, rows_w[b],
                          rows_r[b], grey_w[b], grey_r[b], index_w[b], index_r[b], am[b], an[b],
@@ -850,10 +970,10 @@ class RadianceKernelTable:
     Examples
     --------
     >>> from radiosim.radiometry import BandRadianceTable
-    >>> table = BandRadianceTable(temperature_range=(200.0, 1500.0), intervals=300)
+    >>> table = BandRadianceTable(temperature_range=(200.0, 1500.0), per_octave=64)
     >>> packed = RadianceKernelTable(table, exact={"band": table.band}, grey=0.9)
     >>> packed.n_entries, table.intervals, packed.coefficients.shape
-    (1, 324, (1296,))
+    (1, 210, (840,))
     """
 
     def __init__(self, tables, exact=None, grey=1.0, index=None, entry_grey=None):
@@ -887,11 +1007,11 @@ class RadianceKernelTable:
             raise RadiosimError(f"exact must be one specification or {n}, got {len(exact)}")
         self.exact = exact
         # The tables' coefficient rows one after the other (table j's from row offset[j]), as
-        # one flat array for the kernels: (a, b, c, d) of each interval in 1/T.
+        # one flat array for the kernels: (a, b, c, d) of each interval, in T − T_k.
         self.offset = np.cumsum([0] + [t.intervals for t in unique[:-1]]).astype(np.uint64)
         self.coefficients = np.concatenate([t.coefficients for t in unique]).reshape(-1)
-        self.u0 = np.array([t.inverse_temperatures[0] for t in unique])
-        self.inverse = np.array([1.0 / t.step for t in unique])
+        self.key0 = np.array([t.key0 for t in unique], dtype=np.int64)
+        self.shift = np.array([t.shift for t in unique], dtype=np.uint64)
         self.last = np.array([t.intervals - 1 for t in unique], dtype=np.intp)
         self.t_min = np.array([t.temperature_range[0] for t in unique])
         self.t_max = np.array([t.temperature_range[1] for t in unique])
@@ -900,7 +1020,7 @@ class RadianceKernelTable:
     @classmethod
     def build(cls, band=(3.8e-6, 5.1e-6), quantity: str = "photon", responsivity=None,
               emissivity=(1.0,), temperature_range=(150.0, 3000.0),
-              intervals: int | None = None, grey=1.0, index=None) -> "RadianceKernelTable":
+              per_octave: int | None = None, grey=1.0, index=None) -> "RadianceKernelTable":
         """
         Tables and exact radiances for a band and responsivity, one entry per emissivity
         (scalar: the blackbody table with that grey factor; spectral: its own table).
@@ -913,13 +1033,13 @@ class RadianceKernelTable:
             if np.isscalar(value):
                 if blackbody is None:
                     blackbody = BandRadianceTable(band, quantity, responsivity, 1.0,
-                                                  temperature_range, intervals)
+                                                  temperature_range, per_octave)
                 tables.append(blackbody)
                 exact.append(dict(band=band, quantity=quantity, responsivity=responsivity))
                 entry_grey.append(float(value))
             else:
                 tables.append(BandRadianceTable(band, quantity, responsivity, value,
-                                                temperature_range, intervals))
+                                                temperature_range, per_octave))
                 exact.append(dict(band=band, quantity=quantity, responsivity=responsivity,
                                   emissivity=value))
                 entry_grey.append(1.0)
@@ -1162,9 +1282,10 @@ def accumulate_reference(frame, rows, cols, time_weight: float, reference: np.nd
 _DUMMY_MAP = _read_only(np.zeros(1))
 _DUMMY_INDEX = _read_only(np.zeros(1, dtype=np.uint8))
 _DUMMY_SIGNAL = np.zeros((1, 1))
-# Table arguments of the kernel without a response (flat coefficients, u₀, 1/Δu, last interval,
+# Table arguments of the kernel without a response (flat coefficients, k₀, shift, last interval,
 # row offset, T_min, T_max, entry tables, entry grey factors).
-_NO_TABLE = (np.zeros(4), np.zeros(1), np.ones(1), np.zeros(1, dtype=np.intp),
+_NO_TABLE = (np.zeros(4), np.zeros(1, dtype=np.int64), np.zeros(1, dtype=np.uint64),
+             np.zeros(1, dtype=np.intp),
              np.zeros(1, dtype=np.uint64), np.zeros(1), np.full(1, np.inf),
              np.zeros(1, dtype=np.intp), np.ones(1))
 
@@ -1397,7 +1518,7 @@ def _launch(frame2d, rows: _Axis, cols: _Axis, time_weight, reference, dev, sq, 
     if response is None:
         mode, signal, table = _SIGNAL_NONE, _DUMMY_SIGNAL, None
         grey_map, index_map, map_length, use_map, grey = _DUMMY_MAP, _DUMMY_INDEX, 0, False, 1.0
-        coef, u0, inverse, last, offset, t_min, t_max, entry_table, entry_grey = _NO_TABLE
+        coef, key0, shift, last, offset, t_min, t_max, entry_table, entry_grey = _NO_TABLE
     else:
         if not isinstance(response, RadianceKernelTable):
             raise RadiosimError(f"response must be a RadianceKernelTable or None, got "
@@ -1421,8 +1542,8 @@ def _launch(frame2d, rows: _Axis, cols: _Axis, time_weight, reference, dev, sq, 
             index_map, map_length = _rows_of(response.index, "index map")
         else:
             index_map = _DUMMY_INDEX
-        coef, u0, inverse, last, offset = (response.coefficients, response.u0,
-                                           response.inverse, response.last, response.offset)
+        coef, key0, shift, last, offset = (response.coefficients, response.key0,
+                                           response.shift, response.last, response.offset)
         t_min, t_max = response.t_min, response.t_max
         entry_table, entry_grey = response.entry_table, response.entry_grey
     status = np.zeros(rows.n_pixels, dtype=np.int64)
@@ -1440,7 +1561,7 @@ def _launch(frame2d, rows: _Axis, cols: _Axis, time_weight, reference, dev, sq, 
                 slot_pixel, slot_weight, slot_of_piece, dup_source, col_bounds, cols.identity,
                 time_weight, reference, dev, sq, tmax, signal,
                 *(merged if merged is not None else _NO_MEMBERS), mode, coef,
-                u0, inverse, last, offset, t_min, t_max, entry_table, entry_grey, float(grey),
+                key0, shift, last, offset, t_min, t_max, entry_table, entry_grey, float(grey),
                 grey_map,
                 index_map, map_length, use_map, *buffers, status)
     finally:

@@ -39,7 +39,7 @@ __all__ = ["Response", "LinearResponse", "PlanckResponse", "RESPONSES",
 
 #: Temperatures the Planck response tabulates [K]: colder samples are integrated exactly,
 #: hotter ones are refused. Its relative error against quadrature stays below 1e-7 over the
-#: range (measured: 6e-10 for the nist-ir band; see BandRadianceTable).
+#: range (measured: 3e-10 for the nist-ir band; see BandRadianceTable).
 PLANCK_TABLE_RANGE = (130.0, 4000.0)
 #: Tables a response keeps per emissivity (Monte Carlo draws of a grey emissivity each pack
 #: one): the oldest goes first.
@@ -238,7 +238,7 @@ class PlanckResponse(Response):
         if key not in self._tables and len(self._tables) >= _CACHED_TABLES:
             self._tables.pop(next(k for k in self._tables if k != id(None)))  # bounded
         if key not in self._tables:
-            # u·L, cubic in u = 1/T (BandRadianceTable); its grid runs a few intervals past
+            # L, cubic in T (BandRadianceTable); its grid runs a few intervals past
             # the range, clear of the spline's end effects, and it answers (and the kernels
             # read it) over the range only.
             table = BandRadianceTable(self.band, "photon", self.responsivity,

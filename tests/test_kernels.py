@@ -28,7 +28,7 @@ SCENE = (70, 90)  # scene samples (rows, columns)
 T_SCALE = 1500.0  # [K], the scale of the temperatures below
 WEIGHTS = (0.15, 0.35, 0.3, 0.2)  # a window with fractional first and last frames
 RANGE = (200.0, 3000.0)  # radiance table range [K]
-INTERVALS = 200  # a coarse table: fast to build, evaluated exactly all the same
+PER_OCTAVE = 32  # a coarse table: fast to build, evaluated exactly all the same
 
 # (pitch [samples], fill factor, origin [samples]): integer and fractional footprints.
 FOOTPRINTS = {
@@ -62,7 +62,7 @@ def tables():
     """Radiance tables: the blackbody one, and one of a spectral emissivity."""
     curve = spectral_distribution([3e-6, 4.5e-6, 6e-6], [0.3, 0.8, 0.5], "test curve")
     return RadianceKernelTable.build(emissivity=[1.0, 0.6, curve], temperature_range=RANGE,
-                                     intervals=INTERVALS)
+                                     per_octave=PER_OCTAVE)
 
 
 def responses(tables, shape, seed=1):
@@ -312,13 +312,14 @@ def test_bad_table_index_raises(tables):
 
 def test_table_packing(tables):
     assert tables.n_entries == 3
-    # The blackbody table is packed once: two tables of 200 + 2 × 12 (margin) intervals.
-    assert [t.intervals for t in tables.tables] == [224, 224, 224]
-    assert tables.coefficients.shape == (2 * 224 * 4,)
-    assert tables.offset.tolist() == [0, 224]
+    # The blackbody table is packed once: two tables of 32 intervals per octave over
+    # 200–3000 K (125 intervals: 192–3072 K) plus 2 × 12 (margin) intervals.
+    assert [t.intervals for t in tables.tables] == [149, 149, 149]
+    assert tables.coefficients.shape == (2 * 149 * 4,)
+    assert tables.offset.tolist() == [0, 149]
     assert tables.entry_table.tolist() == [0, 0, 1]
     assert tables.entry_grey.tolist() == [1.0, 0.6, 1.0]
-    table = BandRadianceTable(temperature_range=RANGE, intervals=INTERVALS)
+    table = BandRadianceTable(temperature_range=RANGE, per_octave=PER_OCTAVE)
     rows, cols = footprints(9.0, 1.0, 0.0)
     frames = scene_frames(np.float64)
     with pytest.raises(RadiosimError, match="2 radiance table entries need an index map"):

@@ -10,6 +10,7 @@ from scipy.integrate import quad
 from radiosim.errors import RadiosimError
 from radiosim.radiometry import (
     PLANCK_C2,
+    TABLE_C_DU,
     BandRadianceTable,
     band_radiance,
     blackbody_fraction,
@@ -164,8 +165,9 @@ def test_blackbody_fractions_match_the_published_table():
 
 
 def test_nist_ir_table_over_130_4000K_against_quadrature_and_its_own_inverse():
-    # The Planck response's table: u·L cubic in u = 1/T, c·Δu ≤ 0.03 (TABLE_C_DU), error of
-    # order (c Δu)⁴/384 ≈ 2e-9; measured 6e-10. Asserted: 1e-8 (the documented bound is 1e-6).
+    # The Planck response's table: L cubic in T, 2048 intervals per octave for T_min = 100 K
+    # (c ΔT/T² ≤ 0.03 there, TABLE_C_DU), error of order 5/384 (c ΔT/T²)⁴ ≈ 1e-8 at the cold
+    # end; measured 2e-11. Asserted: 1e-8 (the documented bound is 1e-6).
     band = (3.75e-6, 5.15e-6)
     curves = [read_spectrum(n) for n in CAMERA_CURVES]
     table = BandRadianceTable(band, responsivity=curves, temperature_range=(100.0, 4000.0))
@@ -182,12 +184,25 @@ def test_nist_ir_table_over_130_4000K_against_quadrature_and_its_own_inverse():
                                   table.evaluate_reference(t32.astype(np.float64)))
 
 
-def test_table_intervals_and_grid():
-    table = BandRadianceTable(temperature_range=(200.0, 1500.0), intervals=100)
-    # 100 intervals over the range plus 12 past each end, uniform in 1/T.
-    assert table.intervals == 124 and table.coefficients.shape == (124, 4)
-    u = table.inverse_temperatures
-    assert u[12] == 1 / 1500.0 and u[-13] == 1 / 200.0
-    np.testing.assert_allclose(np.diff(u), table.step, rtol=1e-9)
-    with pytest.raises(RadiosimError, match="intervals"):
-        BandRadianceTable(intervals=2)
+def test_table_grid_is_the_floats_with_their_top_mantissa_bits():
+    table = BandRadianceTable(temperature_range=(200.0, 1500.0), per_octave=64)
+    # 64 intervals per octave: 128–256 K by 2 K, 256–512 K by 4 K, …, 1024–2048 K by 16 K;
+    # the range's intervals 200–202 … 1488–1504 K plus 12 past each end.
+    t = table.temperatures
+    assert (t[12], t[-13]) == (200.0, 1504.0) and (t[0], t[-1]) == (176.0, 1696.0)
+    step = np.diff(t)
+    octave = 2.0 ** np.floor(np.log2(t[:-1]))
+    np.testing.assert_array_equal(step, octave / 64)
+    assert table.intervals == t.size - 1 and table.coefficients.shape == (table.intervals, 4)
+    # The interval of T is read off its bits; its node is T with the other bits cleared.
+    samples = np.array([200.0, 201.999, 1000.5, 1503.9])
+    index, d = table._locate(samples)
+    np.testing.assert_array_equal(t[index], [200.0, 200.0, 1000.0, 1488.0])
+    np.testing.assert_array_equal(d, samples - t[index])
+    # The default: the fewest intervals per octave with c₂ 2⁻ᵐ/(λ₁ T_min) ≤ 0.03.
+    c = PLANCK_C2 / 3.8e-6
+    assert BandRadianceTable(temperature_range=(150.0, 3000.0)).per_octave == 1024
+    assert c / 150.0 / 1024 <= TABLE_C_DU < c / 150.0 / 512
+    for bad in (2, 100, 3.5, True):
+        with pytest.raises(RadiosimError, match="per_octave must be a power of two"):
+            BandRadianceTable(per_octave=bad)

@@ -2,11 +2,12 @@
 
 References: :func:`radiosim.radiometry.band_radiance` (direct Gauss–Legendre quadrature, exact to
 rounding for the piecewise-linear curves) for every radiance, and finite differences of it for the
-slope. The Planck response evaluates through a table of u·L, cubic in u = 1/T on a grid uniform in
-u (c·Δu ≤ 0.03, c = c₂/λ₁), whose relative accuracy is about 1e-9 (the tests assert the
-documented 1e-7, ``PLANCK_TABLE_RANGE``): that is the tolerance of every comparison that goes
-through the table. Temperatures are chosen off round values (the table's nodes are not round
-in T, but a node would make the comparison prove nothing).
+slope. The Planck response evaluates through a table of L, cubic in T on a grid of 1024
+intervals per octave (c·ΔT/T² ≤ 0.03 at its coldest node, c = c₂/λ₁), whose relative accuracy
+is about 1e-9 (the tests assert the documented 1e-7, ``PLANCK_TABLE_RANGE``): that is the
+tolerance of every comparison that goes through the table. Temperatures are chosen off the
+table's nodes (multiples of 2⁻¹⁰ of their octave, e.g. 300.0 K: a node would make the
+comparison prove nothing).
 """
 
 import numpy as np
