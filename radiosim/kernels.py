@@ -528,26 +528,29 @@ def _commit_row(i, a1, a2, a3, am, an, slot_weight, slot_of_piece, col_bounds, i
         v1 = 0.0
         v2 = 0.0
         v3 = 0.0
-        m = -_INF
-        n = _INF
-        for q in range(col_bounds[j], col_bounds[j + 1]):
+        first = col_bounds[j]
+        k = first if identity else slot_of_piece[first]
+        m = am[k]  # extremes in the frame's dtype (exact), widened once
+        n = an[k]
+        for q in range(first, col_bounds[j + 1]):
             k = q if identity else slot_of_piece[q]
             w = slot_weight[k]
             v1 += a1[k] * w
             v2 += a2[k] * w
             if with_signal:
                 v3 += a3[k] * w
-            a = np.float64(am[k])
+            a = am[k]
             m = a if a > m else m
-            a = np.float64(an[k])
+            a = an[k]
             n = a if a < n else n
         s1[j] = v1
         s2[j] = v2
         s3[j] = v3
-        sm[j] = m
-        n_bad += np.int64(n <= 0.0) + np.int64(m == _INF) + np.int64(v1 != v1)
-        n_low += np.int64(n < t_low)
-        n_high += np.int64(m > t_high)
+        sm[j] = np.float64(m)
+        n_bad += (np.int64(n <= 0.0) + np.int64(np.float64(m) == _INF)
+                  + np.int64(v1 != v1))
+        n_low += np.int64(np.float64(n) < t_low)
+        n_high += np.int64(np.float64(m) > t_high)
     if n_bad:
         status |= 1
     if n_low:

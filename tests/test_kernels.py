@@ -1,6 +1,10 @@
 """The compiled streaming kernels against their numpy references (and those against the
 integrator's arithmetic, the radiance table and the exact quadrature)."""
 
+import os
+import subprocess
+import sys
+
 import numpy as np
 import pytest
 
@@ -334,6 +338,23 @@ def test_table_packing(tables):
 def test_importing_compiles_nothing():
     # Counted when this module was imported (collection), before any test ran.
     assert COMPILED_AT_IMPORT == 0
+
+
+@pytest.mark.parametrize("environment, expected", [
+    ({}, ("3000", None)),
+    ({"OMP_WAIT_POLICY": "PASSIVE"}, (None, "PASSIVE")),
+    ({"GOMP_SPINCOUNT": "10"}, ("10", None)),
+])
+def test_openmp_threads_spin_briefly_between_frames(environment, expected):
+    # Importing radiosim bounds OpenMP's spin-wait between parallel regions (a frame's gap),
+    # unless the user chose a policy: (GOMP_SPINCOUNT, OMP_WAIT_POLICY) seen by the kernels.
+    env = {k: v for k, v in os.environ.items()
+           if k not in ("OMP_WAIT_POLICY", "GOMP_SPINCOUNT")}
+    out = subprocess.run(
+        [sys.executable, "-c", "import os, radiosim; print(os.environ.get('GOMP_SPINCOUNT'), "
+         "os.environ.get('OMP_WAIT_POLICY'))"],
+        env={**env, **environment}, capture_output=True, text=True, check=True)
+    assert tuple(None if v == "None" else v for v in out.stdout.split()) == expected
 
 
 def test_cubic_rows_match_numpy_bit_for_bit():
