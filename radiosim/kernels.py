@@ -841,6 +841,10 @@ class _Axis:
         if source.ndim != 1 or source.size == 0 or weight.shape != source.shape:
             raise RadiosimError(f"{name} footprints must have one weight per piece and at least "
                                 f"one piece, got {source.size} pieces and {weight.size} weights")
+        if not np.all((weight > 0) & np.isfinite(weight)):
+            bad = weight[~((weight > 0) & np.isfinite(weight))][0]
+            raise RadiosimError(f"{name} footprints: every piece's weight must be a finite "
+                                f"number > 0 (a piece reads its sample), got {bad!r}")
         if starts.ndim != 1 or starts.size == 0 or starts[0] != 0 or np.any(
                 np.diff(starts) <= 0) or starts[-1] >= source.size:
             raise RadiosimError(f"{name} footprints: starts must begin at 0 and increase "
@@ -1010,7 +1014,8 @@ class RadianceKernelTable:
             raise RadiosimError(f"exact must be one specification or {n}, got {len(exact)}")
         self.exact = exact
         # The tables' coefficient rows one after the other (table j's from row offset[j]), as
-        # one flat array for the kernels: (a, b, c, d) of each interval, in T − T_k.
+        # one flat array for the kernels: the cubic's coefficients of each interval, highest
+        # power of T − T_k first.
         self.offset = np.cumsum([0] + [t.intervals for t in unique[:-1]]).astype(np.uint64)
         self.coefficients = np.concatenate([t.coefficients for t in unique]).reshape(-1)
         self.key0 = np.array([t.key0 for t in unique], dtype=np.int64)

@@ -10,7 +10,7 @@ import pytest
 
 from radiosim import kernels
 from radiosim.errors import RadiosimError
-from radiosim.integrator import axis_footprints
+from radiosim.integrator import AxisFootprints, axis_footprints
 from radiosim.kernels import (
     STATUS_BELOW_TABLE,
     STATUS_OK,
@@ -25,8 +25,8 @@ from radiosim.spectral import spectral_distribution
 
 COMPILED_AT_IMPORT = sum(len(f.signatures) for f in (
     kernels._accumulate_kernel, kernels._accumulate_rows, kernels._lin, *kernels._LIN_SWEEPS,
-    kernels._signal_row, kernels._cubic, kernels._commit_row, kernels._setup_row,
-    kernels._exp))
+    kernels._signal_row, kernels._signal_rows, kernels._signal_one, kernels._cubic,
+    kernels._cubic1, kernels._locate, kernels._commit_row, kernels._setup_row, kernels._exp))
 
 SCENE = (70, 90)  # scene samples (rows, columns)
 T_SCALE = 1500.0  # [K], the scale of the temperatures below
@@ -316,8 +316,8 @@ def test_bad_table_index_raises(tables):
 
 def test_table_packing(tables):
     assert tables.n_entries == 3
-    # The blackbody table is packed once: two tables of 32 intervals per octave over
-    # 200–3000 K (125 intervals: 192–3072 K) plus 2 × 12 (margin) intervals.
+    # The blackbody table is packed once: two tables of 32 intervals per octave, over
+    # 200–3000 K 125 intervals (200–3008 K), plus 12 past each end (grid 152–3776 K).
     assert [t.intervals for t in tables.tables] == [149, 149, 149]
     assert tables.coefficients.shape == (2 * 149 * 4,)
     assert tables.offset.tolist() == [0, 149]
@@ -333,6 +333,18 @@ def test_table_packing(tables):
     frames[:, 0, 0] = 150.0
     with pytest.raises(RadiosimError, match="no exact radiance"):
         integrate(frames, rows, cols, packed, pixel_mean, accumulate)
+
+
+@pytest.mark.parametrize("weight", [0.0, -0.1, np.nan])
+def test_pieces_of_no_weight_are_refused(weight):
+    # A piece reads its sample: one of weight 0 would read it unchecked (NaN, out of table).
+    rows, cols = footprints(9.0, 1.0, 0.0)
+    weights = cols.weight.copy()
+    weights[4] = weight
+    broken = AxisFootprints(cols.source, weights, cols.starts)
+    frames = scene_frames(np.float64)
+    with pytest.raises(RadiosimError, match="every piece's weight must be a finite number > 0"):
+        integrate(frames, rows, broken, None, pixel_mean, accumulate)
 
 
 def test_importing_compiles_nothing():

@@ -203,6 +203,11 @@ def test_table_grid_is_the_floats_with_their_top_mantissa_bits():
     c = PLANCK_C2 / 3.8e-6
     assert BandRadianceTable(temperature_range=(150.0, 3000.0)).per_octave == 1024
     assert c / 150.0 / 1024 <= TABLE_C_DU < c / 150.0 / 512
-    for bad in (2, 100, 3.5, True):
+    for bad in (2, 100, 3.5, True, np.nan, np.inf, 2**21, "64"):
         with pytest.raises(RadiosimError, match="per_octave must be a power of two"):
             BandRadianceTable(per_octave=bad)
+    with pytest.raises(RadiosimError, match="would hold 20874393 intervals"):
+        BandRadianceTable(temperature_range=(1.0, 1e6), per_octave=2**20)
+    # A coarse table's cold margin stays within an octave (the band keeps radiance there).
+    coarse = BandRadianceTable(temperature_range=(25.0, 300.0), per_octave=4)
+    assert coarse.temperatures[0] == 12.0
