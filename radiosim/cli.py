@@ -219,6 +219,15 @@ def _check_out_file(args, suffix: str, what: str):
         raise RadiosimError(f"--out {args.out} exists; choose a new name or pass --overwrite")
 
 
+def _add_dask_options(parser, what: str):
+    """The ``--scheduler`` and ``--workers`` options of a command that can run on Dask."""
+    parser.add_argument("--scheduler", default=os.environ.get("RADIOSIM_SCHEDULER"),
+                        help=f"run {what} as Dask tasks: synchronous, threads or "
+                        "tcp://HOST:PORT (default $RADIOSIM_SCHEDULER; none: in this process)")
+    parser.add_argument("--workers", type=int, default=None,
+                        help=f"run {what} on a local Dask cluster of N worker processes")
+
+
 def _add_out_file(parser, what: str):
     """The ``--out FILE`` and ``--overwrite`` options of a command that writes one file."""
     parser.add_argument("--out", help=f"write {what} to this file (a new one)")
@@ -550,12 +559,7 @@ def build_parser() -> argparse.ArgumentParser:
                      help="netcdf: also write results.nc, the results as one xarray dataset "
                      "with the sweep parameters as dimensions (default: CSV and EXR only)")
     run.add_argument("-q", "--quiet", action="store_true", help="no progress bar")
-    run.add_argument("--scheduler", default=os.environ.get("RADIOSIM_SCHEDULER"),
-                     help="run every measurement as a Dask task: synchronous, threads or "
-                     "tcp://HOST:PORT (default $RADIOSIM_SCHEDULER; none: one pass in this "
-                     "process)")
-    run.add_argument("--workers", type=int, default=None,
-                     help="run on a local Dask cluster of N worker processes")
+    _add_dask_options(run, "the measurements")
     run.set_defaults(func=_run)
     measure = sub.add_parser("measure", help="measure one scene file with one camera",
                              description="Measure a scene file (.npy, .npz, a folder or glob "
@@ -591,11 +595,7 @@ def build_parser() -> argparse.ArgumentParser:
                      help="Monte Carlo draws (default: the study's, else adaptive)")
     unc.add_argument("--seed", type=parse_seed, default=None,
                      help="seed ≥ 0 (default: the study's)")
-    unc.add_argument("--scheduler", default=None,
-                     help="Dask scheduler: synchronous, threads or tcp://HOST:PORT (default: "
-                     "$RADIOSIM_SCHEDULER, else in this process)")
-    unc.add_argument("--workers", type=int, default=None,
-                     help="start a local cluster of N worker processes")
+    _add_dask_options(unc, "the draws")
     unc.add_argument("--out", help="output folder, new or empty (default "
                      "radiosim-STUDY-uncertainty)")
     unc.add_argument("--overwrite", action="store_true",

@@ -61,6 +61,24 @@ _SUFFIX = re.compile(r"^(?P<name>time|x|y|temperature)(?:\s*[_ ]\s*|\s*)"
                      re.IGNORECASE)
 
 
+def _grid(xy: np.ndarray, bounds, dx: float, where: str, hint: str):
+    """The sample grid over ``bounds`` (x0, x1, y0, y1) [m], default the nodes' extent ``xy``:
+    origin (x of column 0's left edge, y of row 0's top edge) [m] and shape (rows, columns).
+    A grid of no sample, or of more than MAX_GRID_SAMPLES (a unit slip), raises."""
+    if bounds is None:
+        bounds = (xy[:, 0].min(), xy[:, 0].max(), xy[:, 1].min(), xy[:, 1].max())
+    x0, x1, y0, y1 = (float(b) for b in bounds)
+    shape = (int(math.floor((y1 - y0) / dx + 1e-9)), int(math.floor((x1 - x0) / dx + 1e-9)))
+    if min(shape) < 1:
+        raise RadiosimError(f"{where}: the grid {bounds} holds no {dx:g} m sample")
+    if shape[0] * shape[1] > MAX_GRID_SAMPLES:
+        raise RadiosimError(
+            f"{where}: the nodes span {x1 - x0:.3g} × {y1 - y0:.3g} m, which at dx = {dx:g} m is "
+            f"a grid of {shape[0]} × {shape[1]} samples; is the length unit right"
+            + (f" ({hint})" if hint else "?"))
+    return (x0, y1), shape
+
+
 def _header(path, number, line, columns):
     """Indices of (time, x, y, temperature) in a header row, and the units its names state
     (``time_us``, ``x [um]``, ``temperature_C``); ``columns`` maps a column to its name."""
@@ -250,23 +268,13 @@ def read_fea_nodes(path, dx, dt=None, units=None, fill=293.15, bounds=None, max_
                                 f"{step.mean():g} s")
     elif dt is None:
         raise RadiosimError(f"{path}: a single step; pass dt [s]")
-    if bounds is None:
-        bounds = (xy[:, 0].min(), xy[:, 0].max(), xy[:, 1].min(), xy[:, 1].max())
-    x0, x1, y0, y1 = (float(b) for b in bounds)
-    shape = (int(math.floor((y1 - y0) / dx + 1e-9)), int(math.floor((x1 - x0) / dx + 1e-9)))
-    if min(shape) < 1:
-        raise RadiosimError(f"{path}: the grid {bounds} holds no {dx:g} m sample")
-    if shape[0] * shape[1] > MAX_GRID_SAMPLES:
-        raise RadiosimError(
-            f"{path}: the nodes span {x1 - x0:.3g} × {y1 - y0:.3g} m, which at dx = {dx:g} m is "
-            f"a grid of {shape[0]} × {shape[1]} samples; is the length unit right (µm data "
-            f"read as {units['length']}?)")
+    origin, shape = _grid(xy, bounds, dx, str(path), f"µm data read as {units['length']}?")
     if max_edge is None:
         tri = triangulate(steps[0][0], f"{path}: step 0 (t = {times[0]:g} s)")
         corners = steps[0][0][tri.simplices]
         max_edge = 4 * float(np.median(np.linalg.norm(corners - np.roll(corners, 1, axis=1),
                                                       axis=2)))
-    scene = FeaNodes(steps, times, dx, (x0, y1), shape, float(fill), float(max_edge),
+    scene = FeaNodes(steps, times, dx, origin, shape, float(fill), float(max_edge),
                      emissivity, str(path))
     if dt is not None:
         scene.dt = check_positive(dt, "dt", "s")
@@ -451,15 +459,5 @@ def read_fea_mesh(source, dx, times=None, field: str = "temperature", units=None
         dt = float(step.mean())
     else:
         raise RadiosimError(f"{where}: a single step; a scene needs at least two")
-    if bounds is None:
-        allxy = np.concatenate([s[0] for s in steps])
-        bounds = (allxy[:, 0].min(), allxy[:, 0].max(), allxy[:, 1].min(), allxy[:, 1].max())
-    x0, x1, y0, y1 = (float(b) for b in bounds)
-    shape = (int(math.floor((y1 - y0) / dx + 1e-9)), int(math.floor((x1 - x0) / dx + 1e-9)))
-    if min(shape) < 1:
-        raise RadiosimError(f"{where}: the grid {bounds} holds no {dx:g} m sample")
-    if shape[0] * shape[1] > MAX_GRID_SAMPLES:
-        raise RadiosimError(f"{where}: the mesh spans {x1 - x0:.3g} × {y1 - y0:.3g} m, a grid "
-                            f"of {shape[0]} × {shape[1]} samples at dx = {dx:g} m; is the "
-                            f"length unit right?")
-    return FeaMesh(steps, step_times, dt, dx, (x0, y1), shape, float(fill), emissivity, where)
+    origin, shape = _grid(np.concatenate([s[0] for s in steps]), bounds, dx, where, "")
+    return FeaMesh(steps, step_times, dt, dx, origin, shape, float(fill), emissivity, where)
