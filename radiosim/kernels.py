@@ -374,15 +374,15 @@ def _cubic(coef, interval, position, out, n):
 
 
 @numba.njit(**_JIT)
-def _locate(t, key0, shift, last):
-    """Interval index k and d = T − T_k [K], as :meth:`BandRadianceTable.evaluate_reference`:
-    k = clip((bits(T) >> s) − k₀, 0, last), T_k = the bits of k + k₀ shifted back. Any T
-    (NaN, ≤ 0, out of the table: flagged by the checks) gives a valid interval."""
-    k = np.int64(np.uint64(np.float64(t).view(np.uint64)) >> shift) - key0
-    k = k if k > 0 else np.int64(0)
-    k = k if k < last else last
-    node = np.int64((k + key0) << shift).view(np.float64)
-    return np.uint64(k), t - node
+def _locate(t, key0, shift, node_mask, last):
+    """Interval index k and d = T − T_k [K] of a sample T [K] (float64): k = (bits(T) >> shift)
+    − key0, clamped to ``last`` unsigned (a sample below the table, ≤ 0 or NaN wraps round and
+    reads the last row: the checks flag it), and d = T − (bits(T) & node_mask). Inside the
+    table's range this is :meth:`BandRadianceTable.evaluate_reference`'s interval and position,
+    exactly. ``shift``, ``node_mask``, ``last``: uint64."""
+    bits = np.float64(t).view(np.uint64)
+    k = (bits >> shift) - np.uint64(key0)
+    return (k if k < last else last), t - np.uint64(bits & node_mask).view(np.float64)
 
 
 @numba.njit(**_JIT)
@@ -396,20 +396,13 @@ def _cubic1(coef, i, r):
 def _signal_one(x, g, w, use_map, grey, coef, key0, shift, node_mask, last, interval, u, a3):
     """a3 += w · S(x) along one row of samples (modes 1 and 2: S = L(T) · grey, or
     L(T) · (grey · g) with ``g`` the grey-map row). Two loops: the intervals and positions
-    (vectorised: k = (bits(T) >> shift) − key0, clamped to ``last`` unsigned, so that a sample
-    below the table, ≤ 0 or NaN reads the last row and is flagged by the checks; d = T −
-    (bits(T) & node_mask) = T − T_k inside the table), into the scratch ``interval`` and ``u``;
+    (:func:`_locate`, vectorised), into the scratch ``interval`` and ``u``;
     then the cubics, accumulated eight at a time (:func:`_cubic8_grey`, :func:`_cubic8_map`),
     the rest one by one with the same operations. ``coef``: the table's rows; ``last``,
     ``shift``, ``node_mask``: uint64."""
     nq = a3.size
-    first = np.uint64(key0)
     for q in range(nq):
-        t = np.float64(x[q])
-        bits = t.view(np.uint64)
-        k = (bits >> shift) - first
-        interval[q] = k if k < last else last
-        u[q] = t - np.uint64(bits & node_mask).view(np.float64)
+        interval[q], u[q] = _locate(np.float64(x[q]), key0, shift, node_mask, last)
     q = 0
     if use_map:
         while q + 8 <= nq:
@@ -475,7 +468,9 @@ def _signal_row(x, g, e, used, w, mode, grey, use_map, coef, key0, shift, last, 
             n_low += checked * np.int64(t < t_min[j])
             n_high += checked * np.int64(t > t_max[j])
             factor[q] = entry_grey[h] * g[q] if use_map else entry_grey[h] * grey
-            i, r = _locate(t, key0[j], shift[j], np.int64(last[j]))
+            s = np.uint64(shift[j])
+            i, r = _locate(t, key0[j], s, ~((np.uint64(1) << s) - np.uint64(1)),
+                           np.uint64(last[j]))
             interval[q] = i + np.uint64(offset[j])
             u[q] = r
         if n_low:
