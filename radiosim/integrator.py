@@ -29,6 +29,7 @@ References
 
 from __future__ import annotations
 
+import functools
 import math
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
@@ -225,6 +226,16 @@ def axis_footprints(
         raise RadiosimError(f"fill factor must be in (0, 1], got {fill_factor!r}")
     if origin < 0 or not math.isfinite(origin):
         raise RadiosimError(f"{axis} origin must be finite and ≥ 0 [m], got {origin!r}")
+    return _axis_footprints(int(n_samples), float(sample_pitch), float(pixel_pitch),
+                            float(fill_factor), int(max_pixels), float(origin), str(axis))
+
+
+@functools.lru_cache(maxsize=64)
+def _axis_footprints(n_samples: int, sample_pitch: float, pixel_pitch: float,
+                     fill_factor: float, max_pixels: int, origin: float,
+                     axis: str) -> AxisFootprints:
+    """:func:`axis_footprints`, once per set of arguments (a study measures the same array
+    many times): its arrays are read-only."""
     pitch = pixel_pitch / sample_pitch  # in samples
     active = pitch * math.sqrt(fill_factor)
     first = origin / sample_pitch
@@ -246,11 +257,10 @@ def axis_footprints(
             if hi > lo:
                 source.append(min(math.floor(lo), n_samples - 1))
                 weight.append((hi - lo) / active)
-    return AxisFootprints(
-        source=np.array(source, dtype=np.intp),
-        weight=np.array(weight),
-        starts=np.array(starts, dtype=np.intp),
-    )
+    arrays = (np.array(source, dtype=np.intp), np.array(weight), np.array(starts, dtype=np.intp))
+    for array in arrays:
+        array.flags.writeable = False
+    return AxisFootprints(*arrays)
 
 
 def frame_weights(
@@ -605,17 +615,62 @@ class _Group:
         self.first = min(m.first for m in self.members)
         self.stop = max(m.stop for m in self.members)
 
-    def passes(self, k: int) -> list:
-        """Per distinct response of the members active at frame k (in order of appearance):
-        the response, the members' time weights (0 when inactive) and the signal weights of
-        those with this response."""
-        weight = np.zeros(len(self.members))
+    def passes(self, start: int, stop: int) -> tuple[np.ndarray, list]:
+        """For frames start … stop − 1: the members' time weights (frames × members, 0 when
+        inactive) and, per distinct response of the members active in any of those frames (in
+        order of appearance), the response and those members."""
+        weight = np.zeros((stop - start, len(self.members)))
         by_response: dict[int, list] = {}
         for b, m in enumerate(self.members):
-            if m.first <= k < m.stop:
-                weight[b] = m.weights[k - m.first]
+            first, last = max(start, m.first), min(stop, m.stop)
+            if first < last:
+                weight[first - start:last - start, b] = m.weights[first - m.first:last - m.first]
                 by_response.setdefault(id(m.job.response), [m.job.response, []])[1].append(b)
         return weight, list(by_response.values())
+
+    def merge(self, temperature: np.ndarray, sample: SceneFrame, start: int):
+        """Merge frames ``start``, ``start + 1``, … (``temperature``: one 2-D frame over the
+        group's region, or a 3-D block of consecutive frames; ``sample``: the first one's
+        scene frame, for its emissivity) into the members active in them: one kernel pass per
+        distinct response (the first also forms the moments)."""
+        from radiosim import kernels
+
+        n = 1 if temperature.ndim == 2 else temperature.shape[0]
+        weight, passes = self.passes(start, start + n)
+        rows, cols = self.integrator.rows, self.integrator.cols
+        if self.reference is None:  # [K] per pixel: the first frame's means
+            first = temperature if temperature.ndim == 2 else temperature[0]
+            self.reference = kernels.pixel_mean(first, rows, cols, frame_index=start)
+        moments_done = False
+        for response, members in passes:
+            table = response.kernel_table(sample)
+            if table is None and moments_done:
+                continue  # the signal is T: its statistics are formed once
+            signal_weight = np.zeros(weight.shape)
+            if table is not None:
+                signal_weight[:, members] = weight[:, members]
+                for b in members:
+                    self.members[b].has_signal = True
+            kernels.accumulate_merged(temperature, rows, cols, self.reference, self.state,
+                                      weight, signal_weight, table, moments=not moments_done,
+                                      frame_index=start)
+            moments_done = True
+
+
+#: Consecutive frames one kernel call takes from a scene that holds its frames as one array
+#: (:meth:`~radiosim.scenes.base.Scene.block_unchecked`).
+FRAME_BLOCK = 16
+
+
+def _runs(indices: list[int], size: int) -> list[tuple[int, int]]:
+    """Sorted frame indices as (start, stop) runs of consecutive frames, each ≤ ``size``."""
+    runs = []
+    for k in indices:
+        if runs and runs[-1][1] == k and k - runs[-1][0] < size:
+            runs[-1][1] = k + 1
+        else:
+            runs.append([k, k + 1])
+    return [tuple(r) for r in runs]
 
 
 def _frames_inline_or_prefetched(scene, indices, region):
@@ -639,14 +694,13 @@ def _frames_inline_or_prefetched(scene, indices, region):
 def _integrate_compiled(scene, accumulators, frames, region, progress):
     """
     The compiled engine. Per frame and footprint group, one kernel pass
-    (:func:`radiosim.kernels.accumulate_merged`) gives each pixel's frame mean m_k and
+    (:func:`radiosim.kernels.accumulate_merged`; blocks of up to :data:`FRAME_BLOCK` frames
+    per call when the scene holds its frames as one array) gives each pixel's frame mean m_k and
     within-frame variance v_k (about the previous frame's means, so the deviations are small)
     and merges them into each job with its time weight w_k by the parallel update of Chan,
     Golub & LeVeque (1979): δ = m_k − mean, mean += δ·w_k/n', M2 += w_k·v_k + δ²·n·w_k/n'. A
     pixel that does not change keeps an exactly zero spread.
     """
-    from radiosim import kernels
-
     groups: dict[int, _Group] = {}
     merged = [_Merged(acc) for acc in accumulators]
     for m in merged:
@@ -654,35 +708,41 @@ def _integrate_compiled(scene, accumulators, frames, region, progress):
     for group in groups.values():
         group.start()
     active = list(groups.values())
-    for done, frame in enumerate(_frames_inline_or_prefetched(scene, frames, region), start=1):
-        k = frame.index
+
+    def merge(temperature, sample, start, stop):
         for group in active:
-            if not group.first <= k < group.stop:
-                continue
-            weight, passes = group.passes(k)
-            integrator = group.integrator
-            mine = _within(frame, region, integrator.region)
-            rows, cols = integrator.rows, integrator.cols
-            if group.reference is None:  # [K] per pixel: the first frame's means
-                group.reference = kernels.pixel_mean(mine.temperature, rows, cols,
-                                                     frame_index=k)
-            moments_done = False
-            for response, members in passes:
-                table = response.kernel_table(mine)
-                if table is None and moments_done:
-                    continue  # the signal is T: its statistics are formed once
-                signal_weight = np.zeros(weight.size)
-                if table is not None:
-                    signal_weight[members] = weight[members]
-                    for b in members:
-                        group.members[b].has_signal = True
-                kernels.accumulate_merged(mine.temperature, rows, cols, group.reference,
-                                          group.state, weight, signal_weight, table,
-                                          moments=not moments_done, frame_index=k)
-                moments_done = True
+            first, last = max(start, group.first), min(stop, group.stop)
+            if first < last:
+                inner = group.integrator.region
+                mine = _crop(temperature, region, inner)
+                if mine.ndim == 3:
+                    mine = mine[first - start:last - start]
+                group.merge(mine, _within(sample, region, inner), first)
+
+    done = 0
+    # A scene that holds its frames as one array: blocks of consecutive frames, one kernel
+    # call each (no per-frame Python); otherwise frame by frame.
+    if scene.block_unchecked(frames[0], frames[0] + 1, region) is not None:
+        for start, stop in _runs(frames, FRAME_BLOCK):
+            merge(scene.block_unchecked(start, stop, region),
+                  scene.sample_unchecked(start, region), start, stop)
+            done += stop - start
+            if progress is not None:
+                progress(done, len(frames))
+        return [m.statistics() for m in merged]
+    for frame in _frames_inline_or_prefetched(scene, frames, region):
+        merge(frame.temperature, frame, frame.index, frame.index + 1)
+        done += 1
         if progress is not None:
             progress(done, len(frames))
     return [m.statistics() for m in merged]
+
+
+def _crop(values: np.ndarray, outer: Region, inner: Region) -> np.ndarray:
+    """The part of a frame, or of a block of frames, read over ``outer`` that covers ``inner``
+    (a view)."""
+    return values[..., inner[0].start - outer[0].start:inner[0].stop - outer[0].start,
+                 inner[1].start - outer[1].start:inner[1].stop - outer[1].start]
 
 
 class _Merged:

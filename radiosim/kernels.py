@@ -743,31 +743,42 @@ def _accumulate_rows(i_start, i_stop, base, row_length, row_source, row_weight, 
 
 
 @numba.njit(parallel=True, **_JIT)
-def _accumulate_kernel(n_blocks, base, row_length, row_source, row_weight, row_bounds,
-                       n_samples, slot_pixel, slot_weight, slot_of_piece, dup_source,
-                       col_bounds, identity, time_weight, reference, dev, sq, tmax, signal,
-                       merge, moments, member_weight, member_count, signal_weight, m_mean, m_m2,
-                       m_max, m_signal, mode, coef, key0, shift, last, offset, t_min, t_max,
-                       entry_table, entry_grey, grey, grey_map, index_map, map_length, use_map,
-                       rows_w, rows_r, grey_w, grey_r, index_w, index_r, am, an, status):
-    """The frame's pixel rows in ``n_blocks`` contiguous blocks, one per thread (block b uses
-    buffers [b]); returns the OR of the rows' status bits (``status`` holds each row's)."""
+def _accumulate_kernel(n_blocks, n_frames, frame_stride, base, row_length, row_source,
+                       row_weight, row_bounds, n_samples, slot_pixel, slot_weight, slot_of_piece,
+                       dup_source, col_bounds, identity, time_weight, reference, dev, sq, tmax,
+                       signal, merge, moments, member_weight, member_count, signal_weight,
+                       m_mean, m_m2, m_max, m_signal, mode, coef, key0, shift, last, offset,
+                       t_min, t_max, entry_table, entry_grey, grey, grey_map, index_map,
+                       map_length, use_map, rows_w, rows_r, grey_w, grey_r, index_w, index_r, am,
+                       an, status):
+    """``n_frames`` frames (frame f starts at ``base[f * frame_stride]``; member_weight,
+    member_count, signal_weight and status: one row per frame), one after the other, each
+    frame's pixel rows in ``n_blocks`` contiguous blocks, one per thread (block b uses buffers
+    [b]). Stops after the first frame with a status: returns (that frame, the OR of its rows'
+    status bits), or (n_frames, 0)."""
     n_rows = row_bounds.size - 1
-    for b in prange(n_blocks):
-        _accumulate_rows(b * n_rows // n_blocks, (b + 1) * n_rows // n_blocks, base,
-                         row_length, row_source, row_weight, row_bounds, n_samples, slot_pixel,
-                         slot_weight, slot_of_piece, dup_source, col_bounds, identity,
-                         time_weight, reference, dev, sq, tmax, signal, merge, moments,
-                         member_weight, member_count, signal_weight, m_mean, m_m2, m_max,
-                         m_signal, mode, coef, key0, shift, last, offset, t_min, t_max,
-                         entry_table,
-                         entry_grey, grey, grey_map, index_map, map_length, use_map, rows_w[b],
-                         rows_r[b], grey_w[b], grey_r[b], index_w[b], index_r[b], am[b], an[b],
-                         status)
-    result = 0
-    for i in range(n_rows):
-        result |= status[i]
-    return result
+    for f in range(n_frames):
+        frame = base[f * frame_stride:]
+        weights = member_weight[f]
+        counts = member_count[f]
+        signals = signal_weight[f]
+        row_status = status[f]
+        for b in prange(n_blocks):
+            _accumulate_rows(b * n_rows // n_blocks, (b + 1) * n_rows // n_blocks, frame,
+                             row_length, row_source, row_weight, row_bounds, n_samples,
+                             slot_pixel, slot_weight, slot_of_piece, dup_source, col_bounds,
+                             identity, time_weight, reference, dev, sq, tmax, signal, merge,
+                             moments, weights, counts, signals, m_mean, m_m2, m_max,
+                             m_signal, mode, coef, key0, shift, last, offset, t_min, t_max,
+                             entry_table, entry_grey, grey, grey_map, index_map, map_length,
+                             use_map, rows_w[b], rows_r[b], grey_w[b], grey_r[b], index_w[b],
+                             index_r[b], am[b], an[b], row_status)
+        result = 0
+        for i in range(n_rows):
+            result |= row_status[i]
+        if result != 0:
+            return f, result
+    return n_frames, 0
 
 
 # -- layouts ------------------------------------------------------------------------------------
@@ -880,22 +891,33 @@ def _axis(axis, name: str) -> _Axis:
 def _rows_of(array: np.ndarray, name: str) -> tuple[np.ndarray, int]:
     """A 2-D array whose rows are contiguous, as a read-only 1-D view and its row stride
     [elements], without copying (a region of a larger C-contiguous frame or memmap included)."""
-    a = np.asarray(array)
+    flat, row_length, _ = _frames_of(np.asarray(array)[None])
+    return flat, row_length
+
+
+def _frames_of(a: np.ndarray) -> tuple[np.ndarray, int, int]:
+    """A 3-D array (frames, rows, columns) whose rows are contiguous, as a read-only 1-D view,
+    its row stride and its frame stride [elements], without copying (a region of a stack of
+    frames or of a memmap included); otherwise one copy, same dtype."""
     item = a.itemsize
+    n_frames, n_rows, n_cols = a.shape
     if a.flags.c_contiguous:
-        flat, row_length = a.reshape(-1), a.shape[1]
-    elif (a.shape[0] > 0 and a.strides[1] == item and a.strides[0] >= a.shape[1] * item
-          and a.strides[0] % item == 0):
-        row_length = a.strides[0] // item
-        size = (a.shape[0] - 1) * row_length + a.shape[1]
+        flat, row_length, frame_stride = a.reshape(-1), n_cols, n_rows * n_cols
+    elif (n_rows > 0 and n_cols > 0 and a.strides[2] == item
+          and a.strides[1] >= n_cols * item and a.strides[1] % item == 0
+          and (n_frames == 1 or (a.strides[0] >= n_rows * a.strides[1]
+                                 and a.strides[0] % item == 0))):
+        row_length = a.strides[1] // item
+        frame_stride = a.strides[0] // item if n_frames > 1 else n_rows * row_length
+        size = (n_frames - 1) * frame_stride + (n_rows - 1) * row_length + n_cols
         flat = np.lib.stride_tricks.as_strided(a, shape=(size,), strides=(item,),
                                                writeable=False)
     else:  # rows not contiguous (a transposed view, a column step): one copy, same dtype
         a = np.ascontiguousarray(a)
-        flat, row_length = a.reshape(-1), a.shape[1]
+        flat, row_length, frame_stride = a.reshape(-1), n_cols, n_rows * n_cols
     flat = flat.view()
     flat.flags.writeable = False
-    return flat, int(row_length)
+    return flat, int(row_length), int(frame_stride)
 
 
 def _frame(frame, rows: _Axis, cols: _Axis) -> np.ndarray:
@@ -910,6 +932,21 @@ def _frame(frame, rows: _Axis, cols: _Axis) -> np.ndarray:
             f"frame region has shape {a.shape}, but the footprints need at least "
             f"({rows.extent}, {cols.extent}) samples from sample ({rows.offset}, {cols.offset})"
         )
+    return a
+
+
+def _frames(frames, rows: _Axis, cols: _Axis) -> np.ndarray:
+    """One frame region (2-D) or several (3-D: frames, rows, columns), as a 3-D float32 or
+    float64 array covering the pieces (not copied)."""
+    a = np.asarray(frames)
+    if a.ndim == 2:
+        return _frame(a, rows, cols)[None]
+    if a.ndim != 3 or a.shape[0] == 0:
+        raise RadiosimError(f"frames must be one 2-D frame region or a non-empty 3-D stack "
+                            f"(frames, rows, columns), got shape {a.shape}")
+    if a.dtype not in (np.float32, np.float64):
+        a = a.astype(np.float64)
+    _frame(a[0], rows, cols)  # the shape check
     return a
 
 
@@ -1436,12 +1473,12 @@ def accumulate(frame, rows, cols, time_weight: float, reference: np.ndarray, dev
                                    response)
     if not reference.flags.writeable:  # the kernel takes one array type (it writes it only
         reference = reference.copy()  # when merging)
-    status = _launch(frame2d, rows, cols, float(time_weight), reference, dev, sq, tmax,
-                     signal_acc, response, None, threads)
-    if status is None:
+    launched = _launch(frame2d[None], rows, cols, float(time_weight), reference, dev, sq,
+                       tmax, signal_acc, response, None, threads)
+    if launched is None:
         return STATUS_OK
-    return _finish(status, frame2d, rows, cols, frame_index, response, float(time_weight),
-                   reference, dev, sq, tmax, signal_acc, None)
+    return _finish(launched[1:], frame2d, rows, cols, frame_index, response,
+                   float(time_weight), reference, dev, sq, tmax, signal_acc, None)
 
 
 class Members:
@@ -1460,8 +1497,21 @@ class Members:
         self.count = np.zeros(n_jobs)
 
 
-_NO_MEMBERS = (False, False, np.zeros(1), np.zeros(1), np.zeros(1), np.zeros((1, 1, 1)),
-               np.zeros((1, 1, 1)), np.zeros((1, 1, 1)), np.zeros((1, 1, 1)))
+_NO_MEMBERS = (False, False, np.zeros((1, 1)), np.zeros((1, 1)), np.zeros((1, 1)),
+               np.zeros((1, 1, 1)), np.zeros((1, 1, 1)), np.zeros((1, 1, 1)),
+               np.zeros((1, 1, 1)))
+
+
+def _per_frame(values, n_frames: int, n_jobs: int, name: str) -> np.ndarray:
+    """Per-frame, per-job weights as a C-contiguous (frames, jobs) float64 array."""
+    a = np.asarray(values, dtype=np.float64)
+    if a.ndim == 1:
+        a = a[None]
+    if a.shape != (n_frames, n_jobs):
+        raise RadiosimError(f"{name} must have shape ({n_jobs},) for one frame or "
+                            f"({n_frames}, {n_jobs}) for {n_frames} frames (one weight per "
+                            f"frame and job), got {np.shape(values)}")
+    return np.ascontiguousarray(a)
 
 
 def accumulate_merged(frame, rows, cols, reference: np.ndarray, members: Members,
@@ -1477,24 +1527,41 @@ def accumulate_merged(frame, rows, cols, reference: np.ndarray, members: Members
     signal. ``reference`` then holds m. With ``moments`` off, only the signals are added (a
     second response on the same footprints) and ``reference`` is kept. ``members.count`` is
     updated here. Checks, errors and return value as :func:`accumulate`.
+
+    ``frame`` may also be several consecutive frames (3-D: frames, rows, columns; frame
+    indices ``frame_index``, ``frame_index + 1``, …) with ``weight`` and ``signal_weight`` one
+    row per frame: they are merged one after the other, exactly as frame by frame, in one call
+    (no per-frame Python or thread start-up).
     """
     rows, cols = _axis(rows, "row"), _axis(cols, "column")
-    frame2d = _frame(frame, rows, cols)
-    weight = np.ascontiguousarray(weight, dtype=np.float64)
-    signal_weight = np.ascontiguousarray(signal_weight, dtype=np.float64)
-    merged = (True, bool(moments), weight if moments else np.zeros(weight.size),
-              members.count, signal_weight, members.mean, members.m2, members.max,
-              members.signal)
+    block = _frames(frame, rows, cols)
+    n_frames, n_jobs = block.shape[0], members.count.size
+    weight = _per_frame(weight, n_frames, n_jobs, "weight")
+    signal_weight = _per_frame(signal_weight, n_frames, n_jobs, "signal_weight")
+    if not moments:
+        weight = np.zeros_like(weight)
+    # n_b before each frame, and after the last, added up frame by frame.
+    counts = np.cumsum(np.vstack([members.count[None], weight]), axis=0)
     shape = reference.shape
-    status = _launch(frame2d, rows, cols, 1.0, reference, _scratch(shape, 0), _scratch(shape, 1),
-                     _scratch(shape, 2), _scratch(shape, 3), response, merged, threads)
-    if status is not None:
-        status = _finish(status, frame2d, rows, cols, frame_index, response, 1.0, reference,
-                         None, None, None, None, (merged, members))
-    else:
-        status = STATUS_OK
+    status = STATUS_OK
+    start = 0
+    while start < n_frames:
+        part = slice(start, n_frames)
+        merged = (True, bool(moments), weight[part], counts[part], signal_weight[part],
+                  members.mean, members.m2, members.max, members.signal)
+        launched = _launch(block[part], rows, cols, 1.0, reference, _scratch(shape, 0),
+                           _scratch(shape, 1), _scratch(shape, 2), _scratch(shape, 3), response,
+                           merged, threads)
+        if launched is None:
+            break
+        f = start + launched[0]
+        merged = (True, bool(moments), weight[f], counts[f], signal_weight[f], members.mean,
+                  members.m2, members.max, members.signal)
+        status |= _finish(launched[1:], block[f], rows, cols, frame_index + f, response, 1.0,
+                          reference, None, None, None, None, (merged, members))
+        start = f + 1
     if moments:
-        members.count += weight
+        members.count[...] = counts[-1]
     return status
 
 
@@ -1512,12 +1579,15 @@ def _scratch(shape, which: int) -> np.ndarray:
     return array
 
 
-def _launch(frame2d, rows: _Axis, cols: _Axis, time_weight, reference, dev, sq, tmax,
+def _launch(block, rows: _Axis, cols: _Axis, time_weight, reference, dev, sq, tmax,
             signal_acc, response, merged, threads):
-    """Run the compiled kernel on one frame; None if every row is fine, else the rows'
-    status array (with the OR of its bits first)."""
+    """Run the compiled kernel on the frames of ``block`` (3-D; several only when merging,
+    with ``merged``'s weights one row per frame); None if every row of every frame is fine,
+    else (the first frame with a status, the OR of its rows' bits, the rows' status array,
+    the table)."""
     shape = (rows.n_pixels, cols.n_pixels)
-    base, row_length = _rows_of(frame2d, "frame")
+    base, row_length, frame_stride = _frames_of(block)
+    frame_shape = block.shape[1:]
     if response is None:
         mode, signal, table = _SIGNAL_NONE, _DUMMY_SIGNAL, None
         grey_map, index_map, map_length, use_map, grey = _DUMMY_MAP, _DUMMY_INDEX, 0, False, 1.0
@@ -1527,7 +1597,7 @@ def _launch(frame2d, rows: _Axis, cols: _Axis, time_weight, reference, dev, sq, 
             raise RadiosimError(f"response must be a RadianceKernelTable or None, got "
                                 f"{type(response).__name__}")
         signal = signal_acc if signal_acc is not None else _scratch(shape, 3)
-        response._check_maps(frame2d.shape)
+        response._check_maps(frame_shape)
         mode = response._mode()
         table = response
         use_map = response.grey_scalar is None
@@ -1540,7 +1610,7 @@ def _launch(frame2d, rows: _Axis, cols: _Axis, time_weight, reference, dev, sq, 
         else:
             grey = 1.0 if use_map else response.grey_scalar
         grey_map, map_length = (_rows_of(response.grey, "grey map") if use_map
-                                else (_ones(frame2d.shape[1]), 0))
+                                else (_ones(frame_shape[1]), 0))
         if response.index is not None:
             index_map, map_length = _rows_of(response.index, "index map")
         else:
@@ -1549,7 +1619,7 @@ def _launch(frame2d, rows: _Axis, cols: _Axis, time_weight, reference, dev, sq, 
                                            response.shift, response.last, response.offset)
         t_min, t_max = response.t_min, response.t_max
         entry_table, entry_grey = response.entry_table, response.entry_grey
-    status = np.zeros(rows.n_pixels, dtype=np.int64)
+    status = np.zeros((block.shape[0], rows.n_pixels), dtype=np.int64)
     slot_pixel, slot_weight, slot_of_piece, dup_source, col_bounds = cols.slots
     n_blocks = _blocks(rows.n_pixels, threads)
     buffers = _buffers(n_blocks, max(1, dup_source.size), slot_pixel.size, base.dtype,
@@ -1559,8 +1629,8 @@ def _launch(frame2d, rows: _Axis, cols: _Axis, time_weight, reference, dev, sq, 
         numba.set_num_threads(n_blocks)
     try:
         with parallel_launch():
-            result = _accumulate_kernel(
-                n_blocks, base, row_length, rows.source, rows.weight, rows.bounds, cols.extent,
+            frame, result = _accumulate_kernel(
+                n_blocks, block.shape[0], frame_stride, base, row_length, rows.source, rows.weight, rows.bounds, cols.extent,
                 slot_pixel, slot_weight, slot_of_piece, dup_source, col_bounds, cols.identity,
                 time_weight, reference, dev, sq, tmax, signal,
                 *(merged if merged is not None else _NO_MEMBERS), mode, coef,
@@ -1572,7 +1642,7 @@ def _launch(frame2d, rows: _Axis, cols: _Axis, time_weight, reference, dev, sq, 
             numba.set_num_threads(previous)
     if result == STATUS_OK:
         return None
-    return result, status, table
+    return frame, result, status[frame], table
 
 
 def _finish(launched, frame2d, rows: _Axis, cols: _Axis, frame_index, response, time_weight,

@@ -188,3 +188,48 @@ def test_one_pass_many_measurements_equals_one_at_a_time(engine, monkeypatch):
         bound = np.sqrt(16 * np.finfo(float).eps) * float(alone.tensor_max.max())
         np.testing.assert_allclose(m.tensor_std, alone.tensor_std, rtol=1e-9, atol=bound)
         assert m.t_start == alone.t_start and m.n_frames == alone.n_frames
+
+
+class _FrameByFrame(FrameStack):
+    """The same stack, without blocks: the compiled engine takes it one frame per call."""
+
+    def block_unchecked(self, start, stop, region=None):
+        return None
+
+
+def test_blocks_of_frames_give_the_frame_by_frame_result():
+    # A stored stack is integrated in blocks of consecutive frames (one kernel call each);
+    # windows that cross block boundaries, start mid-block or leave gaps between them give
+    # what frame-by-frame calls give.
+    from radiosim.camera import measure_many
+    from radiosim.integrator import FRAME_BLOCK
+
+    rng = np.random.default_rng(11)
+    dx, dt = 1e-6, 1e-6
+    stack = rng.uniform(290.0, 1200.0, (3 * FRAME_BLOCK, 30, 40)).astype(np.float32)
+    nist = Camera.preset("nist-ir").with_pixel_pitch(4e-6)
+    cases = [(Camera.linear_ideal(3e-6), 5 * dt, 0.0), (nist, 30.5 * dt, 3.25 * dt),
+             (Camera.linear_ideal(3e-6), 4 * dt, 40 * dt), (nist, 2 * dt, 45 * dt)]
+    blocks = measure_many(FrameStack(stack, dt=dt, dx=dx), cases, rng=3)
+    frames = measure_many(_FrameByFrame(stack, dt=dt, dx=dx), cases, rng=3)
+    for a, b in zip(blocks, frames):
+        np.testing.assert_array_equal(a.tensor_max, b.tensor_max)
+        for name in ("apparent_temperature", "tensor_mean", "signal_mean", "tensor_std"):
+            np.testing.assert_allclose(getattr(a, name), getattr(b, name), rtol=1e-12,
+                                       atol=0, err_msg=name)
+
+
+def test_a_bad_sample_in_a_block_of_frames_names_its_frame():
+    stack = np.full((40, 20, 20), 300.0, dtype=np.float32)
+    stack[21, 7, 12] = np.nan
+    scene = FrameStack(stack, dt=1e-6, dx=1e-6)
+    assert scene.block_unchecked(16, 32) is not None
+    with pytest.raises(RadiosimError, match="frame 21: temperature at row 7, column 12 is NaN"):
+        Camera.linear_ideal(2e-6).measure(scene, 30e-6, t_start=0.0)
+
+
+def test_frame_runs():
+    from radiosim.integrator import _runs
+
+    assert _runs([0, 1, 2, 3, 4, 7, 8, 20], 3) == [(0, 3), (3, 5), (7, 9), (20, 21)]
+    assert _runs([], 4) == []

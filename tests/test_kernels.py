@@ -381,3 +381,72 @@ def test_cubic_rows_match_numpy_bit_for_bit():
         kernels._cubic(coef.reshape(-1), interval, position, out, n)
         a, b, c, d = coef[interval.astype(np.intp)].T
         np.testing.assert_array_equal(out, ((a * position + b) * position + c) * position + d)
+
+
+# -- several frames per call -----------------------------------------------------------------
+
+def merge_frames(block, rows, cols, response, weight, signal_weight, per_call):
+    """Merge the frames of ``block`` into two jobs, ``per_call`` frames per call."""
+    first = region_of(block[0], rows, cols)
+    reference = pixel_mean(first, rows, cols)
+    members = kernels.Members(2, reference.shape)
+    statuses = []
+    for k in range(0, len(block), per_call):
+        part = block[k:k + per_call, rows.span, cols.span]
+        one = per_call == 1
+        statuses.append(kernels.accumulate_merged(
+            part[0] if one else part, rows, cols, reference, members,
+            weight[k] if one else weight[k:k + per_call],
+            signal_weight[k] if one else signal_weight[k:k + per_call], response,
+            frame_index=k))
+    return reference, members, statuses
+
+
+@pytest.mark.parametrize("name", ["9 samples", "4.5 samples, fill 0.8, origin 2.7"])
+def test_a_block_of_frames_merges_as_frame_by_frame(name, tables):
+    # Several frames in one call go through the same kernel one after the other, with each
+    # frame's weights and the counts of the frames before it: bit for bit the frame-by-frame
+    # result, cold samples (the numpy path, mid-block) included.
+    rows, cols = footprints(*FOOTPRINTS[name])
+    block = scene_frames(np.float32, n=11, seed=3)
+    block[4, 6:9, 9:12] = 150.0  # below the table (200 K), in the middle of the block
+    rng = np.random.default_rng(4)
+    weight = rng.uniform(0.0, 0.2, (11, 2))
+    weight[:3, 1] = 0.0  # the second job's window starts at frame 3
+    response = responses(tables, region_of(block[0], rows, cols).shape)["grey map"]
+    for table in (None, response):
+        signal_weight = weight if table is not None else np.zeros_like(weight)
+        one = merge_frames(block, rows, cols, table, weight, signal_weight, 1)
+        many = merge_frames(block, rows, cols, table, weight, signal_weight, 11)
+        np.testing.assert_array_equal(one[0], many[0])
+        for name_ in ("mean", "m2", "max", "signal", "count"):
+            np.testing.assert_array_equal(getattr(one[1], name_), getattr(many[1], name_))
+        expected = STATUS_BELOW_TABLE if table is not None else STATUS_OK
+        assert one[2][4] == many[2][0] == expected
+
+
+def test_a_bad_sample_in_a_block_names_its_frame(tables):
+    rows, cols = footprints(3.0, 1.0, 0.0)
+    block = scene_frames(np.float64, n=6, seed=5)
+    block[4, 10, 20] = np.nan
+    weight = np.full((6, 1), 1 / 6)
+    first = region_of(block[0], rows, cols)
+    reference = pixel_mean(first, rows, cols)
+    members = kernels.Members(1, reference.shape)
+    with pytest.raises(RadiosimError, match="frame 14: temperature at row 10, column 20 is NaN"):
+        kernels.accumulate_merged(block[:, rows.span, cols.span], rows, cols, reference,
+                                  members, weight, weight, None, frame_index=10)
+
+
+def test_block_weights_need_one_row_per_frame():
+    rows, cols = footprints(3.0, 1.0, 0.0)
+    block = scene_frames(np.float64, n=3)[:, rows.span, cols.span]
+    reference = pixel_mean(block[0], rows, cols)
+    members = kernels.Members(2, reference.shape)
+    with pytest.raises(RadiosimError, match=r"weight must have shape \(2,\) for one frame or "
+                                            r"\(3, 2\) for 3 frames"):
+        kernels.accumulate_merged(block, rows, cols, reference, members, np.ones(2),
+                                  np.ones((3, 2)))
+    with pytest.raises(RadiosimError, match="non-empty 3-D stack"):
+        kernels.accumulate_merged(block[:0], rows, cols, reference, members, np.ones((0, 2)),
+                                  np.ones((0, 2)))

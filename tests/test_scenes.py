@@ -127,3 +127,22 @@ def test_step_edge_readings_are_area_fractions_linear_and_planck():
     straddling = (f > 0) & (f < 1)
     assert np.all(planck.apparent_temperature[0][straddling] >
                   m.apparent_temperature[0][straddling])
+
+
+def test_frame_stack_blocks_are_views_of_the_stored_frames(tmp_path):
+    from radiosim.scenes.base import Scene
+
+    path = tmp_path / "stack.npy"
+    np.save(path, np.arange(5 * 4 * 6, dtype=np.float32).reshape(5, 4, 6) + 300)
+    stored = np.load(path, mmap_mode="r")
+    scene = FrameStack(stored, dt=1e-6, dx=1e-6)
+    block = scene.block_unchecked(1, 4, (slice(1, 3), slice(2, 6)))
+    assert block.shape == (3, 2, 4) and np.shares_memory(block, stored)
+    np.testing.assert_array_equal(block[2], scene.frame(3, (slice(1, 3), slice(2, 6))))
+    # Converted on reading (Celsius, integers) or made by another scene: no blocks.
+    assert FrameStack(stored, dt=1e-6, dx=1e-6, units="C").block_unchecked(0, 2) is None
+    assert FrameStack(stored.astype(np.int32), dt=1e-6, dx=1e-6).block_unchecked(0, 2) is None
+    assert Scene.block_unchecked(scene, 0, 2) is None
+    for start, stop in ((3, 3), (4, 6), (-1, 2)):
+        with pytest.raises(RadiosimError, match="frame"):
+            scene.block_unchecked(start, stop)

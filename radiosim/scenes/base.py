@@ -277,6 +277,17 @@ class Scene(ABC):
             return frame
         return dataclasses.replace(frame, reflected_temperature=self._reflected(k, region))
 
+    def block_unchecked(self, start: int, stop: int,
+                        region: Region | None = None) -> np.ndarray | None:
+        """
+        Frames ``start`` to ``stop - 1`` over ``region`` as one 3-D array (frames, rows,
+        columns), unchecked and as the scene holds them (a view of a stored stack), if the scene
+        holds its frames so and their emissivity does not change with time (:meth:`sample_unchecked`
+        of ``start`` then gives it); ``None`` otherwise. The compiled kernels then take several
+        frames per call.
+        """
+        return None
+
     def frames(self, start: int, stop: int, region: Region | None = None) -> Iterator[np.ndarray]:
         """Frames ``start`` to ``stop - 1`` [K], one at a time."""
         for k in range(start, stop):

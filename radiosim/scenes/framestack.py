@@ -89,6 +89,21 @@ class FrameStack(Scene):
             return values  # as stored (a memory-mapped view): the consumer converts or checks
         return to_kelvin(np.asarray(values, dtype=np.float64), self.units)
 
+    def block_unchecked(self, start: int, stop: int,
+                        region: Region | None = None) -> np.ndarray | None:
+        stack = self._stack
+        if (self.units != "K" or not isinstance(stack, np.ndarray)
+                or stack.dtype not in (np.float32, np.float64)
+                or type(self)._read is not FrameStack._read
+                or type(self)._sample is not Scene._sample):
+            return None  # converted, lazily loaded, or frames a subclass makes its own way
+        start, region = self._where(start, region)
+        stop = int(stop)
+        if not start < stop <= self.n_frames:
+            raise RadiosimError(f"frames {start} to {stop - 1} are not a range of the scene's "
+                                f"frames 0 to {self.n_frames - 1}")
+        return stack[start:stop, region[0], region[1]]
+
     def describe(self) -> dict:
         return super().describe() | {"source_units": self.units} | self._extra
 
