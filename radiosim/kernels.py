@@ -211,19 +211,22 @@ _CHUNK = 512
 
 
 def _lin_source(k: int) -> str:
-    """Source of ``_lin{k}``: k sample rows ``xs[0..k-1]`` (weights ``ws``) into the column
-    accumulators: a1 += Σ w (T − c), a2 += Σ w (T − c)² (fused multiply-adds), am = max(am, T),
-    an = min(an, T), the maximum and minimum taken in the frame's own dtype (exact); with
-    ``first`` (a pixel row's first sweep) the accumulators start from 0, 0, −∞ and +∞ instead
-    of their contents (written, not read)."""
-    lines = [f"def _lin{k}(first, xs, ws, ce, a1, a2, am, an):"]
-    lines += [f"    x{h} = xs[{h}]" for h in range(k)]
+    """Source of ``_lin{k}``: k sample rows (row h: ``src[o[h] + q]``, weight ``ws[h]``) into
+    the column accumulators of slots lo ≤ q < hi: a1 += Σ w (T − c), a2 += Σ w (T − c)² (fused
+    multiply-adds), am = max(am, T), an = min(an, T), the maximum and minimum taken in the
+    frame's own dtype (exact); with ``first`` (a pixel row's first sweep) the accumulators
+    start from 0, 0, −∞ and +∞ instead of their contents (written, not read). Offsets and
+    bounds are uint64: indexed, not sliced (a slice is a reference count, an atomic operation
+    both threads would share)."""
+    lines = [f"def _lin{k}(first, lo, hi, src, o, ws, ce, a1, a2, am, an):"]
+    lines += [f"    o{h} = o[{h}]" for h in range(k)]
     lines += [f"    w{h} = ws[{h}]" for h in range(k)]
     for start in (True, False):
         lines.append("    if first:" if start else "    else:")
-        body = ["for q in range(ce.size):", "    c = ce[q]"]
+        body = ["for q in range(lo, hi):", "    c = ce[q]"]
         for h in range(k):
-            body.append(f"    d{h} = np.float64(x{h}[q]) - c")
+            body.append(f"    x{h} = src[o{h} + q]")
+            body.append(f"    d{h} = np.float64(x{h}) - c")
             body.append(f"    e{h} = w{h} * d{h}")
         total = " + ".join(f"e{h}" for h in range(k))
         body.append(f"    a1[q] = {total}" if start else f"    a1[q] += {total}")
@@ -231,12 +234,11 @@ def _lin_source(k: int) -> str:
         for h in range(k):
             square = f"_fma(e{h}, d{h}, {square})"
         body.append(f"    a2[q] = {square}")
-        body.append("    m = x0[q]")
+        body.append("    m = x0")
         body.append("    n = m")
         for h in range(1, k):
-            body.append(f"    v = x{h}[q]")
-            body.append("    m = v if v > m else m")
-            body.append("    n = v if v < n else n")
+            body.append(f"    m = x{h} if x{h} > m else m")
+            body.append(f"    n = x{h} if x{h} < n else n")
         body.append("    o = -_INF" if start else "    o = am[q]")
         body.append("    am[q] = m if m > o else o")
         body.append("    o = _INF" if start else "    o = an[q]")
@@ -247,10 +249,10 @@ def _lin_source(k: int) -> str:
 
 def _lin_dispatch_source() -> str:
     """Source of ``_lin``: the sweep of ``n`` rows (1 … _MAX_ROWS) by ``_lin{n}``."""
-    lines = ["def _lin(n, first, xs, ws, ce, a1, a2, am, an):"]
+    lines = ["def _lin(n, first, lo, hi, src, o, ws, ce, a1, a2, am, an):"]
     for k in range(1, _MAX_ROWS + 1):
         lines.append(f"    {'if' if k == 1 else 'elif'} n == {k}:")
-        lines.append(f"        _lin{k}(first, xs, ws, ce, a1, a2, am, an)")
+        lines.append(f"        _lin{k}(first, lo, hi, src, o, ws, ce, a1, a2, am, an)")
     return "\n".join(lines) + "\n"
 
 
@@ -298,18 +300,19 @@ def _make_cubic8(kind: str):
     """The intrinsic ``_cubic8`` (``kind`` "store"), ``_cubic8_grey`` ("grey") or
     ``_cubic8_map`` ("map"): eight samples' cubics, stored or accumulated."""
 
-    def cubic8(typingctx, coef, interval, position, g, w, grey, out, q):
-        signature = types.void(coef, interval, position, g, w, grey, out, q)
+    def cubic8(typingctx, coef, interval, position, g, g0, w, grey, out, out0, q):
+        signature = types.void(coef, interval, position, g, g0, w, grey, out, out0, q)
 
         def codegen(context, builder, sig, args):
             double, i32, i64 = llvm_ir.DoubleType(), llvm_ir.IntType(32), llvm_ir.IntType(64)
             row4, vec8 = llvm_ir.VectorType(double, 4), llvm_ir.VectorType(double, 8)
             table, index, position, factor, out = (_data(context, builder, sig.args[k], args[k])
-                                                   for k in (0, 1, 2, 3, 6))
-            w, grey, q = args[4], args[5], args[7]
+                                                   for k in (0, 1, 2, 3, 7))
+            g0, w, grey, out0, q = args[4], args[5], args[6], args[8], args[9]
 
-            def vector(pointer):
-                return builder.bitcast(builder.gep(pointer, [q]), vec8.as_pointer())
+            def vector(pointer, start=None):
+                at = q if start is None else builder.add(start, q)
+                return builder.bitcast(builder.gep(pointer, [at]), vec8.as_pointer())
 
             def splat(value):
                 one = builder.insert_element(llvm_ir.Constant(vec8, llvm_ir.Undefined), value,
@@ -327,15 +330,15 @@ def _make_cubic8(kind: str):
             value = builder.fadd(builder.fmul(value, r), c)
             value = builder.fadd(builder.fmul(value, r), d)
             if kind == "store":
-                builder.store(value, vector(out), align=8)
+                builder.store(value, vector(out, out0), align=8)
                 return context.get_dummy_value()
             if kind == "map":
-                factor = builder.fmul(splat(grey), builder.load(vector(factor), align=8))
+                factor = builder.fmul(splat(grey), builder.load(vector(factor, g0), align=8))
                 term = builder.fmul(splat(w), builder.fmul(value, factor))
             else:
                 term = builder.fmul(value, splat(w))
-            builder.store(builder.fadd(builder.load(vector(out), align=8), term), vector(out),
-                          align=8)
+            target = vector(out, out0)
+            builder.store(builder.fadd(builder.load(target, align=8), term), target, align=8)
             return context.get_dummy_value()
 
         return signature, codegen
@@ -343,9 +346,9 @@ def _make_cubic8(kind: str):
     cubic8.__name__ = {"store": "_cubic8", "grey": "_cubic8_grey", "map": "_cubic8_map"}[kind]
     cubic8.__doc__ = (
         "For k = 0 … 7: " + {
-            "store": "out[q + k] = v",
-            "grey": "out[q + k] += v · w (w: the row weight times the grey factor)",
-            "map": "out[q + k] += w · (v · (grey · g[q + k]))"}[kind]
+            "store": "out[out0 + q + k] = v",
+            "grey": "out[out0 + q + k] += v · w (w: the row weight times the grey factor)",
+            "map": "out[out0 + q + k] += w · (v · (grey · g[g0 + q + k]))"}[kind]
         + """, where v = ((a r + b) r + c) r + d, with
     (a, b, c, d) = row ``interval[q + k]`` of the flat coefficient table ``coef`` (4 float64 per
     row) and r = ``position[q + k]``. The eight rows are loaded whole (32 bytes each) and
@@ -365,7 +368,7 @@ def _cubic(coef, interval, position, out, n):
     by :func:`_cubic8`, the rest one by one with the same operations)."""
     q = 0
     while q + 8 <= n:
-        _cubic8(coef, interval, position, out, 1.0, 1.0, out, q)
+        _cubic8(coef, interval, position, out, 0, 1.0, 1.0, out, 0, q)
         q += 8
     for k in range(q, n):
         i = interval[k] * np.uint64(4)
@@ -393,40 +396,45 @@ def _cubic1(coef, i, r):
 
 
 @numba.njit(**_JIT)
-def _signal_one(x, g, w, use_map, grey, coef, key0, shift, node_mask, last, interval, u, a3):
-    """a3 += w · S(x) along one row of samples (modes 1 and 2: S = L(T) · grey, or
-    L(T) · (grey · g) with ``g`` the grey-map row). Two loops: the intervals and positions
-    (:func:`_locate`, vectorised), into the scratch ``interval`` and ``u``;
-    then the cubics, accumulated eight at a time (:func:`_cubic8_grey`, :func:`_cubic8_map`),
-    the rest one by one with the same operations. ``coef``: the table's rows; ``last``,
-    ``shift``, ``node_mask``: uint64."""
-    nq = a3.size
+def _signal_one(src, xo, g, go, w, use_map, grey, coef, key0, shift, node_mask, last,
+                interval, u, a3, lo, hi):
+    """a3[q] += w · S(src[xo + q]) for the slots lo ≤ q < hi of one sample row (modes 1 and 2:
+    S = L(T) · grey, or L(T) · (grey · g[go + q]) with ``g`` the grey map). Two loops: the
+    intervals and positions (:func:`_locate`, vectorised), into the scratch ``interval`` and
+    ``u`` (from 0); then the cubics, accumulated eight at a time (:func:`_cubic8_grey`,
+    :func:`_cubic8_map`), the rest one by one with the same operations. ``coef``: the table's
+    rows; offsets, bounds, ``last``, ``shift``, ``node_mask``: uint64."""
+    nq = hi - lo
+    x0 = xo + lo
     for q in range(nq):
-        interval[q], u[q] = _locate(np.float64(x[q]), key0, shift, node_mask, last)
-    q = 0
+        interval[q], u[q] = _locate(np.float64(src[x0 + q]), key0, shift, node_mask, last)
+    q = np.uint64(0)
+    eight = np.uint64(8)
     if use_map:
-        while q + 8 <= nq:
-            _cubic8_map(coef, interval, u, g, w, grey, a3, q)
-            q += 8
+        g0 = go + lo
+        while q + eight <= nq:
+            _cubic8_map(coef, interval, u, g, g0, w, grey, a3, lo, q)
+            q += eight
         for k in range(q, nq):
-            a3[k] += w * (_cubic1(coef, interval[k], u[k]) * (grey * g[k]))
+            a3[lo + k] += w * (_cubic1(coef, interval[k], u[k]) * (grey * g[g0 + k]))
     else:
         wg = w * grey
-        while q + 8 <= nq:
-            _cubic8_grey(coef, interval, u, g, wg, grey, a3, q)
-            q += 8
+        while q + eight <= nq:
+            _cubic8_grey(coef, interval, u, g, lo, wg, grey, a3, lo, q)
+            q += eight
         for k in range(q, nq):
-            a3[k] += _cubic1(coef, interval[k], u[k]) * wg
+            a3[lo + k] += _cubic1(coef, interval[k], u[k]) * wg
 
 
 @numba.njit(**_JIT)
-def _signal_rows(n, xs, ws, gs, use_map, grey, coef, key0, shift, last, interval, u, a3):
-    """a3 += Σₕ ws[h] · S(xs[h]) over the sample rows h < n of a sweep (modes 1 and 2; gs[h]:
-    the grey-map row of row h), by :func:`_signal_one`."""
+def _signal_rows(n, lo, hi, src, o, ws, g, go, use_map, grey, coef, key0, shift, last,
+                 interval, u, a3):
+    """a3[q] += Σₕ ws[h] · S(src[o[h] + q]) over the sample rows h < n of a sweep and its slots
+    lo ≤ q < hi (modes 1 and 2; grey map row h at ``g[go[h]:]``), by :func:`_signal_one`."""
     node_mask = ~((np.uint64(1) << shift) - np.uint64(1))
     for h in range(n):
-        _signal_one(xs[h], gs[h], ws[h], use_map, grey, coef, key0, shift, node_mask, last,
-                    interval, u, a3)
+        _signal_one(src, o[h], g, go[h], ws[h], use_map, grey, coef, key0, shift, node_mask,
+                    last, interval, u, a3, lo, hi)
 
 
 @numba.njit(**_JIT)
@@ -449,8 +457,9 @@ def _signal_row(x, g, e, used, w, mode, grey, use_map, coef, key0, shift, last, 
         j = entry_table[0]
         s = np.uint64(shift[j])
         node_mask = ~((np.uint64(1) << s) - np.uint64(1))
-        _signal_one(x, g, w, use_map, grey, coef[np.uint64(offset[j]) * np.uint64(4):],
-                    key0[j], s, node_mask, np.uint64(last[j]), interval, u, a3)
+        _signal_one(x, np.uint64(0), g, np.uint64(0), w, use_map, grey,
+                    coef[np.uint64(offset[j]) * np.uint64(4):], key0[j], s, node_mask,
+                    np.uint64(last[j]), interval, u, a3, np.uint64(0), np.uint64(nq))
         return status
     else:
         n_entries = entry_table.size
@@ -486,35 +495,25 @@ def _signal_row(x, g, e, used, w, mode, grey, use_map, coef, key0, shift, last, 
 
 
 @numba.njit(**_JIT)
-def _setup_row(reference_row, slot_pixel, with_signal, ce, a3):
-    """Start a pixel row: ce = the reference c of each slot's pixel, the signal cleared (the
-    row's first sweep writes the other accumulators)."""
-    for k in range(ce.size):
-        ce[k] = reference_row[slot_pixel[k]]
+def _setup_row(reference_row, slot_runs, with_signal, ce, a3):
+    """Start a pixel row: ce = the reference c of each slot's pixel (run by run: slots
+    ``slot_runs[r, 0]`` to ``slot_runs[r, 1] − 1`` belong to pixel ``slot_runs[r, 2]``), the
+    signal cleared (the row's first sweep writes the other accumulators)."""
+    for r in range(slot_runs.shape[0]):
+        c = reference_row[slot_runs[r, 2]]
+        for k in range(slot_runs[r, 0], slot_runs[r, 1]):
+            ce[k] = c
     if with_signal:
         for k in range(ce.size):
             a3[k] = 0.0
 
 
 @numba.njit(**_JIT)
-def _commit_row(i, a1, a2, a3, am, an, slot_weight, slot_of_piece, col_bounds, identity,
-                time_weight, with_signal, t_low, t_high, reference_row, dev, sq, tmax, signal,
-                merge, moments, member_weight, member_count, signal_weight, m_mean, m_m2,
-                m_max, m_signal, s1, s2, s3, sm, status):
-    """Add the pieces to the row's pixels (pixel row ``i``) and check the slots they read (NaN
-    propagates into a1, +inf into am, T ≤ 0 and T below the table show in an), in one pass;
-    commit them unless the row has a status (``status``: bits found so far). Returns the row's
-    status.
-    ``identity``: slot q is piece q (the pieces are the samples); s1, s2, s3, sm: per-pixel
-    scratch.
-
-    Without ``merge``: dev, sq, signal += time_weight × the frame's Σ w (T − c), Σ w (T − c)²,
-    Σ w S, and tmax = max(tmax, max T) (rows of the per-pixel accumulators). With ``merge``:
-    the frame's mean m = c + Σ w (T − c) and variance v = max(Σ w (T − c)² − (Σ w (T − c))², 0)
-    are merged into every member job b of weight w_b = member_weight[b] > 0 (Chan et al.:
-    δ = m − mean, M2 += w_b v + δ² n_b w_b / n', mean += δ w_b / n', n' = n_b + w_b; the
-    maximum), unless ``moments`` is off; signals add signal_weight[b] × Σ w S; and the reference
-    row becomes m (the next frame's c)."""
+def _pixel_sums(a1, a2, a3, am, an, slot_weight, slot_of_piece, col_bounds, identity,
+                with_signal, t_low, t_high, s1, s2, s3, sm):
+    """Per pixel j: s1, s2, s3 = Σ w a1, Σ w a2, Σ w a3 and sm = max am over the slots of its
+    pieces (``identity``: slot q is piece q), in one pass; returns the counts of pixels with
+    a bad sample (NaN in a1, +inf in am, T ≤ 0 in an), below ``t_low`` and above ``t_high``."""
     n_pixels = col_bounds.size - 1
     n_bad = 0
     n_low = 0
@@ -546,6 +545,111 @@ def _commit_row(i, a1, a2, a3, am, an, slot_weight, slot_of_piece, col_bounds, i
                   + np.int64(v1 != v1))
         n_low += np.int64(np.float64(n) < t_low)
         n_high += np.int64(np.float64(m) > t_high)
+    return n_bad, n_low, n_high
+
+
+@numba.njit(**_JIT)
+def _pixel_sums_regular(a1, a2, a3, am, an, slot_weight, slot_of_piece, col_bounds, identity,
+                        with_signal, t_low, t_high, s1, s2, s3, sm):
+    """:func:`_pixel_sums` for a layout whose pixels' interior pieces (all but the first and
+    the last) lie on consecutive slots with one weight (whole samples): the interior is summed
+    unweighted and weighted once, in a short loop without indirection."""
+    n_pixels = col_bounds.size - 1
+    n_bad = 0
+    n_low = 0
+    n_high = 0
+    one = np.uint64(1)
+    for j in range(n_pixels):  # one pass over the slots the pixels' pieces read
+        first = col_bounds[j]
+        stop = col_bounds[j + 1]
+        # A pixel's first and last pieces have their own weights (edges inside samples); its
+        # interior pieces are whole samples of one weight, on consecutive slots.
+        k = first if identity else slot_of_piece[first]
+        w = slot_weight[k]
+        v1 = a1[k] * w
+        v2 = a2[k] * w
+        v3 = a3[k] * w if with_signal else 0.0
+        m = am[k]  # extremes in the frame's dtype (exact), widened once
+        n = an[k]
+        if stop - first > one:
+            k = stop - one if identity else slot_of_piece[stop - one]
+            w = slot_weight[k]
+            v1 += a1[k] * w
+            v2 += a2[k] * w
+            if with_signal:
+                v3 += a3[k] * w
+            a = am[k]
+            m = a if a > m else m
+            a = an[k]
+            n = a if a < n else n
+        if stop - first > np.uint64(2):
+            lo = first + one if identity else slot_of_piece[first + one]
+            hi = lo + (stop - first - np.uint64(2))
+            t1 = 0.0
+            t2 = 0.0
+            t3 = 0.0
+            if with_signal:
+                for q in range(lo, hi):
+                    t1 += a1[q]
+                    t2 += a2[q]
+                    t3 += a3[q]
+                    a = am[q]
+                    m = a if a > m else m
+                    a = an[q]
+                    n = a if a < n else n
+            else:
+                for q in range(lo, hi):
+                    t1 += a1[q]
+                    t2 += a2[q]
+                    a = am[q]
+                    m = a if a > m else m
+                    a = an[q]
+                    n = a if a < n else n
+            w = slot_weight[lo]
+            v1 += t1 * w
+            v2 += t2 * w
+            v3 += t3 * w
+        s1[j] = v1
+        s2[j] = v2
+        s3[j] = v3
+        sm[j] = np.float64(m)
+        n_bad += (np.int64(n <= 0.0) + np.int64(np.float64(m) == _INF)
+                  + np.int64(v1 != v1))
+        n_low += np.int64(np.float64(n) < t_low)
+        n_high += np.int64(np.float64(m) > t_high)
+    return n_bad, n_low, n_high
+
+
+@numba.njit(**_JIT)
+def _commit_row(i, a1, a2, a3, am, an, slot_weight, slot_of_piece, col_bounds, layout,
+                time_weight, with_signal, t_low, t_high, reference_row, dev, sq, tmax, signal,
+                merge, moments, member_weight, member_count, signal_weight, m_mean, m_m2,
+                m_max, m_signal, s1, s2, s3, sm, status):
+    """Add the pieces to the row's pixels (pixel row ``i``) and check the slots they read (NaN
+    propagates into a1, +inf into am, T ≤ 0 and T below the table show in an), in one pass;
+    commit them unless the row has a status (``status``: bits found so far). Returns the row's
+    status.
+    ``layout``: bit 0, slot q is piece q (the pieces are the samples); bit 1, each pixel's
+    interior pieces (all but its first and last) lie on consecutive slots with one weight
+    (:attr:`_Axis.slots`); s1, s2, s3, sm: per-pixel scratch.
+
+    Without ``merge``: dev, sq, signal += time_weight × the frame's Σ w (T − c), Σ w (T − c)²,
+    Σ w S, and tmax = max(tmax, max T) (rows of the per-pixel accumulators). With ``merge``:
+    the frame's mean m = c + Σ w (T − c) and variance v = max(Σ w (T − c)² − (Σ w (T − c))², 0)
+    are merged into every member job b of weight w_b = member_weight[b] > 0 (Chan et al.:
+    δ = m − mean, M2 += w_b v + δ² n_b w_b / n', mean += δ w_b / n', n' = n_b + w_b; the
+    maximum), unless ``moments`` is off; signals add signal_weight[b] × Σ w S; and the reference
+    row becomes m (the next frame's c)."""
+    n_pixels = col_bounds.size - 1
+    identity = (layout & 1) != 0
+    if (layout & 2) != 0:
+        n_bad, n_low, n_high = _pixel_sums_regular(a1, a2, a3, am, an, slot_weight,
+                                                   slot_of_piece, col_bounds, identity,
+                                                   with_signal, t_low, t_high, s1, s2, s3, sm)
+    else:
+        n_bad, n_low, n_high = _pixel_sums(a1, a2, a3, am, an, slot_weight, slot_of_piece,
+                                           col_bounds, identity, with_signal, t_low, t_high,
+                                           s1, s2, s3, sm)
     if n_bad:
         status |= 1
     if n_low:
@@ -597,9 +701,16 @@ def _commit_row(i, a1, a2, a3, am, an, slot_weight, slot_of_piece, col_bounds, i
 
 
 @numba.njit(**_JIT)
+def _row(row_source, p, h, n, length):
+    """The uint64 offset of sample row ``row_source[p + min(h, n − 1)]`` in a flat array of
+    rows of ``length`` elements."""
+    return np.uint64(row_source[p + min(h, n - 1)] * length)
+
+
+@numba.njit(**_JIT)
 def _accumulate_rows(i_start, i_stop, base, row_length, row_source, row_weight, row_bounds,
-                     n_samples, slot_pixel, slot_weight, slot_of_piece, dup_source, col_bounds,
-                     identity, time_weight, reference, dev, sq, tmax, signal, merge, moments,
+                     n_samples, slot_runs, slot_weight, slot_of_piece, dup_source, col_bounds,
+                     layout, time_weight, reference, dev, sq, tmax, signal, merge, moments,
                      member_weight, member_count, signal_weight, m_mean, m_m2, m_max, m_signal,
                      mode, coef, key0, shift, last, offset, t_min, t_max, entry_table, entry_grey,
                      grey,
@@ -615,7 +726,7 @@ def _accumulate_rows(i_start, i_stop, base, row_length, row_source, row_weight, 
     Each pixel row is swept along the columns in chunks of _CHUNK slots, up to _MAX_ROWS sample
     rows per sweep (all of them, for pixels of up to _MAX_ROWS pieces), so the accumulators are
     read and written once per chunk while the frame's rows stream through."""
-    n_slots = slot_pixel.size
+    n_slots = slot_weight.size
     ns = n_samples
     n_dups = dup_source.size
     n_pixels = col_bounds.size - 1
@@ -644,99 +755,92 @@ def _accumulate_rows(i_start, i_stop, base, row_length, row_source, row_weight, 
     table_key0 = key0[table]
     table_shift = np.uint64(shift[table])
     table_last = np.uint64(last[table])
+    # Slot bounds and offsets as uint64 (the sweeps index with them).
+    zero = np.uint64(0)
+    samples_u = np.uint64(ns)
+    slots_u = np.uint64(n_slots)
+    chunk = np.uint64(_CHUNK)
+    dup_rows = rows_r.reshape(-1)
+    size = np.uint64(rows_r.shape[1])
+    dup_offsets = (zero - samples_u, size - samples_u, np.uint64(2) * size - samples_u,
+                   np.uint64(3) * size - samples_u, np.uint64(4) * size - samples_u,
+                   np.uint64(5) * size - samples_u, np.uint64(6) * size - samples_u,
+                   np.uint64(7) * size - samples_u, np.uint64(8) * size - samples_u,
+                   np.uint64(9) * size - samples_u, np.uint64(10) * size - samples_u,
+                   np.uint64(11) * size - samples_u)
     for i in range(i_start, i_stop):
-        _setup_row(reference[i], slot_pixel, with_signal, ce, a3)
+        _setup_row(reference[i], slot_runs, with_signal, ce, a3)
         row_status = np.int64(0)  # not a literal: one compilation of _commit_row
         p = row_bounds[i]
         start = p
         stop = row_bounds[i + 1]
         while p < stop:
             n = min(_MAX_ROWS, stop - p)
-            # Rows past n repeat the last one (never read by _lin{n}).
-            o0 = row_source[p] * row_length
-            o = (o0, row_source[p + min(1, n - 1)] * row_length,
-                 row_source[p + min(2, n - 1)] * row_length,
-                 row_source[p + min(3, n - 1)] * row_length,
-                 row_source[p + min(4, n - 1)] * row_length,
-                 row_source[p + min(5, n - 1)] * row_length,
-                 row_source[p + min(6, n - 1)] * row_length,
-                 row_source[p + min(7, n - 1)] * row_length,
-                 row_source[p + min(8, n - 1)] * row_length,
-                 row_source[p + min(9, n - 1)] * row_length,
-                 row_source[p + min(10, n - 1)] * row_length,
-                 row_source[p + min(11, n - 1)] * row_length)
+            # Rows past n repeat the last one (never read by _lin{n}); offsets as uint64.
+            o = (_row(row_source, p, 0, n, row_length), _row(row_source, p, 1, n, row_length),
+                 _row(row_source, p, 2, n, row_length), _row(row_source, p, 3, n, row_length),
+                 _row(row_source, p, 4, n, row_length), _row(row_source, p, 5, n, row_length),
+                 _row(row_source, p, 6, n, row_length), _row(row_source, p, 7, n, row_length),
+                 _row(row_source, p, 8, n, row_length), _row(row_source, p, 9, n, row_length),
+                 _row(row_source, p, 10, n, row_length),
+                 _row(row_source, p, 11, n, row_length))
             ws = (row_weight[p], row_weight[p + min(1, n - 1)], row_weight[p + min(2, n - 1)],
                   row_weight[p + min(3, n - 1)], row_weight[p + min(4, n - 1)],
                   row_weight[p + min(5, n - 1)], row_weight[p + min(6, n - 1)],
                   row_weight[p + min(7, n - 1)], row_weight[p + min(8, n - 1)],
                   row_weight[p + min(9, n - 1)], row_weight[p + min(10, n - 1)],
                   row_weight[p + min(11, n - 1)])
+            # The grey map's rows (modes 1 and 2).
+            mo = (_row(row_source, p, 0, n, map_length), _row(row_source, p, 1, n, map_length),
+                  _row(row_source, p, 2, n, map_length), _row(row_source, p, 3, n, map_length),
+                  _row(row_source, p, 4, n, map_length), _row(row_source, p, 5, n, map_length),
+                  _row(row_source, p, 6, n, map_length), _row(row_source, p, 7, n, map_length),
+                  _row(row_source, p, 8, n, map_length), _row(row_source, p, 9, n, map_length),
+                  _row(row_source, p, 10, n, map_length),
+                  _row(row_source, p, 11, n, map_length))
             # Part 0: the sample slots, along the frame's rows; part 1: the duplicate slots,
-            # along rows gathered into the buffers.
+            # along rows gathered into the buffers (row h at h · size − n_samples, so that
+            # slot q reads sample q − n_samples of it).
             for part in range(2 if n_dups else 1):
                 if part == 1:
                     for h in range(n):
                         _gather(base[o[h]:], dup_source, rows_w[h])
-                first, end = (0, ns) if part == 0 else (ns, n_slots)
-                for lo in range(first, end, _CHUNK):
-                    hi = min(end, lo + _CHUNK)
-                    if part == 0:
-                        xs = (base[o[0] + lo:], base[o[1] + lo:], base[o[2] + lo:],
-                              base[o[3] + lo:], base[o[4] + lo:], base[o[5] + lo:],
-                              base[o[6] + lo:], base[o[7] + lo:], base[o[8] + lo:],
-                              base[o[9] + lo:], base[o[10] + lo:], base[o[11] + lo:])
-                    else:
-                        r = lo - ns
-                        xs = (rows_r[0][r:], rows_r[min(1, n - 1)][r:],
-                              rows_r[min(2, n - 1)][r:], rows_r[min(3, n - 1)][r:],
-                              rows_r[min(4, n - 1)][r:], rows_r[min(5, n - 1)][r:],
-                              rows_r[min(6, n - 1)][r:], rows_r[min(7, n - 1)][r:],
-                              rows_r[min(8, n - 1)][r:], rows_r[min(9, n - 1)][r:],
-                              rows_r[min(10, n - 1)][r:], rows_r[min(11, n - 1)][r:])
-                    _lin(n, p == start, xs, ws, ce[lo:hi], a1[lo:hi], a2[lo:hi],
-                         am[lo:hi], an[lo:hi])
+                first, end = (zero, samples_u) if part == 0 else (samples_u, slots_u)
+                src = base if part == 0 else dup_rows
+                offsets = o if part == 0 else dup_offsets
+                for lo in range(first, end, chunk):
+                    hi = min(end, lo + chunk)
+                    _lin(n, p == start, lo, hi, src, offsets, ws, ce, a1, a2, am, an)
                     if with_signal and part == 0 and mode != 3:
-                        m = (row_source[p] * map_length + lo,
-                             row_source[p + min(1, n - 1)] * map_length + lo,
-                             row_source[p + min(2, n - 1)] * map_length + lo,
-                             row_source[p + min(3, n - 1)] * map_length + lo,
-                             row_source[p + min(4, n - 1)] * map_length + lo,
-                             row_source[p + min(5, n - 1)] * map_length + lo,
-                             row_source[p + min(6, n - 1)] * map_length + lo,
-                             row_source[p + min(7, n - 1)] * map_length + lo,
-                             row_source[p + min(8, n - 1)] * map_length + lo,
-                             row_source[p + min(9, n - 1)] * map_length + lo,
-                             row_source[p + min(10, n - 1)] * map_length + lo,
-                             row_source[p + min(11, n - 1)] * map_length + lo)
-                        gs = (grey_map[m[0]:], grey_map[m[1]:], grey_map[m[2]:],
-                              grey_map[m[3]:], grey_map[m[4]:], grey_map[m[5]:],
-                              grey_map[m[6]:], grey_map[m[7]:], grey_map[m[8]:],
-                              grey_map[m[9]:], grey_map[m[10]:], grey_map[m[11]:])
-                        _signal_rows(n, xs, ws, gs, use_map, grey, table_rows, table_key0,
-                                     table_shift, table_last, interval, u, a3[lo:hi])
+                        _signal_rows(n, lo, hi, src, offsets, ws, grey_map, mo, use_map, grey,
+                                     table_rows, table_key0, table_shift, table_last,
+                                     interval, u, a3)
                     elif with_signal:
+                        lo_i, hi_i = np.int64(lo), np.int64(hi)
                         for h in range(n):
                             m_off = row_source[p + h] * map_length
                             if part == 0:
-                                g = grey_map[m_off + lo:]
-                                e = index_map[m_off + lo:]
+                                x = base[o[h] + lo:]
+                                g = grey_map[m_off + lo_i:]
+                                e = index_map[m_off + lo_i:]
                             else:
+                                x = rows_r[h][lo_i - ns:]
                                 if use_map or mode != 3:  # mode 1: the row of ones
-                                    _gather(grey_map[m_off:], dup_source[lo - ns:hi - ns],
-                                            grey_w[:hi - lo])
+                                    _gather(grey_map[m_off:], dup_source[lo_i - ns:hi_i - ns],
+                                            grey_w[:hi_i - lo_i])
                                 if mode == 3:
-                                    _gather(index_map[m_off:], dup_source[lo - ns:hi - ns],
-                                            index_w[:hi - lo])
+                                    _gather(index_map[m_off:], dup_source[lo_i - ns:hi_i - ns],
+                                            index_w[:hi_i - lo_i])
                                 g = grey_r
                                 e = index_r
                             row_status |= _signal_row(
-                                xs[h], g, e, slot_weight[lo:hi], ws[h], mode, grey, use_map,
+                                x, g, e, slot_weight[lo_i:hi_i], ws[h], mode, grey, use_map,
                                 coef, key0, shift, last, offset, t_min, t_max, entry_table,
-                                entry_grey, interval, u, value, factor, a3[lo:hi])
+                                entry_grey, interval, u, value, factor, a3[lo_i:hi_i])
             p += n
         signal_row = signal[i] if with_signal else signal[0]
         status[i] = _commit_row(i, a1, a2, a3, am, an, slot_weight, slot_of_piece, col_bounds,
-                                identity, time_weight, with_signal, t_low, t_high, reference[i],
+                                layout, time_weight, with_signal, t_low, t_high, reference[i],
                                 dev[i], sq[i], tmax[i], signal_row,
                                 merge, moments, member_weight, member_count, signal_weight,
                                 m_mean, m_m2, m_max, m_signal, s1, s2, s3, sm, row_status)
@@ -744,8 +848,8 @@ def _accumulate_rows(i_start, i_stop, base, row_length, row_source, row_weight, 
 
 @numba.njit(parallel=True, **_JIT)
 def _accumulate_kernel(n_blocks, n_frames, frame_stride, base, row_length, row_source,
-                       row_weight, row_bounds, n_samples, slot_pixel, slot_weight, slot_of_piece,
-                       dup_source, col_bounds, identity, time_weight, reference, dev, sq, tmax,
+                       row_weight, row_bounds, n_samples, slot_runs, slot_weight, slot_of_piece,
+                       dup_source, col_bounds, layout, time_weight, reference, dev, sq, tmax,
                        signal, merge, moments, member_weight, member_count, signal_weight,
                        m_mean, m_m2, m_max, m_signal, mode, coef, key0, shift, last, offset,
                        t_min, t_max, entry_table, entry_grey, grey, grey_map, index_map,
@@ -766,8 +870,8 @@ def _accumulate_kernel(n_blocks, n_frames, frame_stride, base, row_length, row_s
         for b in prange(n_blocks):
             _accumulate_rows(b * n_rows // n_blocks, (b + 1) * n_rows // n_blocks, frame,
                              row_length, row_source, row_weight, row_bounds, n_samples,
-                             slot_pixel, slot_weight, slot_of_piece, dup_source, col_bounds,
-                             identity, time_weight, reference, dev, sq, tmax, signal, merge,
+                             slot_runs, slot_weight, slot_of_piece, dup_source, col_bounds,
+                             layout, time_weight, reference, dev, sq, tmax, signal, merge,
                              moments, weights, counts, signals, m_mean, m_m2, m_max,
                              m_signal, mode, coef, key0, shift, last, offset, t_min, t_max,
                              entry_table, entry_grey, grey, grey_map, index_map, map_length,
@@ -796,11 +900,14 @@ class _Axis:
     identity: bool  # the pieces are the region's samples, in order, each once
 
     @property
-    def slots(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-        """The kernels' column layout (see the comment on the compiled kernels): pixel and
-        weight of each slot (samples 0 … extent − 1, then the duplicate pieces; weight 0 for a
-        sample no piece reads), the slot of each piece, the sample of each duplicate slot, and
-        the piece bounds of the pixels, the index arrays as uintp."""
+    def slots(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray, int]:
+        """The kernels' column layout (see the comment on the compiled kernels): the runs of
+        slots of one pixel (start, stop, pixel; slots are the samples 0 … extent − 1, then the
+        duplicate pieces), the weight of each slot (0 for a sample no piece reads), the slot of
+        each piece, the sample of each duplicate slot, the piece bounds of the pixels (the
+        index arrays as uintp), and the layout code the reduction to pixels takes (bit 0: the
+        pieces are the samples; bit 1: each pixel's interior pieces lie on consecutive slots
+        with one weight)."""
         cached = self.__dict__.get("_slots")
         if cached is None:
             n = self.extent
@@ -815,8 +922,22 @@ class _Axis:
             slot_weight[self.source[first]] = self.weight[first]
             slot_pixel[n:] = self.pixel[duplicate]
             slot_weight[n:] = self.weight[duplicate]
-            cached = (slot_pixel, slot_weight, slot_of_piece,
-                      self.source[duplicate].astype(np.uintp), self.bounds.astype(np.uintp))
+            change = np.flatnonzero(np.diff(slot_pixel) != 0) + 1
+            starts, stops = np.append(0, change), np.append(change, slot_pixel.size)
+            slot_runs = np.ascontiguousarray(
+                np.stack([starts, stops, slot_pixel[starts]], axis=1).astype(np.uintp))
+            # Regular: every pixel's interior pieces (not its first or last) lie on
+            # consecutive slots and weigh the same (whole samples), as axis_footprints makes.
+            position = np.arange(self.source.size) - self.bounds[self.pixel]
+            count = np.diff(self.bounds)[self.pixel]
+            interior = (position > 0) & (position < count - 1)
+            pairs = interior[:-1] & interior[1:]
+            regular = bool(np.all(np.diff(slot_of_piece.astype(np.int64))[pairs] == 1)
+                           and np.all(self.weight[:-1][pairs] == self.weight[1:][pairs]))
+            layout = int(self.identity) | (2 if regular else 0)
+            cached = (slot_runs, slot_weight, slot_of_piece,
+                      self.source[duplicate].astype(np.uintp), self.bounds.astype(np.uintp),
+                      layout)
             object.__setattr__(self, "_slots", cached)
         return cached
 
@@ -1620,9 +1741,9 @@ def _launch(block, rows: _Axis, cols: _Axis, time_weight, reference, dev, sq, tm
         t_min, t_max = response.t_min, response.t_max
         entry_table, entry_grey = response.entry_table, response.entry_grey
     status = np.zeros((block.shape[0], rows.n_pixels), dtype=np.int64)
-    slot_pixel, slot_weight, slot_of_piece, dup_source, col_bounds = cols.slots
+    slot_runs, slot_weight, slot_of_piece, dup_source, col_bounds, layout = cols.slots
     n_blocks = _blocks(rows.n_pixels, threads)
-    buffers = _buffers(n_blocks, max(1, dup_source.size), slot_pixel.size, base.dtype,
+    buffers = _buffers(n_blocks, max(1, dup_source.size), slot_weight.size, base.dtype,
                        index_map.dtype)
     previous = numba.get_num_threads()
     if n_blocks != previous and n_blocks <= numba.config.NUMBA_NUM_THREADS:
@@ -1631,7 +1752,7 @@ def _launch(block, rows: _Axis, cols: _Axis, time_weight, reference, dev, sq, tm
         with parallel_launch():
             frame, result = _accumulate_kernel(
                 n_blocks, block.shape[0], frame_stride, base, row_length, rows.source, rows.weight, rows.bounds, cols.extent,
-                slot_pixel, slot_weight, slot_of_piece, dup_source, col_bounds, cols.identity,
+                slot_runs, slot_weight, slot_of_piece, dup_source, col_bounds, layout,
                 time_weight, reference, dev, sq, tmax, signal,
                 *(merged if merged is not None else _NO_MEMBERS), mode, coef,
                 key0, shift, last, offset, t_min, t_max, entry_table, entry_grey, float(grey),

@@ -347,6 +347,28 @@ def test_pieces_of_no_weight_are_refused(weight):
         integrate(frames, rows, broken, None, pixel_mean, accumulate)
 
 
+def test_footprints_of_any_layout_agree_with_the_reference(tables):
+    # The integrator's footprints are regular (a pixel's interior pieces are whole samples of
+    # one weight, on consecutive slots) and reduce to pixels by a short path; footprints built
+    # otherwise (uneven weights, a pixel reading a sample twice) take the general one.
+    rows, cols = footprints(4.5, 0.8, 2.7)
+    assert kernels._axis(cols, "column").slots[-1] == 2
+    assert kernels._axis(footprints(9.0, 1.0, 0.0)[1], "column").slots[-1] == 3
+    rng = np.random.default_rng(8)
+    uneven = AxisFootprints(cols.source, rng.uniform(0.05, 0.3, cols.source.size), cols.starts)
+    twice = AxisFootprints(np.sort(np.append(cols.source, cols.source[[3, 11]])),
+                           rng.uniform(0.05, 0.3, cols.source.size + 2), cols.starts)
+    frames = scene_frames(np.float32)
+    for broken in (uneven, twice):
+        assert kernels._axis(broken, "column").slots[-1] == 0
+        response = responses(tables, region_of(frames[0], rows, broken).shape)["grey map"]
+        for signal in (None, response):
+            kernel = integrate(frames, rows, broken, signal, pixel_mean, accumulate)
+            numpy = integrate(frames, rows, broken, signal, pixel_mean_reference,
+                              accumulate_reference)
+            assert_same_statistics(kernel, numpy)
+
+
 def test_importing_compiles_nothing():
     # Counted when this module was imported (collection), before any test ran.
     assert COMPILED_AT_IMPORT == 0
