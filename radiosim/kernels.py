@@ -45,9 +45,11 @@ How the kernels are fast (see ``benchmarks/bench_kernels.py``):
     table (160 kB for the nist-ir band) is read where the scene's temperatures are, which
     stays in the L1/L2 cache;
 -   ``fastmath`` is off: no reassociation, no automatic contraction into FMA, IEEE semantics;
-    the radiance takes the same operations in the same order as
-    :meth:`~radiosim.radiometry.BandRadianceTable.evaluate_reference`, its numpy oracle, so
-    the two agree exactly inside the table.
+    where the kernels fuse a multiply-add they say so (the moments' squares, the cubic's
+    Horner steps: one rounding instead of two, which also takes a quarter of the Planck pass's
+    time); the radiance takes the Horner steps of
+    :meth:`~radiosim.radiometry.BandRadianceTable.evaluate_reference`, its numpy oracle, in
+    the same order, so the two agree to a few units in the last place inside the table.
 
 Nothing is compiled at import (importing costs numba's own import). The first call with a new
 frame dtype (float32, float64) or index-map dtype (uint8, intp) compiles the one kernel that
@@ -284,16 +286,17 @@ def _mask(*lanes):
 
 
 def _transpose8(builder, rows):
-    """Four vectors (a, b, c, e) of eight doubles from eight rows of four (by shuffles)."""
-    pairs = [builder.shuffle_vector(rows[2 * k], rows[2 * k + 1], _mask(*range(8)))
-             for k in range(4)]  # (a b c e a' b' c' e') of rows 2k, 2k + 1
-    ab_lo = builder.shuffle_vector(pairs[0], pairs[1], _mask(0, 4, 8, 12, 1, 5, 9, 13))
-    cd_lo = builder.shuffle_vector(pairs[0], pairs[1], _mask(2, 6, 10, 14, 3, 7, 11, 15))
-    ab_hi = builder.shuffle_vector(pairs[2], pairs[3], _mask(0, 4, 8, 12, 1, 5, 9, 13))
-    cd_hi = builder.shuffle_vector(pairs[2], pairs[3], _mask(2, 6, 10, 14, 3, 7, 11, 15))
-    low, high = _mask(0, 1, 2, 3, 8, 9, 10, 11), _mask(4, 5, 6, 7, 12, 13, 14, 15)
-    return (builder.shuffle_vector(ab_lo, ab_hi, low), builder.shuffle_vector(ab_lo, ab_hi, high),
-            builder.shuffle_vector(cd_lo, cd_hi, low), builder.shuffle_vector(cd_lo, cd_hi, high))
+    """Four vectors (a, b, c, e) of eight doubles from eight rows of four (by shuffles): rows
+    paired (0, 2), (1, 3), (4, 6), (5, 7) into 8-vectors, unpacked within 128-bit lanes into
+    (a, c) and (b, e) pairs, then gathered by 128-bit lanes (4 cross-lane shuffles, not 8)."""
+    pairs = [builder.shuffle_vector(rows[j], rows[k], _mask(*range(8)))
+             for j, k in ((0, 2), (1, 3), (4, 6), (5, 7))]
+    low, high = _mask(0, 8, 2, 10, 4, 12, 6, 14), _mask(1, 9, 3, 11, 5, 13, 7, 15)
+    ac_lo, be_lo = (builder.shuffle_vector(pairs[0], pairs[1], m) for m in (low, high))
+    ac_hi, be_hi = (builder.shuffle_vector(pairs[2], pairs[3], m) for m in (low, high))
+    even, odd = _mask(0, 1, 4, 5, 8, 9, 12, 13), _mask(2, 3, 6, 7, 10, 11, 14, 15)
+    return (builder.shuffle_vector(ac_lo, ac_hi, even), builder.shuffle_vector(be_lo, be_hi, even),
+            builder.shuffle_vector(ac_lo, ac_hi, odd), builder.shuffle_vector(be_lo, be_hi, odd))
 
 
 def _make_cubic8(kind: str):
@@ -326,9 +329,11 @@ def _make_cubic8(kind: str):
                 rows.append(builder.load(builder.bitcast(first, row4.as_pointer()), align=8))
             a, b, c, d = _transpose8(builder, rows)
             r = builder.load(vector(position), align=8)
-            value = builder.fadd(builder.fmul(a, r), b)
-            value = builder.fadd(builder.fmul(value, r), c)
-            value = builder.fadd(builder.fmul(value, r), d)
+            fma = builder.module.globals.get("llvm.fma.v8f64") or llvm_ir.Function(
+                builder.module, llvm_ir.FunctionType(vec8, [vec8] * 3), "llvm.fma.v8f64")
+            value = builder.call(fma, [a, r, b])
+            value = builder.call(fma, [value, r, c])
+            value = builder.call(fma, [value, r, d])
             if kind == "store":
                 builder.store(value, vector(out, out0), align=8)
                 return context.get_dummy_value()
@@ -353,7 +358,8 @@ def _make_cubic8(kind: str):
     (a, b, c, d) = row ``interval[q + k]`` of the flat coefficient table ``coef`` (4 float64 per
     row) and r = ``position[q + k]``. The eight rows are loaded whole (32 bytes each) and
     transposed into four vectors of eight coefficients by shuffles, then Horner runs on the
-    vectors (separate multiply and add, as numpy): no gather, no scalar coefficient loads.""")
+    vectors with fused multiply-adds (one rounding per step, as :func:`_cubic1`): no gather,
+    no scalar coefficient loads.""")
     return intrinsic(cubic8)
 
 
@@ -371,9 +377,7 @@ def _cubic(coef, interval, position, out, n):
         _cubic8(coef, interval, position, out, 0, 1.0, 1.0, out, 0, q)
         q += 8
     for k in range(q, n):
-        i = interval[k] * np.uint64(4)
-        r = position[k]
-        out[k] = ((coef[i] * r + coef[i + 1]) * r + coef[i + 2]) * r + coef[i + 3]
+        out[k] = _cubic1(coef, interval[k], position[k])
 
 
 @numba.njit(**_JIT)
@@ -390,9 +394,10 @@ def _locate(t, key0, shift, node_mask, last):
 
 @numba.njit(**_JIT)
 def _cubic1(coef, i, r):
-    """The cubic of row i of ``coef`` at r, as one lane of :func:`_cubic8`."""
+    """The cubic of row i of ``coef`` at r, as one lane of :func:`_cubic8`: Horner with fused
+    multiply-adds, ((a r + b) r + c) r + d each step rounded once."""
     i = i * np.uint64(4)
-    return ((coef[i] * r + coef[i + 1]) * r + coef[i + 2]) * r + coef[i + 3]
+    return _fma(_fma(_fma(coef[i], r, coef[i + 1]), r, coef[i + 2]), r, coef[i + 3])
 
 
 @numba.njit(**_JIT)
@@ -733,16 +738,17 @@ def _accumulate_rows(i_start, i_stop, base, row_length, row_source, row_weight, 
     with_signal = mode != 0
     # The slot accumulators in one buffer, their starts 576 bytes apart modulo 4096: loads of
     # one and stores to another never alias in the address bits the CPU compares first.
+    # The Planck pass's scratch (interval, position: per chunk) likewise, 4 kB each.
     stride = (n_slots * 8 + 4095) // 4096 * 512 + 72
-    slots = np.empty(4 * stride)
+    slots = np.empty(6 * stride)
     a1 = slots[:n_slots]
     a2 = slots[stride:stride + n_slots]
     a3 = slots[2 * stride:2 * stride + n_slots]
     ce = slots[3 * stride:3 * stride + n_slots]
+    u = slots[4 * stride:4 * stride + _CHUNK]
+    interval = slots[5 * stride:5 * stride + _CHUNK].view(np.uint64)
     value = np.empty(_CHUNK)
     factor = np.empty(_CHUNK)
-    interval = np.empty(_CHUNK, dtype=np.uint64)
-    u = np.empty(_CHUNK)
     s1 = np.empty(n_pixels)
     s2 = np.empty(n_pixels)
     s3 = np.empty(n_pixels)
