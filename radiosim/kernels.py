@@ -500,12 +500,12 @@ def _signal_row(x, g, e, used, w, mode, grey, use_map, coef, key0, shift, last, 
 
 
 @numba.njit(**_JIT)
-def _setup_row(reference_row, slot_runs, with_signal, ce, a3):
-    """Start a pixel row: ce = the reference c of each slot's pixel (run by run: slots
+def _setup_row(reference, i, slot_runs, with_signal, ce, a3):
+    """Start pixel row i: ce = the reference c of each slot's pixel (run by run: slots
     ``slot_runs[r, 0]`` to ``slot_runs[r, 1] − 1`` belong to pixel ``slot_runs[r, 2]``), the
     signal cleared (the row's first sweep writes the other accumulators)."""
     for r in range(slot_runs.shape[0]):
-        c = reference_row[slot_runs[r, 2]]
+        c = reference[i, slot_runs[r, 2]]
         for k in range(slot_runs[r, 0], slot_runs[r, 1]):
             ce[k] = c
     if with_signal:
@@ -627,7 +627,7 @@ def _pixel_sums_regular(a1, a2, a3, am, an, slot_weight, slot_of_piece, col_boun
 
 @numba.njit(**_JIT)
 def _commit_row(i, a1, a2, a3, am, an, slot_weight, slot_of_piece, col_bounds, layout,
-                time_weight, with_signal, t_low, t_high, reference_row, dev, sq, tmax, signal,
+                time_weight, with_signal, t_low, t_high, reference, dev, sq, tmax, signal,
                 merge, moments, member_weight, member_count, signal_weight, m_mean, m_m2,
                 m_max, m_signal, s1, s2, s3, sm, status):
     """Add the pieces to the row's pixels (pixel row ``i``) and check the slots they read (NaN
@@ -639,7 +639,7 @@ def _commit_row(i, a1, a2, a3, am, an, slot_weight, slot_of_piece, col_bounds, l
     (:attr:`_Axis.slots`); s1, s2, s3, sm: per-pixel scratch.
 
     Without ``merge``: dev, sq, signal += time_weight × the frame's Σ w (T − c), Σ w (T − c)²,
-    Σ w S, and tmax = max(tmax, max T) (rows of the per-pixel accumulators). With ``merge``:
+    Σ w S, and tmax = max(tmax, max T) (row i of the per-pixel accumulators). With ``merge``:
     the frame's mean m = c + Σ w (T − c) and variance v = max(Σ w (T − c)² − (Σ w (T − c))², 0)
     are merged into every member job b of weight w_b = member_weight[b] > 0 (Chan et al.:
     δ = m − mean, M2 += w_b v + δ² n_b w_b / n', mean += δ w_b / n', n' = n_b + w_b; the
@@ -663,27 +663,27 @@ def _commit_row(i, a1, a2, a3, am, an, slot_weight, slot_of_piece, col_bounds, l
         status |= 4
     if status:
         return status
-    if not merge:
+    if not merge:  # the accumulators indexed [i, j], [b, i, j]: no row views (a view of an
+        # array is a reference count, an atomic operation the threads would share)
         for j in range(n_pixels):
-            dev[j] += time_weight * s1[j]
-            sq[j] += time_weight * s2[j]
-            m = tmax[j]
-            tmax[j] = sm[j] if sm[j] > m else m
+            dev[i, j] += time_weight * s1[j]
+            sq[i, j] += time_weight * s2[j]
+            m = tmax[i, j]
+            tmax[i, j] = sm[j] if sm[j] > m else m
         if with_signal:
             for j in range(n_pixels):
-                signal[j] += time_weight * s3[j]
+                signal[i, j] += time_weight * s3[j]
         return 0
     for b in range(member_weight.size):
         w = signal_weight[b]
         if with_signal and w > 0.0:
-            out = m_signal[b, i]
             for j in range(n_pixels):
-                out[j] += w * s3[j]
+                m_signal[b, i, j] += w * s3[j]
     if moments:
         for j in range(n_pixels):  # the frame's mean and variance over each footprint
             v = s2[j] - s1[j] * s1[j]
             s2[j] = v if v > 0.0 else 0.0
-            s1[j] = reference_row[j] + s1[j]
+            s1[j] = reference[i, j] + s1[j]
         for b in range(member_weight.size):
             w = member_weight[b]
             if w > 0.0:
@@ -691,17 +691,14 @@ def _commit_row(i, a1, a2, a3, am, an, slot_weight, slot_of_piece, col_bounds, l
                 total = n + w
                 share = w / total
                 spread = n * w / total
-                mean = m_mean[b, i]
-                m2 = m_m2[b, i]
-                peak = m_max[b, i]
                 for j in range(n_pixels):
-                    delta = s1[j] - mean[j]
-                    m2[j] += w * s2[j] + delta * delta * spread
-                    mean[j] += delta * share
-                    m = peak[j]
-                    peak[j] = sm[j] if sm[j] > m else m
+                    delta = s1[j] - m_mean[b, i, j]
+                    m_m2[b, i, j] += w * s2[j] + delta * delta * spread
+                    m_mean[b, i, j] += delta * share
+                    m = m_max[b, i, j]
+                    m_max[b, i, j] = sm[j] if sm[j] > m else m
         for j in range(n_pixels):
-            reference_row[j] = s1[j]
+            reference[i, j] = s1[j]
     return 0
 
 
@@ -775,7 +772,7 @@ def _accumulate_rows(i_start, i_stop, base, row_length, row_source, row_weight, 
                    np.uint64(9) * size - samples_u, np.uint64(10) * size - samples_u,
                    np.uint64(11) * size - samples_u)
     for i in range(i_start, i_stop):
-        _setup_row(reference[i], slot_runs, with_signal, ce, a3)
+        _setup_row(reference, i, slot_runs, with_signal, ce, a3)
         row_status = np.int64(0)  # not a literal: one compilation of _commit_row
         p = row_bounds[i]
         start = p
@@ -844,10 +841,9 @@ def _accumulate_rows(i_start, i_stop, base, row_length, row_source, row_weight, 
                                 coef, key0, shift, last, offset, t_min, t_max, entry_table,
                                 entry_grey, interval, u, value, factor, a3[lo_i:hi_i])
             p += n
-        signal_row = signal[i] if with_signal else signal[0]
         status[i] = _commit_row(i, a1, a2, a3, am, an, slot_weight, slot_of_piece, col_bounds,
-                                layout, time_weight, with_signal, t_low, t_high, reference[i],
-                                dev[i], sq[i], tmax[i], signal_row,
+                                layout, time_weight, with_signal, t_low, t_high, reference,
+                                dev, sq, tmax, signal,
                                 merge, moments, member_weight, member_count, signal_weight,
                                 m_mean, m_m2, m_max, m_signal, s1, s2, s3, sm, row_status)
 
