@@ -299,6 +299,55 @@ def _transpose8(builder, rows):
             builder.shuffle_vector(ac_lo, ac_hi, odd), builder.shuffle_vector(be_lo, be_hi, odd))
 
 
+def _horner8(builder, table, index, position, q):
+    """The cubics of the eight samples q … q + 7 (interval ``index[q + k]``, position
+    ``position[q + k]``; pointers): their rows loaded whole, transposed (:func:`_transpose8`),
+    Horner by fused multiply-adds; a vector of eight doubles."""
+    double, i64 = llvm_ir.DoubleType(), llvm_ir.IntType(64)
+    row4, vec8 = llvm_ir.VectorType(double, 4), llvm_ir.VectorType(double, 8)
+    rows = []
+    for k in range(8):
+        i = builder.load(builder.gep(index, [builder.add(q, llvm_ir.Constant(i64, k))]))
+        first = builder.gep(table, [builder.mul(i, llvm_ir.Constant(i64, 4))])
+        rows.append(builder.load(builder.bitcast(first, row4.as_pointer()), align=8))
+    a, b, c, d = _transpose8(builder, rows)
+    r = builder.load(builder.bitcast(builder.gep(position, [q]), vec8.as_pointer()), align=8)
+    fma = builder.module.globals.get("llvm.fma.v8f64") or llvm_ir.Function(
+        builder.module, llvm_ir.FunctionType(vec8, [vec8] * 3), "llvm.fma.v8f64")
+    value = builder.call(fma, [a, r, b])
+    value = builder.call(fma, [value, r, c])
+    return builder.call(fma, [value, r, d])
+
+
+@intrinsic
+def _cubic8_pair(typingctx, coef, interval, position, second, w0, w1, out, out0, q):
+    """For k = 0 … 7: out[out0 + q + k] += v₀ · w0 + v₁ · w1, where v₀ is the cubic of sample
+    q + k of a row and v₁ that of sample ``second`` + q + k of the next (:func:`_horner8`):
+    two rows' samples at once, two independent chains, one update of the accumulators."""
+    signature = types.void(coef, interval, position, second, w0, w1, out, out0, q)
+
+    def codegen(context, builder, sig, args):
+        i32 = llvm_ir.IntType(32)
+        vec8 = llvm_ir.VectorType(llvm_ir.DoubleType(), 8)
+        table, index, position, out = (_data(context, builder, sig.args[k], args[k])
+                                       for k in (0, 1, 2, 6))
+        second, w0, w1, out0, q = args[3], args[4], args[5], args[7], args[8]
+
+        def splat(value):
+            one = builder.insert_element(llvm_ir.Constant(vec8, llvm_ir.Undefined), value,
+                                         llvm_ir.Constant(i32, 0))
+            return builder.shuffle_vector(one, llvm_ir.Constant(vec8, None), _mask(*[0] * 8))
+
+        v0 = _horner8(builder, table, index, position, q)
+        v1 = _horner8(builder, table, index, position, builder.add(second, q))
+        term = builder.fadd(builder.fmul(v0, splat(w0)), builder.fmul(v1, splat(w1)))
+        target = builder.bitcast(builder.gep(out, [builder.add(out0, q)]), vec8.as_pointer())
+        builder.store(builder.fadd(builder.load(target, align=8), term), target, align=8)
+        return context.get_dummy_value()
+
+    return signature, codegen
+
+
 def _make_cubic8(kind: str):
     """The intrinsic ``_cubic8`` (``kind`` "store"), ``_cubic8_grey`` ("grey") or
     ``_cubic8_map`` ("map"): eight samples' cubics, stored or accumulated."""
@@ -307,8 +356,8 @@ def _make_cubic8(kind: str):
         signature = types.void(coef, interval, position, g, g0, w, grey, out, out0, q)
 
         def codegen(context, builder, sig, args):
-            double, i32, i64 = llvm_ir.DoubleType(), llvm_ir.IntType(32), llvm_ir.IntType(64)
-            row4, vec8 = llvm_ir.VectorType(double, 4), llvm_ir.VectorType(double, 8)
+            i32 = llvm_ir.IntType(32)
+            vec8 = llvm_ir.VectorType(llvm_ir.DoubleType(), 8)
             table, index, position, factor, out = (_data(context, builder, sig.args[k], args[k])
                                                    for k in (0, 1, 2, 3, 7))
             g0, w, grey, out0, q = args[4], args[5], args[6], args[8], args[9]
@@ -322,18 +371,7 @@ def _make_cubic8(kind: str):
                                              llvm_ir.Constant(i32, 0))
                 return builder.shuffle_vector(one, llvm_ir.Constant(vec8, None), _mask(*[0] * 8))
 
-            rows = []
-            for k in range(8):
-                i = builder.load(builder.gep(index, [builder.add(q, llvm_ir.Constant(i64, k))]))
-                first = builder.gep(table, [builder.mul(i, llvm_ir.Constant(i64, 4))])
-                rows.append(builder.load(builder.bitcast(first, row4.as_pointer()), align=8))
-            a, b, c, d = _transpose8(builder, rows)
-            r = builder.load(vector(position), align=8)
-            fma = builder.module.globals.get("llvm.fma.v8f64") or llvm_ir.Function(
-                builder.module, llvm_ir.FunctionType(vec8, [vec8] * 3), "llvm.fma.v8f64")
-            value = builder.call(fma, [a, r, b])
-            value = builder.call(fma, [value, r, c])
-            value = builder.call(fma, [value, r, d])
+            value = _horner8(builder, table, index, position, q)
             if kind == "store":
                 builder.store(value, vector(out, out0), align=8)
                 return context.get_dummy_value()
@@ -435,11 +473,46 @@ def _signal_one(src, xo, g, go, w, use_map, grey, coef, key0, shift, node_mask, 
 def _signal_rows(n, lo, hi, src, o, ws, g, go, use_map, grey, coef, key0, shift, last,
                  interval, u, a3):
     """a3[q] += Σₕ ws[h] · S(src[o[h] + q]) over the sample rows h < n of a sweep and its slots
-    lo ≤ q < hi (modes 1 and 2; grey map row h at ``g[go[h]:]``), by :func:`_signal_one`."""
+    lo ≤ q < hi (modes 1 and 2; grey map row h at ``g[go[h]:]``): with a grey factor, two rows
+    at a time (:func:`_signal_two`), else row by row (:func:`_signal_one`). ``interval`` and
+    ``u``: scratch of two chunks."""
     node_mask = ~((np.uint64(1) << shift) - np.uint64(1))
-    for h in range(n):
+    h = 0
+    if not use_map:
+        while h + 1 < n:
+            _signal_two(src, o[h], o[h + 1], ws[h] * grey, ws[h + 1] * grey, coef, key0, shift,
+                        node_mask, last, interval, u, a3, lo, hi)
+            h += 2
+    while h < n:
         _signal_one(src, o[h], g, go[h], ws[h], use_map, grey, coef, key0, shift, node_mask,
                     last, interval, u, a3, lo, hi)
+        h += 1
+
+
+@numba.njit(**_JIT)
+def _signal_two(src, xo, yo, wx, wy, coef, key0, shift, node_mask, last, interval, u, a3, lo,
+                hi):
+    """a3[q] += wx · L(src[xo + q]) + wy · L(src[yo + q]) for lo ≤ q < hi (two sample rows of
+    a grey scene, weights times the grey factor): the intervals and positions of both rows
+    into the scratch (the second's from _CHUNK on), then their cubics eight at a time
+    (:func:`_cubic8_pair`), the rest one by one with the same operations."""
+    nq = hi - lo
+    second = np.uint64(_CHUNK)
+    x0 = xo + lo
+    y0 = yo + lo
+    for q in range(nq):
+        interval[q], u[q] = _locate(np.float64(src[x0 + q]), key0, shift, node_mask, last)
+    for q in range(nq):
+        interval[second + q], u[second + q] = _locate(np.float64(src[y0 + q]), key0, shift,
+                                                      node_mask, last)
+    q = np.uint64(0)
+    eight = np.uint64(8)
+    while q + eight <= nq:
+        _cubic8_pair(coef, interval, u, second, wx, wy, a3, lo, q)
+        q += eight
+    for k in range(q, nq):
+        a3[lo + k] += (_cubic1(coef, interval[k], u[k]) * wx
+                       + _cubic1(coef, interval[second + k], u[second + k]) * wy)
 
 
 @numba.njit(**_JIT)
@@ -736,14 +809,14 @@ def _accumulate_rows(i_start, i_stop, base, row_length, row_source, row_weight, 
     # The slot accumulators in one buffer, their starts 576 bytes apart modulo 4096: loads of
     # one and stores to another never alias in the address bits the CPU compares first.
     # The Planck pass's scratch (interval, position: per chunk) likewise, 4 kB each.
-    stride = (n_slots * 8 + 4095) // 4096 * 512 + 72
+    stride = (max(n_slots, 2 * _CHUNK) + 511) // 512 * 512 + 72
     slots = np.empty(6 * stride)
     a1 = slots[:n_slots]
     a2 = slots[stride:stride + n_slots]
     a3 = slots[2 * stride:2 * stride + n_slots]
     ce = slots[3 * stride:3 * stride + n_slots]
-    u = slots[4 * stride:4 * stride + _CHUNK]
-    interval = slots[5 * stride:5 * stride + _CHUNK].view(np.uint64)
+    u = slots[4 * stride:4 * stride + 2 * _CHUNK]
+    interval = slots[5 * stride:5 * stride + 2 * _CHUNK].view(np.uint64)
     value = np.empty(_CHUNK)
     factor = np.empty(_CHUNK)
     s1 = np.empty(n_pixels)
