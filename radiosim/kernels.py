@@ -922,7 +922,7 @@ def _accumulate_rows(i_start, i_stop, base, row_length, row_source, row_weight, 
 
 
 @numba.njit(parallel=True, **_JIT)
-def _accumulate_kernel(n_blocks, n_frames, frame_stride, base, row_length, row_source,
+def _accumulate_kernel(n_blocks, start, n_frames, frame_stride, base, row_length, row_source,
                        row_weight, row_bounds, n_samples, slot_runs, slot_weight, slot_of_piece,
                        dup_source, col_bounds, layout, time_weight, reference, dev, sq, tmax,
                        signal, merge, moments, member_weight, member_count, signal_weight,
@@ -930,34 +930,35 @@ def _accumulate_kernel(n_blocks, n_frames, frame_stride, base, row_length, row_s
                        t_min, t_max, entry_table, entry_grey, grey, grey_map, index_map,
                        map_length, use_map, rows_w, rows_r, grey_w, grey_r, index_w, index_r, am,
                        an, status):
-    """``n_frames`` frames (frame f starts at ``base[f * frame_stride]``; member_weight,
-    member_count, signal_weight and status: one row per frame), one after the other, each
-    frame's pixel rows in ``n_blocks`` contiguous blocks, one per thread (block b uses buffers
-    [b]). Stops after the first frame with a status: returns (that frame, the OR of its rows'
-    status bits), or (n_frames, 0)."""
+    """The frames' pixel rows in ``n_blocks`` contiguous blocks, one per thread (block b uses
+    buffers [b]); frame f starts at ``base[f * frame_stride]``, and member_weight,
+    member_count, signal_weight and status have one row per frame. Block b takes frames
+    start[b] … n_frames − 1 of its rows, one after the other, without waiting for the other
+    blocks (no barrier per frame), and stops after its first frame with a status. Returns,
+    per block, that frame, or n_frames."""
     n_rows = row_bounds.size - 1
-    for f in range(n_frames):
-        frame = base[f * frame_stride:]
-        weights = member_weight[f]
-        counts = member_count[f]
-        signals = signal_weight[f]
-        row_status = status[f]
-        for b in prange(n_blocks):
-            _accumulate_rows(b * n_rows // n_blocks, (b + 1) * n_rows // n_blocks, frame,
-                             row_length, row_source, row_weight, row_bounds, n_samples,
-                             slot_runs, slot_weight, slot_of_piece, dup_source, col_bounds,
-                             layout, time_weight, reference, dev, sq, tmax, signal, merge,
-                             moments, weights, counts, signals, m_mean, m_m2, m_max,
-                             m_signal, mode, coef, key0, shift, last, offset, t_min, t_max,
-                             entry_table, entry_grey, grey, grey_map, index_map, map_length,
-                             use_map, rows_w[b], rows_r[b], grey_w[b], grey_r[b], index_w[b],
-                             index_r[b], am[b], an[b], row_status)
-        result = 0
-        for i in range(n_rows):
-            result |= row_status[i]
-        if result != 0:
-            return f, result
-    return n_frames, 0
+    stopped = np.full(n_blocks, n_frames, dtype=np.int64)
+    for b in prange(n_blocks):
+        first_row = b * n_rows // n_blocks
+        stop_row = (b + 1) * n_rows // n_blocks
+        for f in range(start[b], n_frames):
+            row_status = status[f]
+            _accumulate_rows(first_row, stop_row, base[f * frame_stride:], row_length,
+                             row_source, row_weight, row_bounds, n_samples, slot_runs,
+                             slot_weight, slot_of_piece, dup_source, col_bounds, layout,
+                             time_weight, reference, dev, sq, tmax, signal, merge, moments,
+                             member_weight[f], member_count[f], signal_weight[f], m_mean, m_m2,
+                             m_max, m_signal, mode, coef, key0, shift, last, offset, t_min,
+                             t_max, entry_table, entry_grey, grey, grey_map, index_map,
+                             map_length, use_map, rows_w[b], rows_r[b], grey_w[b], grey_r[b],
+                             index_w[b], index_r[b], am[b], an[b], row_status)
+            bad = 0
+            for i in range(first_row, stop_row):
+                bad |= row_status[i]
+            if bad != 0:
+                stopped[b] = f
+                break
+    return stopped
 
 
 # -- layouts ------------------------------------------------------------------------------------
@@ -1669,12 +1670,12 @@ def accumulate(frame, rows, cols, time_weight: float, reference: np.ndarray, dev
                                    response)
     if not reference.flags.writeable:  # the kernel takes one array type (it writes it only
         reference = reference.copy()  # when merging)
-    launched = _launch(frame2d[None], rows, cols, float(time_weight), reference, dev, sq,
-                       tmax, signal_acc, response, None, threads)
-    if launched is None:
-        return STATUS_OK
-    return _finish(launched[1:], frame2d, rows, cols, frame_index, response,
-                   float(time_weight), reference, dev, sq, tmax, signal_acc, None)
+    def handle(f, launched):
+        return _finish(launched, frame2d, rows, cols, frame_index, response,
+                       float(time_weight), reference, dev, sq, tmax, signal_acc, None)
+
+    return _launch(frame2d[None], rows, cols, float(time_weight), reference, dev, sq, tmax,
+                   signal_acc, response, None, threads, handle)
 
 
 class Members:
@@ -1738,24 +1739,18 @@ def accumulate_merged(frame, rows, cols, reference: np.ndarray, members: Members
         weight = np.zeros_like(weight)
     # n_b before each frame, and after the last, added up frame by frame.
     counts = np.cumsum(np.vstack([members.count[None], weight]), axis=0)
+    merged = (True, bool(moments), weight, counts[:-1], signal_weight, members.mean,
+              members.m2, members.max, members.signal)
+
+    def handle(f, launched):
+        one = (True, bool(moments), weight[f], counts[f], signal_weight[f], members.mean,
+               members.m2, members.max, members.signal)
+        return _finish(launched, block[f], rows, cols, frame_index + f, response, 1.0,
+                       reference, None, None, None, None, (one, members))
+
     shape = reference.shape
-    status = STATUS_OK
-    start = 0
-    while start < n_frames:
-        part = slice(start, n_frames)
-        merged = (True, bool(moments), weight[part], counts[part], signal_weight[part],
-                  members.mean, members.m2, members.max, members.signal)
-        launched = _launch(block[part], rows, cols, 1.0, reference, _scratch(shape, 0),
-                           _scratch(shape, 1), _scratch(shape, 2), _scratch(shape, 3), response,
-                           merged, threads)
-        if launched is None:
-            break
-        f = start + launched[0]
-        merged = (True, bool(moments), weight[f], counts[f], signal_weight[f], members.mean,
-                  members.m2, members.max, members.signal)
-        status |= _finish(launched[1:], block[f], rows, cols, frame_index + f, response, 1.0,
-                          reference, None, None, None, None, (merged, members))
-        start = f + 1
+    status = _launch(block, rows, cols, 1.0, reference, _scratch(shape, 0), _scratch(shape, 1),
+                     _scratch(shape, 2), _scratch(shape, 3), response, merged, threads, handle)
     if moments:
         members.count[...] = counts[-1]
     return status
@@ -1776,11 +1771,13 @@ def _scratch(shape, which: int) -> np.ndarray:
 
 
 def _launch(block, rows: _Axis, cols: _Axis, time_weight, reference, dev, sq, tmax,
-            signal_acc, response, merged, threads):
+            signal_acc, response, merged, threads, handle) -> int:
     """Run the compiled kernel on the frames of ``block`` (3-D; several only when merging,
-    with ``merged``'s weights one row per frame); None if every row of every frame is fine,
-    else (the first frame with a status, the OR of its rows' bits, the rows' status array,
-    the table)."""
+    with ``merged``'s weights one row per frame). A frame with a status stops the blocks of
+    pixel rows that saw it; in frame order, ``handle(f, (OR of its rows' bits, the rows'
+    status array, the table))`` deals with it (raises, or redoes the flagged rows) and returns
+    a status, and those blocks go on from the next frame. Returns the OR of the handled
+    statuses (STATUS_OK if none)."""
     shape = (rows.n_pixels, cols.n_pixels)
     base, row_length, frame_stride = _frames_of(block)
     frame_shape = block.shape[1:]
@@ -1815,30 +1812,44 @@ def _launch(block, rows: _Axis, cols: _Axis, time_weight, reference, dev, sq, tm
                                            response.shift, response.last, response.offset)
         t_min, t_max = response.t_min, response.t_max
         entry_table, entry_grey = response.entry_table, response.entry_grey
-    status = np.zeros((block.shape[0], rows.n_pixels), dtype=np.int64)
+    n_frames = block.shape[0]
+    status = np.zeros((n_frames, rows.n_pixels), dtype=np.int64)
     slot_runs, slot_weight, slot_of_piece, dup_source, col_bounds, layout = cols.slots
     n_blocks = _blocks(rows.n_pixels, threads)
     buffers = _buffers(n_blocks, max(1, dup_source.size), slot_weight.size, base.dtype,
                        index_map.dtype)
+    members = merged if merged is not None else _NO_MEMBERS
+    start = np.zeros(n_blocks, dtype=np.int64)
+    pending = np.full(n_blocks, -1, dtype=np.int64)  # a frame whose status awaits handling
+    handled = STATUS_OK
     previous = numba.get_num_threads()
     if n_blocks != previous and n_blocks <= numba.config.NUMBA_NUM_THREADS:
         numba.set_num_threads(n_blocks)
     try:
-        with parallel_launch():
-            frame, result = _accumulate_kernel(
-                n_blocks, block.shape[0], frame_stride, base, row_length, rows.source, rows.weight, rows.bounds, cols.extent,
-                slot_runs, slot_weight, slot_of_piece, dup_source, col_bounds, layout,
-                time_weight, reference, dev, sq, tmax, signal,
-                *(merged if merged is not None else _NO_MEMBERS), mode, coef,
-                key0, shift, last, offset, t_min, t_max, entry_table, entry_grey, float(grey),
-                grey_map,
-                index_map, map_length, use_map, *buffers, status)
+        while True:
+            run = np.where(pending >= 0, n_frames, start)
+            with parallel_launch():
+                stopped = _accumulate_kernel(
+                    n_blocks, run, n_frames, frame_stride, base, row_length, rows.source,
+                    rows.weight, rows.bounds, cols.extent, slot_runs, slot_weight,
+                    slot_of_piece, dup_source, col_bounds, layout, time_weight, reference, dev,
+                    sq, tmax, signal, *members, mode, coef, key0, shift, last, offset, t_min,
+                    t_max, entry_table, entry_grey, float(grey), grey_map, index_map,
+                    map_length, use_map, *buffers, status)
+            ran = run < n_frames
+            pending[ran & (stopped < n_frames)] = stopped[ran & (stopped < n_frames)]
+            start[ran] = np.minimum(stopped[ran] + 1, n_frames)
+            if not np.any(pending >= 0):
+                return handled
+            # The earliest frame with a status: every block has either passed it cleanly or
+            # stopped at or after it, so its flagged rows are handled in frame order.
+            f = int(pending[pending >= 0].min())
+            result = int(np.bitwise_or.reduce(status[f]))
+            handled |= handle(f, (result, status[f], table))
+            pending[pending == f] = -1
     finally:
         if numba.get_num_threads() != previous:
             numba.set_num_threads(previous)
-    if result == STATUS_OK:
-        return None
-    return frame, result, status[frame], table
 
 
 def _finish(launched, frame2d, rows: _Axis, cols: _Axis, frame_index, response, time_weight,

@@ -437,7 +437,11 @@ def test_a_block_of_frames_merges_as_frame_by_frame(name, tables):
     # result, cold samples (the numpy path, mid-block) included.
     rows, cols = footprints(*FOOTPRINTS[name])
     block = scene_frames(np.float32, n=11, seed=3)
-    block[4, 6:9, 9:12] = 150.0  # below the table (200 K), in the middle of the block
+    # Below the table (200 K), in the middle of the block, for rows of either thread's half
+    # (each half goes on alone after a frame the other stopped at).
+    block[4, 6:9, 9:12] = 150.0
+    block[2, 50, 30] = 180.0
+    block[7, 55:57, 20] = 150.0
     rng = np.random.default_rng(4)
     weight = rng.uniform(0.0, 0.2, (11, 2))
     weight[:3, 1] = 0.0  # the second job's window starts at frame 3
@@ -450,13 +454,14 @@ def test_a_block_of_frames_merges_as_frame_by_frame(name, tables):
         for name_ in ("mean", "m2", "max", "signal", "count"):
             np.testing.assert_array_equal(getattr(one[1], name_), getattr(many[1], name_))
         expected = STATUS_BELOW_TABLE if table is not None else STATUS_OK
-        assert one[2][4] == many[2][0] == expected
+        assert one[2][2] == one[2][4] == one[2][7] == many[2][0] == expected
 
 
 def test_a_bad_sample_in_a_block_names_its_frame(tables):
     rows, cols = footprints(3.0, 1.0, 0.0)
     block = scene_frames(np.float64, n=6, seed=5)
     block[4, 10, 20] = np.nan
+    block[5, 60, 7] = np.nan  # later, in the other thread's half: the earlier frame is named
     weight = np.full((6, 1), 1 / 6)
     first = region_of(block[0], rows, cols)
     reference = pixel_mean(first, rows, cols)
