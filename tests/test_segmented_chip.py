@@ -232,3 +232,35 @@ def test_reflected_field_sees_the_interface_only_near_the_rake_face():
     assert np.all(excess >= math.exp(-0.8) - 1e-12) and np.all(excess <= 1 + 1e-12)
     far = g.chip_max & (g.n > 60e-6)
     assert np.all(field[far] - ambient < (face.max() - ambient) * math.exp(-12))
+
+
+def test_compiled_frames_are_checked_in_the_kernel(scene, monkeypatch):
+    # The kernel finds each frame's least and greatest value as it writes it: a clean frame
+    # is not read again by the scene's check; anything else still is.
+    import radiosim.scenes.base as base
+
+    region = (slice(100, 180), slice(300, 420))
+    expected = base.check_frame(scene.temperature(3.5 * scene.dt, region), 3, (100, 300))
+
+    def unread(*args, **kwargs):
+        raise AssertionError("the clean frame was read again")
+
+    monkeypatch.setattr(base, "check_frame", unread)
+    np.testing.assert_array_equal(scene.frame(3, region), expected)
+    monkeypatch.undo()
+    bad = expected.copy()
+    bad[5, 7] = -1.0
+    with pytest.raises(RadiosimError, match="frame 3: temperature at row 105, column 307 is -1 K"):
+        scene._checked(bad, 3, region)
+
+
+@pytest.mark.parametrize("value, what", [(np.nan, "is NaN"), (-3.0, "is -3 K"), (0.0, "is 0 K"),
+                                         (np.inf, "is inf")])
+def test_a_bad_value_the_kernel_writes_is_caught(value, what):
+    # The kernel's extremes, as integers, flag NaN, ±0, negative and infinite values alike.
+    scene = SegmentedChip(dx=COARSE, dt=0.5e-6)
+    region = (slice(0, 40), slice(0, 60))
+    scene.frame(0, region)
+    scene._prepared(region).static[5, 7] = value  # a field the frame starts from
+    with pytest.raises(RadiosimError, match=f"frame 2: temperature at row 5, column 7 {what}"):
+        scene.frame(2, region)

@@ -509,6 +509,10 @@ _NO_REGIONS = np.zeros((1, 1), dtype=np.uint8)
 _exp = fast_exp
 
 
+#: The bits of +inf as an int64: a float64 whose bits are ≥ this is +inf or NaN.
+_INF_BITS = int(np.array(np.inf).view(np.int64))
+
+
 @numba.njit(**_JIT)
 def _coordinates(xj, dyv, k):
     """(n, ζ) of the sample at x = ``xj``, y − y_tip = ``dyv``: _Geometry's arithmetic."""
@@ -729,13 +733,16 @@ def _band_profile(grid, terms, nodes, sin_b):
 @numba.njit(parallel=True, **_JIT)
 def _moving_terms_kernel(threads, bounds, static, regions_static, out, regions_out,
                          want_regions, forming, x, y, k, grid, terms, nodes, cos_field, sin_field,
-                         ptr, runs, fade, fade_rows):
+                         ptr, runs, fade, fade_rows, extremes):
     """The frame over the region: rows bounds[b] … bounds[b + 1] − 1 in block b, the blocks
     dealt to ``threads`` threads in turn (so that each thread's work spans the frame, and the
     threads' shares are even however the blocks' work was estimated). ``out`` (and, with
     ``want_regions``, ``regions_out``) is written in full. ``x`` holds the columns' x
     coordinates and _PAD more (any finite values). The released bands' profile on ``grid`` is
-    computed first, from the bands' ``terms`` (ζ_k, σ_k², amplitude) on their ``nodes``."""
+    computed first, from the bands' ``terms`` (ζ_k, σ_k², amplitude) on their ``nodes``.
+    ``extremes[thread]``: the least and greatest bit pattern (as int64) of the values the
+    thread wrote — as integers, positive finite floats keep their order, and any value ≤ 0 K
+    gives one ≤ 0, any +inf or NaN one ≥ that of +inf (the frame's check, in registers)."""
     profile = _band_profile(grid, terms, nodes, k[_K_SIN_TB])
     # f = base^m and σ where the exponent m has saturated at 1 (n beyond its reach), with the
     # arithmetic of _forming_values.
@@ -748,11 +755,21 @@ def _moving_terms_kernel(threads, bounds, static, regions_static, out, regions_o
     n_blocks = bounds.size - 1
     for thread in prange(threads):
         scratch = np.empty((3, out.shape[1] + _PAD))
+        bits = out.reshape(-1).view(np.int64)
+        n_cols = out.shape[1]
+        low = np.int64(0x7FFFFFFFFFFFFFFF)
+        high = -low
         for b in range(thread, n_blocks, threads):
             for i in range(bounds[b], bounds[b + 1]):
                 _frame_row(i, static, regions_static, out, regions_out, want_regions, forming,
                            x, y, k, profile, cos_field, sin_field, ptr, runs, fade, fade_rows,
                            scratch, f_saturated, sigma_saturated)
+                for j in range(i * n_cols, (i + 1) * n_cols):
+                    v = bits[j]
+                    low = v if v < low else low
+                    high = v if v > high else high
+        extremes[thread, 0] = low
+        extremes[thread, 1] = high
 
 
 @numba.njit(**_JIT)
@@ -951,6 +968,7 @@ class SegmentedChip(Scene):
         self._geometry = None
         self._regions: dict[tuple, _RegionData] = {}
         self._lock = threading.RLock()
+        self._checked_frames = threading.local()  # .last: id of a frame known to be clean
 
     @property
     def geometry(self) -> _Geometry:
@@ -1107,10 +1125,17 @@ class SegmentedChip(Scene):
             frame[_K_REACH] = self._forming_reach(base)
         temperature = np.empty(r.shape)
         regions = np.empty(r.shape, dtype=np.uint8) if want_regions else _NO_REGIONS
+        threads, blocks = kd.blocks(forming)
+        extremes = np.empty((threads, 2), dtype=np.int64)
         with parallel_launch():
-            _moving_terms_kernel(*kd.blocks(forming), r.static, r.regions, temperature, regions,
+            _moving_terms_kernel(threads, blocks, r.static, r.regions, temperature, regions,
                                  want_regions, forming, kd.x, r.y, frame, grid, terms, nodes,
-                                 r.cos_field, r.sin_field, kd.ptr, kd.runs, kd.fade, kd.fade_rows)
+                                 r.cos_field, r.sin_field, kd.ptr, kd.runs, kd.fade, kd.fade_rows,
+                                 extremes)
+        # Every value finite and > 0 K (see _moving_terms_kernel): the frame's check is done.
+        clean = temperature.size == 0 or (extremes[:, 0].min() > 0
+                                          and extremes[:, 1].max() < _INF_BITS)
+        self._checked_frames.last = id(temperature) if clean else None
         if not want_regions:
             return temperature
         return temperature, regions
@@ -1131,6 +1156,16 @@ class SegmentedChip(Scene):
 
     def _read(self, k: int, region: Region) -> np.ndarray:
         return self._evaluate((k + 0.5) * self.dt, region)
+
+    def _checked(self, values, k: int, region: Region) -> np.ndarray:
+        """As the scene's check, but a frame the compiled kernel just made on this thread and
+        found clean (finite, > 0 K) is not read again."""
+        if getattr(self._checked_frames, "last", None) == id(values):
+            self._checked_frames.last = None
+            if values.dtype == np.float64 and values.shape == tuple(
+                    sl.stop - sl.start for sl in region):
+                return values
+        return super()._checked(values, k, region)
 
     def _sample(self, k: int, region: Region) -> SceneFrame:
         """Temperature and, with an emissivity per region, the region codes of the same
