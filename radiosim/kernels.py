@@ -20,17 +20,24 @@ How the kernels are fast (see ``benchmarks/bench_kernels.py``):
 
 -   pixel rows are split in one contiguous block per thread (``numba.prange``); a pixel row
     writes only its own output row, so there are no races, and the result does not depend on
-    the number of threads;
+    the number of threads. Several frames go in one call (:func:`accumulate_merged` with a
+    3-D block): each thread takes its rows through all of them without waiting for the other
+    (no barrier per frame), and stops at its first frame with a status; those are handled in
+    frame order, and the stopped threads go on;
 -   within a pixel row, the sample rows of its pieces are swept up to 12 at a time (all of a
     pixel row of up to 12 pieces; generated sweeps ``_lin1`` … ``_lin12``), in chunks of 512
     slots that stay in the L1 cache, along the
     columns, in sample space: one accumulator slot per sample (holding the first column piece
     that reads it), plus a slot per "duplicate" piece (a pixel edge inside a sample: the
     second piece reading it, filled from a small gathered row). The loops are contiguous and
-    vectorised; float32 frames are read as float32 and widened per sample, never copied. A
-    pixel row's first sweep writes the accumulators (no clearing pass); the slots are reduced
-    to pixels, and checked, in one pass per pixel row; the accumulators sit in one buffer,
-    their starts 576 bytes apart modulo 4 kB (no false store-to-load aliasing between them);
+    vectorised; float32 frames are read as float32 and widened per sample, never copied; rows
+    are reached by uint64 offsets into the frame, not slices (a slice is a reference count,
+    an atomic operation both threads would share). A pixel row's first sweep writes the
+    accumulators (no clearing pass); the slots are reduced to pixels, and checked, in one pass
+    per pixel row (for the integrator's regular footprints, whose interior pieces are whole
+    samples of one weight, the interior summed unweighted); the accumulators and the Planck
+    scratch sit in one buffer, their starts 576 bytes apart modulo 4 kB (no false
+    store-to-load aliasing between them);
 -   the checks are fused: NaN propagates into the sums, +inf into the maximum, and a running
     minimum per slot catches T ≤ 0 and T below the table, so a clean frame costs one vector
     max and one min per sample;
@@ -41,9 +48,10 @@ How the kernels are fast (see ``benchmarks/bench_kernels.py``):
     into a small scratch; then the interval's four coefficients, loaded as one 32-byte row for
     each of eight samples and transposed into vectors by shuffles (:func:`_cubic8_grey`,
     :func:`_cubic8_map`: LLVM intrinsics; LLVM would otherwise make four scalar loads per
-    sample, or slow gathers), a vector Horner step and the accumulation, in registers. The
-    table (160 kB for the nist-ir band) is read where the scene's temperatures are, which
-    stays in the L1/L2 cache;
+    sample, or slow gathers), a vector Horner step and the accumulation, in registers; for a
+    grey scene two sample rows at a time (:func:`_cubic8_pair`: two independent chains, one
+    accumulator update). The table (160 kB for the nist-ir band) is read where the scene's
+    temperatures are, which stays in the L1/L2 cache;
 -   ``fastmath`` is off: no reassociation, no automatic contraction into FMA, IEEE semantics;
     where the kernels fuse a multiply-add they say so (the moments' squares, the cubic's
     Horner steps: one rounding instead of two, which also takes a quarter of the Planck pass's
