@@ -595,6 +595,14 @@ def _setup_row(reference, i, slot_runs, with_signal, ce, a3):
 
 
 @numba.njit(**_JIT)
+def _pixel_flags(v1, m, n, t_low, t_high):
+    """A pixel's checks from its Σ w (T − c), maximum and minimum (frame dtype): (a bad sample:
+    NaN, +inf or ≤ 0 K; one below ``t_low``; one above ``t_high``), as 0 or 1 each."""
+    return (np.int64(n <= 0.0) + np.int64(np.float64(m) == _INF) + np.int64(v1 != v1),
+            np.int64(np.float64(n) < t_low), np.int64(np.float64(m) > t_high))
+
+
+@numba.njit(**_JIT)
 def _pixel_sums(a1, a2, a3, am, an, slot_weight, slot_of_piece, col_bounds, identity,
                 with_signal, t_low, t_high, s1, s2, s3, sm):
     """Per pixel j: s1, s2, s3 = Σ w a1, Σ w a2, Σ w a3 and sm = max am over the slots of its
@@ -623,14 +631,11 @@ def _pixel_sums(a1, a2, a3, am, an, slot_weight, slot_of_piece, col_bounds, iden
             m = a if a > m else m
             a = an[k]
             n = a if a < n else n
-        s1[j] = v1
-        s2[j] = v2
-        s3[j] = v3
-        sm[j] = np.float64(m)
-        n_bad += (np.int64(n <= 0.0) + np.int64(np.float64(m) == _INF)
-                  + np.int64(v1 != v1))
-        n_low += np.int64(np.float64(n) < t_low)
-        n_high += np.int64(np.float64(m) > t_high)
+        s1[j], s2[j], s3[j], sm[j] = v1, v2, v3, np.float64(m)
+        bad, low, high = _pixel_flags(v1, m, n, t_low, t_high)
+        n_bad += bad
+        n_low += low
+        n_high += high
     return n_bad, n_low, n_high
 
 
@@ -674,35 +679,24 @@ def _pixel_sums_regular(a1, a2, a3, am, an, slot_weight, slot_of_piece, col_boun
             t1 = 0.0
             t2 = 0.0
             t3 = 0.0
-            if with_signal:
-                for q in range(lo, hi):
-                    t1 += a1[q]
-                    t2 += a2[q]
+            for q in range(lo, hi):  # (LLVM takes the test on with_signal out of the loop)
+                t1 += a1[q]
+                t2 += a2[q]
+                if with_signal:
                     t3 += a3[q]
-                    a = am[q]
-                    m = a if a > m else m
-                    a = an[q]
-                    n = a if a < n else n
-            else:
-                for q in range(lo, hi):
-                    t1 += a1[q]
-                    t2 += a2[q]
-                    a = am[q]
-                    m = a if a > m else m
-                    a = an[q]
-                    n = a if a < n else n
+                a = am[q]
+                m = a if a > m else m
+                a = an[q]
+                n = a if a < n else n
             w = slot_weight[lo]
             v1 += t1 * w
             v2 += t2 * w
             v3 += t3 * w
-        s1[j] = v1
-        s2[j] = v2
-        s3[j] = v3
-        sm[j] = np.float64(m)
-        n_bad += (np.int64(n <= 0.0) + np.int64(np.float64(m) == _INF)
-                  + np.int64(v1 != v1))
-        n_low += np.int64(np.float64(n) < t_low)
-        n_high += np.int64(np.float64(m) > t_high)
+        s1[j], s2[j], s3[j], sm[j] = v1, v2, v3, np.float64(m)
+        bad, low, high = _pixel_flags(v1, m, n, t_low, t_high)
+        n_bad += bad
+        n_low += low
+        n_high += high
     return n_bad, n_low, n_high
 
 

@@ -27,7 +27,8 @@ COMPILED_AT_IMPORT = sum(len(f.signatures) for f in (
     kernels._accumulate_kernel, kernels._accumulate_rows, kernels._lin, *kernels._LIN_SWEEPS,
     kernels._signal_row, kernels._signal_rows, kernels._signal_one, kernels._signal_two,
     kernels._cubic, kernels._cubic1, kernels._locate, kernels._commit_row, kernels._setup_row,
-    kernels._pixel_sums, kernels._pixel_sums_regular, kernels._row, kernels._exp))
+    kernels._pixel_sums, kernels._pixel_sums_regular, kernels._pixel_flags, kernels._row,
+    kernels._exp))
 
 SCENE = (70, 90)  # scene samples (rows, columns)
 T_SCALE = 1500.0  # [K], the scale of the temperatures below
