@@ -226,6 +226,9 @@ def axis_footprints(
         raise RadiosimError(f"fill factor must be in (0, 1], got {fill_factor!r}")
     if origin < 0 or not math.isfinite(origin):
         raise RadiosimError(f"{axis} origin must be finite and ≥ 0 [m], got {origin!r}")
+    if int(n_samples) != n_samples:
+        raise RadiosimError(f"{axis}: the number of samples must be a whole number, got "
+                            f"{n_samples!r}")
     return _axis_footprints(int(n_samples), float(sample_pitch), float(pixel_pitch),
                             float(fill_factor), int(max_pixels), float(origin), str(axis))
 
@@ -615,28 +618,50 @@ class _Group:
         self.first = min(m.first for m in self.members)
         self.stop = max(m.stop for m in self.members)
 
-    def passes(self, start: int, stop: int) -> tuple[np.ndarray, list]:
+    def passes(self, start: int, stop: int) -> tuple[np.ndarray, list, np.ndarray]:
         """For frames start … stop − 1: the members' time weights (frames × members, 0 when
-        inactive) and, per distinct response of the members active in any of those frames (in
-        order of appearance), the response and those members."""
+        inactive); per distinct response of the members active in any of those frames (in
+        order of appearance), the response and those members; and which frames any member's
+        window holds."""
         weight = np.zeros((stop - start, len(self.members)))
+        active = np.zeros(stop - start, dtype=bool)
         by_response: dict[int, list] = {}
         for b, m in enumerate(self.members):
             first, last = max(start, m.first), min(stop, m.stop)
             if first < last:
                 weight[first - start:last - start, b] = m.weights[first - m.first:last - m.first]
+                active[first - start:last - start] = True
                 by_response.setdefault(id(m.job.response), [m.job.response, []])[1].append(b)
-        return weight, list(by_response.values())
+        return weight, list(by_response.values()), active
 
     def merge(self, temperature: np.ndarray, sample: SceneFrame, start: int):
         """Merge frames ``start``, ``start + 1``, … (``temperature``: one 2-D frame over the
         group's region, or a 3-D block of consecutive frames; ``sample``: the first one's
         scene frame, for its emissivity) into the members active in them: one kernel pass per
-        distinct response (the first also forms the moments)."""
+        distinct response (the first also forms the moments). Frames no member's window holds
+        are skipped (neither read nor checked, as frame by frame); with more than one pass,
+        frames go one at a time, so that an error names the earliest bad frame of any pass."""
+        block = temperature if temperature.ndim == 3 else temperature[None]
+        n = block.shape[0]
+        _, passes, active = self.passes(start, start + n)
+        step = n if len(passes) == 1 else 1
+        f = 0
+        while f < n:
+            if not active[f]:
+                f += 1
+                continue
+            g = f + 1
+            while g < n and active[g] and g - f < step:
+                g += 1
+            self._merge_run(block[f:g] if g - f > 1 else block[f], sample, start + f)
+            f = g
+
+    def _merge_run(self, temperature: np.ndarray, sample: SceneFrame, start: int):
+        """:meth:`merge` of consecutive frames that members' windows hold."""
         from radiosim import kernels
 
         n = 1 if temperature.ndim == 2 else temperature.shape[0]
-        weight, passes = self.passes(start, start + n)
+        weight, passes, _ = self.passes(start, start + n)
         rows, cols = self.integrator.rows, self.integrator.cols
         if self.reference is None:  # [K] per pixel: the first frame's means
             first = temperature if temperature.ndim == 2 else temperature[0]

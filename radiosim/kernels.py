@@ -1041,7 +1041,7 @@ class _Axis:
     @classmethod
     def of(cls, axis, name: str) -> "_Axis":
         source = np.asarray(axis.source, dtype=np.intp)
-        weight = np.ascontiguousarray(axis.weight, dtype=np.float64)
+        weight = np.array(axis.weight, dtype=np.float64)  # a writeable copy: one compilation
         starts = np.asarray(axis.starts, dtype=np.intp)
         if source.ndim != 1 or source.size == 0 or weight.shape != source.shape:
             raise RadiosimError(f"{name} footprints must have one weight per piece and at least "
@@ -1703,13 +1703,17 @@ _NO_MEMBERS = (False, False, np.zeros((1, 1)), np.zeros((1, 1)), np.zeros((1, 1)
 
 def _per_frame(values, n_frames: int, n_jobs: int, name: str) -> np.ndarray:
     """Per-frame, per-job weights as a C-contiguous (frames, jobs) float64 array."""
-    a = np.asarray(values, dtype=np.float64)
+    try:
+        a = np.asarray(values, dtype=np.float64)
+        got = f"shape {a.shape}"
+    except (TypeError, ValueError):
+        a, got = np.zeros(0), "ragged or non-numeric values"
     if a.ndim == 1:
         a = a[None]
     if a.shape != (n_frames, n_jobs):
         raise RadiosimError(f"{name} must have shape ({n_jobs},) for one frame or "
                             f"({n_frames}, {n_jobs}) for {n_frames} frames (one weight per "
-                            f"frame and job), got {np.shape(values)}")
+                            f"frame and job), got {got}")
     return np.ascontiguousarray(a)
 
 

@@ -233,3 +233,56 @@ def test_frame_runs():
 
     assert _runs([0, 1, 2, 3, 4, 7, 8, 20], 3) == [(0, 3), (3, 5), (7, 9), (20, 21)]
     assert _runs([], 4) == []
+
+
+def test_frames_no_window_of_a_group_holds_are_not_read():
+    # A frame between two windows of one footprint group (read for another group) is not
+    # checked for that group, in blocks as frame by frame: a NaN there is not an error.
+    from radiosim.integrator import Job, integrate_many
+
+    dt = dx = 1e-6
+    stack = np.full((40, 20, 20), 300.0)
+    stack[5, 15, 15] = np.nan
+    whole = FootprintIntegrator(axis_footprints(20, dx, 2e-6, 1.0, 10**6),
+                                axis_footprints(20, dx, 2e-6, 1.0, 10**6))
+    corner = FootprintIntegrator(axis_footprints(20, dx, 2e-6, 1.0, 2),
+                                 axis_footprints(20, dx, 2e-6, 1.0, 2))
+    linear = LinearResponse()
+    jobs = [Job(whole, Window(0.0, 2 * dt), linear), Job(whole, Window(20 * dt, 2 * dt), linear),
+            Job(corner, Window(0.0, 22 * dt), linear)]
+    for scene in (FrameStack(stack, dt=dt, dx=dx), _FrameByFrame(stack, dt=dt, dx=dx)):
+        results = integrate_many(scene, jobs)
+        np.testing.assert_array_equal(results[0].mean, 300.0)
+
+
+def test_with_two_responses_the_earliest_bad_frame_is_named():
+    # One footprint group, two kernel passes (linear, Planck): frame 3 is above the Planck
+    # table, frame 5 has a NaN; frame 3 is named, in blocks as frame by frame.
+    from radiosim.integrator import Job, integrate_many
+    from radiosim.response import PlanckResponse
+
+    dt = dx = 1e-6
+    stack = np.full((20, 12, 12), 600.0)
+    stack[3, 4, 4] = 2000.0
+    stack[5, 7, 7] = np.nan
+    group = FootprintIntegrator(axis_footprints(12, dx, 2e-6, 1.0, 10**6),
+                                axis_footprints(12, dx, 2e-6, 1.0, 10**6))
+    planck = PlanckResponse((3.8e-6, 5.1e-6), 1.0, temperature_range=(200.0, 1500.0))
+    jobs = [Job(group, Window(0.0, 10 * dt), LinearResponse()),
+            Job(group, Window(0.0, 10 * dt), planck)]
+    for scene in (FrameStack(stack, dt=dt, dx=dx), _FrameByFrame(stack, dt=dt, dx=dx)):
+        with pytest.raises(RadiosimError, match="frame 3: temperature 2000 K"):
+            integrate_many(scene, jobs)
+
+
+def test_user_built_and_integrator_footprints_share_one_compiled_kernel():
+    from radiosim import kernels
+    from radiosim.integrator import AxisFootprints
+
+    rows = axis_footprints(30, 1.0, 3.0, 1.0, 10**6)
+    built = AxisFootprints(np.array(rows.source), np.array(rows.weight), np.array(rows.starts))
+    frame = np.full((30, 30), 300.0)
+    kernels.pixel_mean(frame, rows, rows)
+    before = len(kernels._accumulate_kernel.signatures)
+    kernels.pixel_mean(frame, built, built)
+    assert len(kernels._accumulate_kernel.signatures) == before

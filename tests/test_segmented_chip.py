@@ -264,3 +264,33 @@ def test_a_bad_value_the_kernel_writes_is_caught(value, what):
     scene._prepared(region).static[5, 7] = value  # a field the frame starts from
     with pytest.raises(RadiosimError, match=f"frame 2: temperature at row 5, column 7 {what}"):
         scene.frame(2, region)
+
+
+def test_only_the_kernels_own_frames_skip_the_check():
+    # A subclass that changes the frames it reads, a frame of the numpy path or any other
+    # array is still checked in full.
+    import radiosim.scenes.segmented_chip as module
+
+    region = (slice(0, 40), slice(0, 60))
+
+    class Shifted(SegmentedChip):
+        def _read(self, k, region):
+            t = super()._read(k, region)
+            t -= 2000.0  # in place, below 0 K
+            return t
+
+    with pytest.raises(RadiosimError, match="frame 2: temperature at row 0, column 0 is -"):
+        Shifted(dx=COARSE, dt=0.5e-6).frame(2, region)
+    scene = SegmentedChip(dx=COARSE, dt=0.5e-6)
+    scene.temperature(1e-6, region)  # a clean frame, not read through frame()
+    bad = np.full((40, 60), np.nan)
+    with pytest.raises(RadiosimError, match="is NaN"):
+        scene._checked(bad, 2, region)
+    scene._prepared(region).static[5, 7] = np.nan
+    for compiled in (True, False):
+        module.USE_COMPILED_KERNEL = compiled
+        try:
+            with pytest.raises(RadiosimError, match="frame 2: temperature at row 5, column 7"):
+                scene.frame(2, region)
+        finally:
+            module.USE_COMPILED_KERNEL = True

@@ -43,6 +43,7 @@ import dataclasses
 import math
 import re
 import threading
+import weakref
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -968,7 +969,7 @@ class SegmentedChip(Scene):
         self._geometry = None
         self._regions: dict[tuple, _RegionData] = {}
         self._lock = threading.RLock()
-        self._checked_frames = threading.local()  # .last: id of a frame known to be clean
+        self._checked_frames = threading.local()  # .last: weakref to a frame known clean
 
     @property
     def geometry(self) -> _Geometry:
@@ -1007,6 +1008,7 @@ class SegmentedChip(Scene):
         kernel (True), the numpy reference (False) or, by default, :data:`USE_COMPILED_KERNEL`."""
         if compiled is None:
             compiled = USE_COMPILED_KERNEL
+        self._checked_frames.last = None  # only the frame this evaluation makes can be clean
         if compiled:
             return self._evaluate_compiled(t, region, want_regions)
         return self._evaluate_reference(t, region, want_regions)
@@ -1135,7 +1137,7 @@ class SegmentedChip(Scene):
         # Every value finite and > 0 K (see _moving_terms_kernel): the frame's check is done.
         clean = temperature.size == 0 or (extremes[:, 0].min() > 0
                                           and extremes[:, 1].max() < _INF_BITS)
-        self._checked_frames.last = id(temperature) if clean else None
+        self._checked_frames.last = weakref.ref(temperature) if clean else None
         if not want_regions:
             return temperature
         return temperature, regions
@@ -1158,13 +1160,14 @@ class SegmentedChip(Scene):
         return self._evaluate((k + 0.5) * self.dt, region)
 
     def _checked(self, values, k: int, region: Region) -> np.ndarray:
-        """As the scene's check, but a frame the compiled kernel just made on this thread and
-        found clean (finite, > 0 K) is not read again."""
-        if getattr(self._checked_frames, "last", None) == id(values):
-            self._checked_frames.last = None
-            if values.dtype == np.float64 and values.shape == tuple(
-                    sl.stop - sl.start for sl in region):
-                return values
+        """As the scene's check, but the very frame the compiled kernel just made on this
+        thread and found clean (finite, > 0 K) is not read again (unless a subclass makes its
+        frames another way)."""
+        last, self._checked_frames.last = getattr(self._checked_frames, "last", None), None
+        if (last is not None and last() is values and type(self)._read is SegmentedChip._read
+                and values.dtype == np.float64
+                and values.shape == tuple(sl.stop - sl.start for sl in region)):
+            return values
         return super()._checked(values, k, region)
 
     def _sample(self, k: int, region: Region) -> SceneFrame:
