@@ -684,7 +684,7 @@ class _Group:
 
 #: Consecutive frames one kernel call takes from a scene that holds its frames as one array
 #: (:meth:`~radiosim.scenes.base.Scene.block_unchecked`).
-FRAME_BLOCK = 16
+FRAME_BLOCK = 128
 
 
 def _runs(indices: list[int], size: int) -> list[tuple[int, int]]:
