@@ -329,9 +329,10 @@ def _horner8(builder, table, index, position, q):
 
 @intrinsic
 def _cubic8_pair(typingctx, coef, interval, position, second, w0, w1, out, out0, q):
-    """For k = 0 … 7: out[out0 + q + k] += v₀ · w0 + v₁ · w1, where v₀ is the cubic of sample
-    q + k of a row and v₁ that of sample ``second`` + q + k of the next (:func:`_horner8`):
-    two rows' samples at once, two independent chains, one update of the accumulators."""
+    """For k = 0 … 7: out[out0 + q + k] += v₀ · w0 + v₁ · w1 (the second product fused into the
+    sum), where v₀ is the cubic of sample q + k of a row and v₁ that of sample ``second`` +
+    q + k of the next (:func:`_horner8`): two rows' samples at once, two independent chains,
+    one update of the accumulators."""
     signature = types.void(coef, interval, position, second, w0, w1, out, out0, q)
 
     def codegen(context, builder, sig, args):
@@ -348,7 +349,8 @@ def _cubic8_pair(typingctx, coef, interval, position, second, w0, w1, out, out0,
 
         v0 = _horner8(builder, table, index, position, q)
         v1 = _horner8(builder, table, index, position, builder.add(second, q))
-        term = builder.fadd(builder.fmul(v0, splat(w0)), builder.fmul(v1, splat(w1)))
+        fma = builder.module.globals.get("llvm.fma.v8f64")
+        term = builder.call(fma, [v1, splat(w1), builder.fmul(v0, splat(w0))])
         target = builder.bitcast(builder.gep(out, [builder.add(out0, q)]), vec8.as_pointer())
         builder.store(builder.fadd(builder.load(target, align=8), term), target, align=8)
         return context.get_dummy_value()
@@ -519,8 +521,8 @@ def _signal_two(src, xo, yo, wx, wy, coef, key0, shift, node_mask, last, interva
         _cubic8_pair(coef, interval, u, second, wx, wy, a3, lo, q)
         q += eight
     for k in range(q, nq):
-        a3[lo + k] += (_cubic1(coef, interval[k], u[k]) * wx
-                       + _cubic1(coef, interval[second + k], u[second + k]) * wy)
+        a3[lo + k] += _fma(_cubic1(coef, interval[second + k], u[second + k]), wy,
+                           _cubic1(coef, interval[k], u[k]) * wx)
 
 
 @numba.njit(**_JIT)
