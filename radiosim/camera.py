@@ -277,13 +277,24 @@ class Camera:
 
     def calibration(self, integration_time: float) -> Calibration:
         """The camera's DN → temperature calibration for ``integration_time`` [s], under its
-        settings (emissivity, reflected temperature, path, instrument temperature)."""
-        return Calibration(self.response_model, self.electronics,
-                           self.rate_per_signal * self.calibration_scale, integration_time,
-                           self.assumed_emissivity, self.calibration_range,
-                           self.assumed_reflected_temperature, self.assumed_path_transmission,
-                           self.assumed_path_temperature,
-                           self.instrument_signal(self.assumed_instrument_temperature))
+        settings (emissivity, reflected temperature, path, instrument temperature). A camera
+        is immutable: its last few calibrations are kept, with what they computed once (the
+        noise floor), for the next measurements of the same integration time."""
+        kept = self.__dict__.setdefault("_calibrations", {})
+        key = float(integration_time)
+        calibration = kept.get(key)
+        if calibration is None:
+            calibration = Calibration(
+                self.response_model, self.electronics,
+                self.rate_per_signal * self.calibration_scale, integration_time,
+                self.assumed_emissivity, self.calibration_range,
+                self.assumed_reflected_temperature, self.assumed_path_transmission,
+                self.assumed_path_temperature,
+                self.instrument_signal(self.assumed_instrument_temperature))
+            if len(kept) >= 16:
+                kept.pop(next(iter(kept)))
+            kept[key] = calibration
+        return calibration
 
     def forms_image(self, scene: Scene) -> bool:
         """Whether measuring ``scene`` takes the image stage (:mod:`radiosim.imaging`): a
