@@ -508,6 +508,9 @@ class BandRadianceTable:
         lo, hi = self.temperatures[0], self.temperatures[-1]
         for _ in range(4):  # Newton on ln L(T), smooth and monotonic: quadratic convergence
             value, slope = self._log_and_slope(t)
-            t = np.clip(t - (value - target) / slope, lo, hi)
+            step = (value - target) / slope
+            t = np.clip(t - step, lo, hi)
+            if np.all(np.abs(step) <= 1e-12 * t):  # the last step was at rounding: done (two
+                break  # steps from the interpolated start on the default grids)
         t = np.clip(t.reshape(radiance.shape), *self.temperature_range)
         return np.where(inside, t, np.nan)
