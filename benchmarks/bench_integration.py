@@ -143,7 +143,7 @@ def main():
                                                responsivity=planck.responsivity), 1)
     quad_rate = subset.size / t_quad
 
-    print(f"\n{'case':<38}{'time [s]':>10}{'samples/s':>12}{'peak MB':>10}{'× read':>8}")
+    print(f"\n{'case':<38}{'time [s]':>10}{'samples/s':>12}{'peak MB':>10}{'× read':>9}")
     rows = [
         ("one streaming read (numpy sum)", t_read, samples / t_read, float("nan")),
         ("linear ideal, streaming", t_lin, samples / t_lin, mem_lin),
@@ -154,7 +154,7 @@ def main():
         (f"planck, naive quadrature (on {subset.size})", samples / quad_rate, quad_rate, float("nan")),
     ]
     for name, t, rate, mem in rows:
-        print(f"{name:<38}{t:>10.2f}{rate:>12.3g}{mem:>10.0f}{t / t_read:>8.1f}")
+        print(f"{name:<38}{t:>10.3f}{rate:>12.3g}{mem:>10.0f}{t / t_read:>9.2f}")
     print(f"\nlinear: streaming / naive time = {t_lin / t_naive:.2f}; "
           f"peak memory naive / streaming = {mem_naive / mem_lin:.1f}; "
           f"max relative difference {err:.1e}")
