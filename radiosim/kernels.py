@@ -597,23 +597,25 @@ def _setup_row(reference, i, slot_runs, with_signal, ce, a3):
 
 
 @numba.njit(**_JIT)
-def _pixel_flags(v1, m, n, t_low, t_high):
-    """A pixel's checks from its Σ w (T − c), maximum and minimum (frame dtype): (a bad sample:
-    NaN, +inf or ≤ 0 K; one below ``t_low``; one above ``t_high``), as 0 or 1 each."""
-    return (np.int64(n <= 0.0) + np.int64(np.float64(m) == _INF) + np.int64(v1 != v1),
-            np.int64(np.float64(n) < t_low), np.int64(np.float64(m) > t_high))
+def _pixel_done(j, v1, v2, v3, m, n, t_low, t_high, s1, s2, s3, sm):
+    """Store pixel j's sums and maximum (m, n: its extremes in the frame's dtype, widened
+    here) and return its status bits: 1 a bad sample (NaN in Σ w (T − c), +inf, ≤ 0 K), 2 one
+    below ``t_low``, 4 one above ``t_high``."""
+    s1[j], s2[j], s3[j], sm[j] = v1, v2, v3, np.float64(m)
+    bad = np.int64(n <= 0.0) | np.int64(np.float64(m) == _INF) | np.int64(v1 != v1)
+    return bad | (np.int64(np.float64(n) < t_low) << 1) | (np.int64(np.float64(m) > t_high) << 2)
 
 
 @numba.njit(**_JIT)
 def _pixel_sums(a1, a2, a3, am, an, slot_weight, slot_of_piece, col_bounds, identity,
                 with_signal, t_low, t_high, s1, s2, s3, sm):
     """Per pixel j: s1, s2, s3 = Σ w a1, Σ w a2, Σ w a3 and sm = max am over the slots of its
-    pieces (``identity``: slot q is piece q), in one pass; returns the counts of pixels with
-    a bad sample (NaN in a1, +inf in am, T ≤ 0 in an), below ``t_low`` and above ``t_high``."""
+    pieces (``identity``: slot q is piece q), in one pass; returns the OR of the pixels'
+    status bits (:func:`_pixel_done`). The slot update is written out here and in
+    :func:`_pixel_sums_regular`: as a shared function returning a tuple it made the
+    reductions a third slower."""
     n_pixels = col_bounds.size - 1
-    n_bad = 0
-    n_low = 0
-    n_high = 0
+    status = 0
     for j in range(n_pixels):  # one pass over the slots the pixels' pieces read
         v1 = 0.0
         v2 = 0.0
@@ -633,12 +635,8 @@ def _pixel_sums(a1, a2, a3, am, an, slot_weight, slot_of_piece, col_bounds, iden
             m = a if a > m else m
             a = an[k]
             n = a if a < n else n
-        s1[j], s2[j], s3[j], sm[j] = v1, v2, v3, np.float64(m)
-        bad, low, high = _pixel_flags(v1, m, n, t_low, t_high)
-        n_bad += bad
-        n_low += low
-        n_high += high
-    return n_bad, n_low, n_high
+        status |= _pixel_done(j, v1, v2, v3, m, n, t_low, t_high, s1, s2, s3, sm)
+    return status
 
 
 @numba.njit(**_JIT)
@@ -648,9 +646,7 @@ def _pixel_sums_regular(a1, a2, a3, am, an, slot_weight, slot_of_piece, col_boun
     the last) lie on consecutive slots with one weight (whole samples): the interior is summed
     unweighted and weighted once, in a short loop without indirection."""
     n_pixels = col_bounds.size - 1
-    n_bad = 0
-    n_low = 0
-    n_high = 0
+    status = 0
     one = np.uint64(1)
     for j in range(n_pixels):  # one pass over the slots the pixels' pieces read
         first = col_bounds[j]
@@ -694,12 +690,8 @@ def _pixel_sums_regular(a1, a2, a3, am, an, slot_weight, slot_of_piece, col_boun
             v1 += t1 * w
             v2 += t2 * w
             v3 += t3 * w
-        s1[j], s2[j], s3[j], sm[j] = v1, v2, v3, np.float64(m)
-        bad, low, high = _pixel_flags(v1, m, n, t_low, t_high)
-        n_bad += bad
-        n_low += low
-        n_high += high
-    return n_bad, n_low, n_high
+        status |= _pixel_done(j, v1, v2, v3, m, n, t_low, t_high, s1, s2, s3, sm)
+    return status
 
 
 @numba.njit(**_JIT)
@@ -725,19 +717,12 @@ def _commit_row(i, a1, a2, a3, am, an, slot_weight, slot_of_piece, col_bounds, l
     n_pixels = col_bounds.size - 1
     identity = (layout & 1) != 0
     if (layout & 2) != 0:
-        n_bad, n_low, n_high = _pixel_sums_regular(a1, a2, a3, am, an, slot_weight,
-                                                   slot_of_piece, col_bounds, identity,
-                                                   with_signal, t_low, t_high, s1, s2, s3, sm)
+        status |= _pixel_sums_regular(a1, a2, a3, am, an, slot_weight, slot_of_piece,
+                                      col_bounds, identity, with_signal, t_low, t_high, s1, s2,
+                                      s3, sm)
     else:
-        n_bad, n_low, n_high = _pixel_sums(a1, a2, a3, am, an, slot_weight, slot_of_piece,
-                                           col_bounds, identity, with_signal, t_low, t_high,
-                                           s1, s2, s3, sm)
-    if n_bad:
-        status |= 1
-    if n_low:
-        status |= 2
-    if n_high:
-        status |= 4
+        status |= _pixel_sums(a1, a2, a3, am, an, slot_weight, slot_of_piece, col_bounds,
+                              identity, with_signal, t_low, t_high, s1, s2, s3, sm)
     if status:
         return status
     if not merge:  # the accumulators indexed [i, j], [b, i, j]: no row views (a view of an
@@ -777,6 +762,18 @@ def _commit_row(i, a1, a2, a3, am, an, slot_weight, slot_of_piece, col_bounds, l
         for j in range(n_pixels):
             reference[i, j] = s1[j]
     return 0
+
+
+@numba.njit(**_JIT)
+def _rows12(row_source, p, n, length):
+    """The uint64 offsets, in a flat array of rows of ``length`` elements, of sample rows
+    ``row_source[p + h]`` for h < 12 (rows past n − 1 repeat the last)."""
+    return (_row(row_source, p, 0, n, length), _row(row_source, p, 1, n, length),
+            _row(row_source, p, 2, n, length), _row(row_source, p, 3, n, length),
+            _row(row_source, p, 4, n, length), _row(row_source, p, 5, n, length),
+            _row(row_source, p, 6, n, length), _row(row_source, p, 7, n, length),
+            _row(row_source, p, 8, n, length), _row(row_source, p, 9, n, length),
+            _row(row_source, p, 10, n, length), _row(row_source, p, 11, n, length))
 
 
 @numba.njit(**_JIT)
@@ -857,13 +854,7 @@ def _accumulate_rows(i_start, i_stop, base, row_length, row_source, row_weight, 
         while p < stop:
             n = min(_MAX_ROWS, stop - p)
             # Rows past n repeat the last one (never read by _lin{n}); offsets as uint64.
-            o = (_row(row_source, p, 0, n, row_length), _row(row_source, p, 1, n, row_length),
-                 _row(row_source, p, 2, n, row_length), _row(row_source, p, 3, n, row_length),
-                 _row(row_source, p, 4, n, row_length), _row(row_source, p, 5, n, row_length),
-                 _row(row_source, p, 6, n, row_length), _row(row_source, p, 7, n, row_length),
-                 _row(row_source, p, 8, n, row_length), _row(row_source, p, 9, n, row_length),
-                 _row(row_source, p, 10, n, row_length),
-                 _row(row_source, p, 11, n, row_length))
+            o = _rows12(row_source, p, n, row_length)
             ws = (row_weight[p], row_weight[p + min(1, n - 1)], row_weight[p + min(2, n - 1)],
                   row_weight[p + min(3, n - 1)], row_weight[p + min(4, n - 1)],
                   row_weight[p + min(5, n - 1)], row_weight[p + min(6, n - 1)],
@@ -871,13 +862,7 @@ def _accumulate_rows(i_start, i_stop, base, row_length, row_source, row_weight, 
                   row_weight[p + min(9, n - 1)], row_weight[p + min(10, n - 1)],
                   row_weight[p + min(11, n - 1)])
             # The grey map's rows (modes 1 and 2).
-            mo = (_row(row_source, p, 0, n, map_length), _row(row_source, p, 1, n, map_length),
-                  _row(row_source, p, 2, n, map_length), _row(row_source, p, 3, n, map_length),
-                  _row(row_source, p, 4, n, map_length), _row(row_source, p, 5, n, map_length),
-                  _row(row_source, p, 6, n, map_length), _row(row_source, p, 7, n, map_length),
-                  _row(row_source, p, 8, n, map_length), _row(row_source, p, 9, n, map_length),
-                  _row(row_source, p, 10, n, map_length),
-                  _row(row_source, p, 11, n, map_length))
+            mo = _rows12(row_source, p, n, map_length)
             # Part 0: the sample slots, along the frame's rows; part 1: the duplicate slots,
             # along rows gathered into the buffers (row h at h · size − n_samples, so that
             # slot q reads sample q − n_samples of it).
@@ -1089,7 +1074,7 @@ def _axis(axis, name: str) -> _Axis:
     return layout
 
 
-def _rows_of(array: np.ndarray, name: str) -> tuple[np.ndarray, int]:
+def _rows_of(array: np.ndarray) -> tuple[np.ndarray, int]:
     """A 2-D array whose rows are contiguous, as a read-only 1-D view and its row stride
     [elements], without copying (a region of a larger C-contiguous frame or memmap included)."""
     flat, row_length, _ = _frames_of(np.asarray(array)[None])
@@ -1810,10 +1795,10 @@ def _launch(block, rows: _Axis, cols: _Axis, time_weight, reference, dev, sq, tm
             grey = response.entry_grey[0]
         else:
             grey = 1.0 if use_map else response.grey_scalar
-        grey_map, map_length = (_rows_of(response.grey, "grey map") if use_map
+        grey_map, map_length = (_rows_of(response.grey) if use_map
                                 else (_ones(frame_shape[1]), 0))
         if response.index is not None:
-            index_map, map_length = _rows_of(response.index, "index map")
+            index_map, map_length = _rows_of(response.index)
         else:
             index_map = _DUMMY_INDEX
         coef, key0, shift, last, offset = (response.coefficients, response.key0,

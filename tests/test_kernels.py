@@ -27,7 +27,8 @@ COMPILED_AT_IMPORT = sum(len(f.signatures) for f in (
     kernels._accumulate_kernel, kernels._accumulate_rows, kernels._lin, *kernels._LIN_SWEEPS,
     kernels._signal_row, kernels._signal_rows, kernels._signal_one, kernels._signal_two,
     kernels._cubic, kernels._cubic1, kernels._locate, kernels._commit_row, kernels._setup_row,
-    kernels._pixel_sums, kernels._pixel_sums_regular, kernels._pixel_flags, kernels._row,
+    kernels._pixel_sums, kernels._pixel_sums_regular, kernels._pixel_done, kernels._row,
+    kernels._rows12,
     kernels._exp))
 
 SCENE = (70, 90)  # scene samples (rows, columns)
@@ -211,7 +212,7 @@ def test_float32_frames_are_read_in_place():
     rows, cols = footprints(7.3, 0.8, 0.0)
     region = region_of(frame, rows, cols)
     assert not region.flags.c_contiguous
-    flat, row_length = kernels._rows_of(region, "frame")
+    flat, row_length = kernels._rows_of(region)
     assert flat.dtype == np.float32 and np.shares_memory(flat, frame)
     assert row_length == SCENE[1]
 
