@@ -18,22 +18,35 @@ linear response's signal is T itself, with no reflection, path or emission) and 
 electron rate per unit of signal (the étendue). The inversion solves it for T: it subtracts the
 emission, the path and the reflection, and inverts ε_a L(T) on the response's monotonic curve.
 
-Flags (a flagged pixel has no apparent temperature, NaN):
+What a reading is (the detection limit, IUPAC's convention). The *blank reading* is the mean
+count with no signal from the object — dark charge plus the background the calibration assumes
+(reflection, path, the optics' emission), b = DN(0 K) — and σ_b its temporal noise [DN], the
+EMVA 1288 σ²_y = K² (σ²_read + μ_e) + 1/12 DN² with μ_e the blank's dark and background
+electrons (shot noise) and 1/12 DN² the converter's quantisation. The detection limit is
+L = b + k·σ_b, with k = ``detection_sigma`` (3 by default, a camera setting): a reading is
+reported only where its counts are at least L, i.e. where they are distinguishable from the
+blank at that confidence. Noise alone passes L with the probability of a k σ excursion (one
+pixel in 740 for k = 3, Gaussian). The *lowest measurable temperature* is the grey-body
+temperature whose mean counts equal L (:meth:`Calibration.lowest_measurable_temperature`).
+
+Flags (exactly one per flagged pixel; a flagged pixel has no apparent temperature, NaN):
 
 -   *saturated*: the well is full or the converter is at its top code;
--   *over range*: the reading lies above the calibration range while neither is full (a
-    temperature hotter than the calibration covers, or noise on a very short integration);
--   *under range*: the converter is at code 0, or the reading lies below the calibration range,
-    or its counts lie below those of the noise floor — the lowest temperature whose
-    photo-signal equals its temporal noise (:meth:`Calibration.lowest_measurable_temperature`,
-    SNR = 1). A reading there is dominated by noise and would read high, so it is not
-    reported. The rule applies to each reading: a scene far below the floor is still reported
-    where noise lifts a pixel above it (for noise around the dark level, with the probability
-    of a one-σ excursion, about one pixel in six), so readings near the floor are noisy ones.
+-   *under range*: not saturated, and the converter is at code 0, or the counts lie below the
+    detection limit L, or below the counts of the calibration range's lowest temperature;
+-   *over range*: neither saturated nor under range, and the counts lie above those of the
+    calibration range's highest temperature (a temperature hotter than the calibration
+    covers, or noise on a very short integration).
+
+A camera and integration time whose whole calibration range lies below the detection limit
+(the counts of its highest temperature below L) or saturates (its lowest temperature fills the
+well or the converter) cannot give a reading: :meth:`Calibration.check_measurable` refuses them
+with the limits, before any frame is measured.
 """
 
 from __future__ import annotations
 
+import dataclasses
 import math
 import warnings
 from dataclasses import dataclass
@@ -47,7 +60,7 @@ from radiosim.errors import RadiosimError, RadiosimWarning
 from radiosim.response import Response, object_signal, observed_signal
 
 __all__ = ["Calibration", "Reading", "MIN_CALIBRATION_SPAN_DN", "NonUniformityCorrection",
-           "replace_bad_pixels"]
+           "replace_bad_pixels", "fit_calibration"]
 
 #: A quantising camera whose calibration spans fewer counts than this over its temperature
 #: range reads in steps of more than 1/this of the range: the calibration warns.
@@ -67,7 +80,7 @@ class Reading:
     saturated : numpy.ndarray of bool
         Full well or converter top code.
     under_range : numpy.ndarray of bool
-        Converter code 0, below the calibration range, or below the noise floor.
+        Converter code 0, below the calibration range, or below the detection limit.
     over_range : numpy.ndarray of bool
         Above the calibration range although the well and the converter are not full.
     """
@@ -103,6 +116,9 @@ class Calibration:
         The camera's path setting: transmission [1] and temperature [K] (``None`` with τ = 1).
     background_signal
         The optics' own emission at the assumed instrument temperature [signal unit].
+    detection_sigma
+        k of the detection limit: readings below the blank's counts plus k times its temporal
+        noise are under range [1] (see the module docstring).
 
     Examples
     --------
@@ -116,7 +132,7 @@ class Calibration:
                  integration_time: float, assumed_emissivity: float = 1.0,
                  temperature_range=(150.0, 3000.0), reflected_temperature: float | None = None,
                  path_transmission: float = 1.0, path_temperature: float | None = None,
-                 background_signal: float = 0.0):
+                 background_signal: float = 0.0, detection_sigma: float = 3.0):
         self.integration_time = check_positive(integration_time, "integration time", "s")
         self.response = response
         self.electronics = electronics
@@ -142,6 +158,7 @@ class Calibration:
             response.grey_signal(check_positive(path_temperature, "assumed path temperature",
                                                 "K"))))
         self.background_signal = float(background_signal) if radiometric else 0.0
+        self.detection_sigma = check_positive(detection_sigma, "detection_sigma", "1")
 
     # -- forward model ---------------------------------------------------------------------
 
@@ -214,7 +231,7 @@ class Calibration:
         Apparent temperature [K] and flags of a read-out (see the module docstring).
         """
         apparent, below, above = self.invert(exposure.counts)
-        floor = self.noise_floor_counts
+        floor = self.detection_limit_counts
         saturated = exposure.saturated
         under = ~saturated & (exposure.adc_floor | below | (exposure.counts < floor))
         # Above the range: a temperature the calibration cannot give. It is saturation when
@@ -252,35 +269,101 @@ class Calibration:
         beyond = (t < low) | (t > high) | (t >= self.saturation_temperature)
         return np.where(beyond, np.nan, self.noise(t) / slope)
 
-    def lowest_measurable_temperature(self, snr: float = 1.0) -> float:
+    @property
+    def blank_electrons(self) -> float:
+        """Mean charge [e⁻] of the blank reading: dark charge and the background's
+        photo-charge (:attr:`background_photoelectrons`), no object signal."""
+        return self.background_photoelectrons + (self.electronics.dark_current
+                                                 * self.integration_time)
+
+    @property
+    def blank_counts(self) -> float:
+        """Mean counts [DN] of the blank reading (no signal from the object: dark charge and
+        the background of reflection, path and optics)."""
+        return float(self.electronics.mean_counts(self.background_photoelectrons,
+                                                  self.integration_time))
+
+    @property
+    def blank_noise_counts(self) -> float:
+        """Temporal noise of the blank reading [DN rms]: σ²_y = K² (σ²_read + μ_e) + 1/12
+        (:meth:`~radiosim.electronics.Electronics.temporal_noise_counts`)."""
+        return float(self.electronics.temporal_noise_counts(self.blank_electrons))
+
+    def detection_limit(self, k: float | None = None) -> float:
         """
-        Lowest grey-body temperature [K] of the calibration range whose photo-signal (above
-        the background of reflection, path and optics) is ``snr`` times its temporal noise (the
-        noise floor at ``snr`` = 1); NaN if none below saturation.
+        Counts [DN] of the detection limit: the blank reading plus ``k`` times its temporal
+        noise (``k`` default :attr:`detection_sigma`); −∞ for noise-free electronics without a
+        converter (any signal is detected).
+        """
+        k = self.detection_sigma if k is None else check_positive(k, "k", "1")
+        if self.electronics.is_noise_free and self.electronics.adc_bits is None:
+            return -math.inf
+        return self.blank_counts + k * self.blank_noise_counts
+
+    @cached_property
+    def detection_limit_counts(self) -> float:
+        """Counts [DN] of the detection limit at :attr:`detection_sigma`: readings below it
+        are flagged under range (see the module docstring)."""
+        return self.detection_limit()
+
+    @property
+    def noise_floor_counts(self) -> float:
+        """The detection limit's counts [DN] (:attr:`detection_limit_counts`; the former name)."""
+        return self.detection_limit_counts
+
+    def lowest_measurable_temperature(self, k: float | None = None) -> float:
+        """
+        Lowest grey-body temperature [K] of the calibration range whose mean counts reach the
+        detection limit at ``k`` σ (default :attr:`detection_sigma`, :meth:`detection_limit`);
+        the range's lowest temperature if that already does; NaN if no temperature below
+        saturation does.
         """
         from scipy.optimize import brentq
 
-        background = self.background_photoelectrons
+        limit = self.detection_limit(k)
+        low, top = self.temperature_range
 
         def margin(t):
-            return float(self.photoelectrons(t) - background - snr * self.noise(t))
+            return float(self.counts(t)) - limit
 
-        low, top = self.temperature_range
         high = min(self.saturation_temperature, top)  # −∞: everything saturates
+        if not high >= low:
+            return float("nan")
         if margin(low) >= 0:
             return float(low)
-        if not high > low or margin(high) < 0:
+        if margin(high) < 0:
             return float("nan")
         return float(brentq(margin, low, high, xtol=1e-6))
 
-    @cached_property
-    def noise_floor_counts(self) -> float:
-        """Counts [DN] of the noise floor (:meth:`lowest_measurable_temperature`); readings
-        below it are flagged under range (∞ if the whole range is below it)."""
-        if self.electronics.is_noise_free and self.electronics.adc_bits is None:
-            return -math.inf
-        floor = self.lowest_measurable_temperature()
-        return math.inf if math.isnan(floor) else float(self.counts(floor))
+    def check_measurable(self, camera: str = "the camera"):
+        """
+        Refuse (:class:`RadiosimError`) an integration time at which no temperature of the
+        calibration range gives a reading: the counts of its highest temperature (or of the
+        highest below saturation) lie below the detection limit, or its lowest temperature
+        saturates. ``camera`` names the camera in the message.
+        """
+        low, high = self.temperature_range
+        t = self.integration_time
+        if self.saturation_temperature == -math.inf:
+            raise RadiosimError(
+                f"{camera} at {t:g} s integration: even the calibration range's lowest "
+                f"temperature {low:g} K saturates (saturation charge "
+                f"{self.electronics.saturation_charge:.4g} e⁻ < "
+                f"{float(self.electronics.dark_current * t + self.photoelectrons(low)):.4g} e⁻ "
+                "at it): no reading is possible; shorten the integration time")
+        limit = self.detection_limit_counts
+        reach = min(self.saturation_temperature, high)
+        top = float(self.counts(reach))
+        if top < limit:
+            what = (f"the calibration range's highest temperature {high:g} K" if reach == high
+                    else f"its highest temperature before saturating, {reach:g} K,")
+            advice = ("lengthen the integration time" if reach == high
+                      else "change the integration time or the gain")
+            raise RadiosimError(
+                f"{camera} at {t:g} s integration: {what} gives {top:.6g} DN, below the "
+                f"detection limit {limit:.6g} DN (blank {self.blank_counts:.6g} DN + "
+                f"{self.detection_sigma:g} × σ {self.blank_noise_counts:.3g} DN): no reading is "
+                f"possible; {advice}")
 
     @property
     def saturation_temperature(self) -> float:
@@ -323,6 +406,168 @@ class Calibration:
                 f"{span:.3g} DN over {low:g}–{high:g} K at {self.integration_time:g} s: one DN is "
                 f"about {step:.3g} K, so readings are coarse (raise the responsivity, gain or "
                 "integration time)", RadiosimWarning, stacklevel=stacklevel + 1)
+
+
+def _unusable_points(camera, t, y, charge) -> list[tuple[int, str]]:
+    """(index, reason) of the calibration points beyond the full well or the converter."""
+    el = camera.electronics
+    bad = []
+    for i, (ti, yi, ei) in enumerate(zip(t, y, charge)):
+        if el.full_well is not None and ei > el.full_well:
+            bad.append((i, f"{ti:g} K ({yi:g} DN): modelled charge {ei:.4g} e⁻ > full well "
+                           f"{el.full_well:.4g} e⁻"))
+        elif el.adc_bits is not None and yi >= el.max_count:
+            bad.append((i, f"{ti:g} K ({yi:g} DN): at or above the ADC's top code "
+                           f"{el.max_count:g} DN"))
+        elif el.adc_bits is not None and yi <= 0:
+            bad.append((i, f"{ti:g} K ({yi:g} DN): at the ADC's code 0"))
+    return bad
+
+
+def fit_calibration(camera, temperatures, counts, integration_time: float, frames: int = 1,
+                    emissivity: float = 1.0, instrument_temperatures=None,
+                    exclude_unusable: bool = False, fit_full_well: bool = False):
+    """
+    Fit a camera's free electrical parameters — system gain K [DN/e⁻] and offset [DN], and,
+    with several ``instrument_temperatures`` [K], the optics' emissivity — to a measured
+    calibration table: blackbody ``temperatures`` [K] against mean ``counts`` [DN] at
+    ``integration_time`` [s], each the mean of ``frames`` read-outs, through radiosim's own
+    radiometry with the camera's spectral curves and geometry.
+
+    The model counts = K · (e(T) + ε_o·E(T_i) + dark) + offset is linear in (K, K·ε_o,
+    offset) for the charge e(T) the radiometry predicts from the blackbody and E(T_i) that a
+    black lens at the instrument temperature would emit into the pixel, so the fit is weighted
+    linear least squares, the weights the counts' temporal noise
+    (:meth:`Electronics.temporal_noise`, over √frames). Without instrument temperatures the
+    optics' emission at the camera's own instrument temperature is part of e(T) (and of the
+    offset). Residuals larger than the noise
+    explains (χ²/dof > 4) are model error and warn, saying how large it is in kelvin.
+
+    Each point is checked first: a modelled charge above the full well, or counts at or above
+    the converter's top code or at code 0, cannot lie on the linear model. Such points are
+    named and refused (:class:`RadiosimError`); with ``exclude_unusable`` they are left out with
+    a :class:`RadiosimWarning` naming them; with ``fit_full_well`` points above the well (but
+    inside the converter's range) are kept and the fitted camera's well is raised to hold
+    them. Counts that fall as the temperature rises (by more than 3 σ of the noise) are refused.
+
+    Returns
+    -------
+    camera : Camera
+        The camera with the fitted gain and offset (and optics emissivity, and well).
+    residuals : numpy.ndarray
+        Measured minus fitted counts [DN]; NaN at excluded points.
+    """
+    from radiosim.checks import check_whole
+
+    t = np.asarray(temperatures, dtype=float)
+    y = np.asarray(counts, dtype=float)
+    if t.ndim != 1 or t.shape != y.shape or t.size < 3:
+        raise RadiosimError(f"a calibration table needs at least 3 (temperature, counts) "
+                            f"pairs of equal length, got {t.size} and {y.size}")
+    if not (np.all(np.isfinite(t)) and np.all(t > 0) and np.all(np.isfinite(y))):
+        raise RadiosimError("calibration temperatures must be finite and > 0 K, and the "
+                            "counts finite")
+    t_int = check_positive(integration_time, "integration_time", "s")
+    frames = check_whole(frames, "frames (read-outs averaged per counts value)")
+    el = camera.electronics
+    optics = camera.optics
+    t_i = None
+    if instrument_temperatures is not None:
+        t_i = np.asarray(instrument_temperatures, dtype=float)
+        if t_i.shape != t.shape or not np.all(np.isfinite(t_i) & (t_i > 0)):
+            raise RadiosimError("instrument_temperatures must give one temperature > 0 K "
+                                "per row of the table")
+        optics = dataclasses.replace(optics, instrument_temperature=None)
+    unit = camera.replace(optics=optics, electronics=dataclasses.replace(
+        el, gain=1.0, offset=0.0, adc_bits=None), assumed_emissivity=emissivity)
+    charge_all = unit.calibration(t_int).electrons(t)  # [e⁻]: photo (and emission), dark
+    # -- the points the linear model cannot hold
+    bad = _unusable_points(camera, t, y, charge_all)
+    well = el.full_well
+    if fit_full_well:
+        over_well = [i for i, why in bad if "full well" in why]
+        if over_well:
+            well = float(np.max(charge_all[over_well])) * (1 + 1e-6)
+            bad = [(i, why) for i, why in bad if i not in over_well]
+    if bad and not exclude_unusable:
+        raise RadiosimError(
+            f"{camera.name} at {t_int:g} s: {len(bad)} calibration point(s) beyond the full well "
+            f"or the ADC's range: {'; '.join(why for _, why in bad)} — pass "
+            "exclude_unusable=True to fit without them" +
+            (" or fit_full_well=True to widen the well" if any("full well" in w for _, w in bad)
+             else ""))
+    keep = np.ones(t.size, dtype=bool)
+    keep[[i for i, _ in bad]] = False
+    if bad:
+        warnings.warn(f"{camera.name}: {len(bad)} calibration point(s) left out: "
+                      f"{'; '.join(why for _, why in bad)}", RadiosimWarning, stacklevel=3)
+    if keep.sum() < 3:
+        raise RadiosimError(f"{camera.name}: only {int(keep.sum())} usable calibration "
+                            "point(s) remain; at least 3 are needed")
+    tk, yk, charge = t[keep], y[keep], charge_all[keep]
+    columns = []
+    if t_i is not None:
+        ti = t_i[keep]
+        if np.ptp(ti) == 0 or tk.size < 4:
+            raise RadiosimError("the optics' emission needs at least two different "
+                                "instrument temperatures (and 4 rows) to be told from the "
+                                "offset")
+        black = dataclasses.replace(optics, emissivity=1.0)
+        emission = np.array([black.emitted_radiance(camera.fpa.quantum_efficiency, v)
+                             for v in ti]) * camera.rate_per_signal * t_int  # [e⁻]
+        columns.append(emission)
+    el_model = dataclasses.replace(el, full_well=well)
+    signal = charge
+    if el.nonlinearity and well is not None:
+        signal = apply_nonlinearity(charge, el.nonlinearity, well)
+    noise0 = np.broadcast_to(el.gain * el.temporal_noise(charge) / math.sqrt(frames),
+                             charge.shape)  # [DN]
+    if t_i is None:  # counts must rise with temperature, beyond the noise
+        order = np.argsort(tk, kind="stable")
+        ts, ys, ns = tk[order], yk[order], noise0[order]
+        drop = (np.diff(ts) > 0) & (np.diff(ys) < -3 * np.hypot(ns[1:], ns[:-1]))
+        if drop.any():
+            j = int(np.argmax(drop))
+            raise RadiosimError(f"calibration counts fall as the temperature rises: "
+                                f"{ts[j]:g} K gives {ys[j]:g} DN but {ts[j + 1]:g} K gives "
+                                f"{ys[j + 1]:g} DN")
+    design = np.column_stack([signal, *columns, np.ones_like(signal)])
+    total = charge
+    for _ in range(2):  # weights from the charge, then with the fitted optics' emission
+        noise = el_model.gain * el_model.temporal_noise(total) / math.sqrt(frames)  # [DN]
+        noise = np.broadcast_to(np.maximum(noise, 1e-12), total.shape)  # noise-free too
+        solution, *_ = np.linalg.lstsq(design / noise[:, None], yk / noise, rcond=None)
+        if not columns:
+            break
+        total = charge + max(float(solution[1] / solution[0]), 0.0) * columns[0]
+    gain, offset = float(solution[0]), float(solution[-1])
+    if not gain > 0:
+        raise RadiosimError(f"the fitted gain is {gain:.3g} DN/e⁻: the counts do not rise "
+                            "with temperature as this camera's radiometry predicts")
+    changes = {"electronics": dataclasses.replace(el_model, gain=gain, offset=offset)}
+    if columns:
+        optics_emissivity = float(solution[1]) / gain
+        if not 0 <= optics_emissivity <= 1:
+            warnings.warn(f"{camera.name}: the fitted optics emissivity {optics_emissivity:.3g}"
+                          " lies outside [0, 1]; it is clipped", RadiosimWarning, stacklevel=3)
+        changes["optics"] = dataclasses.replace(
+            camera.optics, emissivity=float(np.clip(optics_emissivity, 0.0, 1.0)))
+    fitted = camera.replace(**changes)
+    residuals_kept = yk - design @ solution
+    chi2 = float(np.sum((residuals_kept / (gain / el.gain * noise)) ** 2)) / max(
+        tk.size - design.shape[1], 1)
+    if chi2 > 4:
+        slope = np.gradient(gain * signal, tk) if np.all(np.diff(tk) != 0) else \
+            np.full(tk.size, np.nan)  # [DN/K]
+        worst = int(np.argmax(np.abs(residuals_kept)))
+        warnings.warn(
+            f"{camera.name}: the calibration residuals exceed the counts' noise (χ²/dof = "
+            f"{chi2:.3g}): up to {abs(residuals_kept[worst]):.3g} DN at {tk[worst]:g} K, "
+            f"{abs(residuals_kept[worst] / slope[worst]):.3g} K of model error there",
+            RadiosimWarning, stacklevel=3)
+    residuals = np.full(t.size, np.nan)
+    residuals[keep] = residuals_kept
+    return fitted, residuals
 
 
 def replace_bad_pixels(values: np.ndarray, bad: np.ndarray) -> np.ndarray:

@@ -31,9 +31,9 @@ from pathlib import Path
 import numpy as np
 
 
-from radiosim.calibration import Calibration, NonUniformityCorrection
-from radiosim.checks import check_fraction, check_positive, check_rng
-from radiosim.config import build_from_toml, dumps_toml, edge_field
+from radiosim.calibration import Calibration, NonUniformityCorrection, fit_calibration
+from radiosim.checks import check_fraction, check_positive, check_rng, check_time
+from radiosim.config import build_checked, build_from_toml, dumps_toml, edge_field
 from radiosim.electronics import Electronics
 from radiosim.errors import RadiosimError, RadiosimWarning
 from radiosim.fpa import FocalPlaneArray
@@ -87,6 +87,11 @@ class Camera:
     calibration_scale : float
         The calibration's error of radiometric scale: it believes each unit of signal gives
         ``calibration_scale`` times the electrons it truly does (1: exact; an uncertainty input).
+    detection_sigma : float
+        k of the detection limit [1]: a pixel is reported only where its counts exceed the
+        blank reading (dark and assumed background) by k times that reading's temporal noise;
+        others are flagged under range (3: IUPAC's convention; see
+        :mod:`radiosim.calibration`).
     nuc : NonUniformityCorrection or None
         The non-uniformity correction applied to counts before the calibration (measured:
         :meth:`fit_nuc`; not part of the camera file).
@@ -125,6 +130,8 @@ class Camera:
         doc="instrument temperature of the calibration [K]")
     calibration_scale: float = edge_field(1.0, "calibration_scale",
                                           doc="the calibration's error of radiometric scale")
+    detection_sigma: float = edge_field(3.0, "detection_sigma",
+                                        doc="k of the detection limit, blank + k σ [1]")
     nuc: NonUniformityCorrection | None = None
 
     def __post_init__(self):
@@ -135,8 +142,14 @@ class Camera:
                                check_positive(self.frame_rate, "frame_rate", "Hz"))
         object.__setattr__(self, "assumed_emissivity",
                            check_fraction(self.assumed_emissivity, "assumed_emissivity"))
-        object.__setattr__(self, "calibration_range", tuple(float(t) for t in
-                                                            self.calibration_range))
+        span = tuple(self.calibration_range) if isinstance(self.calibration_range,
+                                                           (tuple, list)) else ()
+        if len(span) != 2 or not all(isinstance(t, (int, float, np.integer, np.floating))
+                                     and not isinstance(t, bool) for t in span) or not (
+                0 < span[0] < span[1] < math.inf):
+            raise RadiosimError(f"calibration_range must be (T_min, T_max) with 0 < T_min < "
+                                f"T_max [K], got {self.calibration_range!r}")
+        object.__setattr__(self, "calibration_range", tuple(float(t) for t in span))
         for name in ("assumed_reflected_temperature", "assumed_path_temperature",
                      "assumed_instrument_temperature"):
             if getattr(self, name) is not None:
@@ -148,6 +161,11 @@ class Camera:
         object.__setattr__(self, "assumed_path_transmission", tau)
         object.__setattr__(self, "calibration_scale",
                            check_positive(self.calibration_scale, "calibration_scale", "1"))
+        if isinstance(self.detection_sigma, bool):
+            raise RadiosimError(f"detection_sigma must be a number > 0 [1], got "
+                                f"{self.detection_sigma!r}")
+        object.__setattr__(self, "detection_sigma",
+                           check_positive(self.detection_sigma, "detection_sigma", "1"))
 
     # -- construction -------------------------------------------------------------------------
 
@@ -204,7 +222,7 @@ class Camera:
     @classmethod
     def from_dict(cls, data: dict, base: Path | None = None) -> Camera:
         """A camera from the preset structure (a dict as parsed from TOML)."""
-        return cls(**camera_fields(cls, data, base))
+        return build_checked(cls, camera_fields(cls, data, base), data, "")
 
     def to_dict(self) -> dict:
         """
@@ -290,7 +308,8 @@ class Camera:
                 self.assumed_emissivity, self.calibration_range,
                 self.assumed_reflected_temperature, self.assumed_path_transmission,
                 self.assumed_path_temperature,
-                self.instrument_signal(self.assumed_instrument_temperature))
+                self.instrument_signal(self.assumed_instrument_temperature),
+                self.detection_sigma)
             if len(kept) >= 16:
                 kept.pop(next(iter(kept)))
             kept[key] = calibration
@@ -317,7 +336,10 @@ class Camera:
                t_start: float | None = None) -> Window:
         """The integration window on ``scene`` [s]: from ``t_start``, else centred on the
         scene's event, else from t = 0; checked against the frame period."""
-        t_int = check_positive(integration_time, "integration_time", "s")
+        check_scene(scene)
+        t_int = check_time(integration_time, "integration_time")
+        if t_start is not None:
+            t_start = check_time(t_start, "t_start", positive=False)
         if self.frame_rate is not None:
             needed = self.fpa.frame_period(t_int, self.readout_shape)
             if needed > 1.0 / self.frame_rate * (1 + 1e-12):
@@ -350,6 +372,7 @@ class Camera:
         Measurement
         """
         window = self.window(scene, integration_time, t_start)  # [s]
+        self.check_measurable(window.duration)
         if self.rolling:
             return self.read_out(self._rolling(scene, window), window, scene, rng)
         # Scene frames (T [K], ε) → response signal per sample → mean per pixel over
@@ -360,6 +383,12 @@ class Camera:
         if self.forms_image(scene):  # the statistics stay scene truth; the signal is imaged
             stats = dataclasses.replace(stats, signal_mean=self.image(scene, window))
         return self.read_out(stats, window, scene, rng)
+
+    def check_measurable(self, integration_time: float):
+        """Refuse (:class:`RadiosimError`, naming the camera, the integration time and the
+        limits) an integration time at which no temperature of the calibration range gives
+        a reading (:meth:`~radiosim.calibration.Calibration.check_measurable`)."""
+        self.calibration(integration_time).check_measurable(self.name)
 
     @property
     def rolling(self) -> bool:
@@ -589,100 +618,26 @@ class Camera:
     # -- calibrating from measured points ---------------------------------------------------------
 
     def fit_calibration(self, temperatures, counts, integration_time: float, frames: int = 1,
-                        emissivity: float = 1.0, instrument_temperatures=None):
+                        emissivity: float = 1.0, instrument_temperatures=None,
+                        exclude_unusable: bool = False, fit_full_well: bool = False):
         """
-        Fit the camera's free electrical parameters — system gain K [DN/e⁻] and offset [DN],
-        and, with several ``instrument_temperatures``, the optics' emissivity — to a measured
-        calibration table: blackbody ``temperatures`` [K] against mean ``counts`` [DN] at
-        ``integration_time`` [s], each the mean of ``frames`` read-outs, through radiosim's
-        own radiometry with this camera's spectral curves and geometry.
-
-        The model counts = K · (e(T) + ε_o·E(T_i) + dark) + offset is linear in (K, K·ε_o,
-        offset) for the charge e(T) the radiometry predicts from the blackbody and E(T_i) that
-        a black lens at the instrument temperature would emit into the pixel, so the fit is
-        weighted linear least squares, the weights the counts' temporal noise
-        (:meth:`Electronics.temporal_noise`, over √frames). Without instrument temperatures the
-        optics' emission at the camera's own instrument temperature is part of e(T) (and of the
-        offset). Residuals larger than the noise explains (χ²/dof > 4) are model error — a
-        spectral curve, the étendue or the non-linearity not as assumed — and warn, saying how
-        large it is in kelvin.
+        Fit the camera's system gain K [DN/e⁻] and offset [DN] (and, with several
+        ``instrument_temperatures`` [K], the optics' emissivity) to a measured calibration
+        table: blackbody ``temperatures`` [K] against mean ``counts`` [DN] at
+        ``integration_time`` [s], each the mean of ``frames`` read-outs; points beyond the full
+        well or the converter's range are refused, excluded (``exclude_unusable``) or widen the
+        well (``fit_full_well``). See :func:`radiosim.calibration.fit_calibration`.
 
         Returns
         -------
         camera : Camera
             This camera with the fitted gain and offset (and optics emissivity).
         residuals : numpy.ndarray
-            Measured minus fitted counts [DN].
+            Measured minus fitted counts [DN] (NaN at excluded points).
         """
-        t = np.asarray(temperatures, dtype=float)
-        y = np.asarray(counts, dtype=float)
-        if t.ndim != 1 or t.shape != y.shape or t.size < 3:
-            raise RadiosimError(f"a calibration table needs at least 3 (temperature, counts) "
-                                f"pairs of equal length, got {t.size} and {y.size}")
-        if not (np.all(np.isfinite(t)) and np.all(t > 0) and np.all(np.isfinite(y))):
-            raise RadiosimError("calibration temperatures must be finite and > 0 K, and the "
-                                "counts finite")
-        t_int = check_positive(integration_time, "integration_time", "s")
-        el = self.electronics
-        optics = self.optics
-        columns = []
-        if instrument_temperatures is not None:
-            t_i = np.asarray(instrument_temperatures, dtype=float)
-            if t_i.shape != t.shape or not np.all(np.isfinite(t_i) & (t_i > 0)):
-                raise RadiosimError("instrument_temperatures must give one temperature > 0 K "
-                                    "per row of the table")
-            if np.ptp(t_i) == 0 or t.size < 4:
-                raise RadiosimError("the optics' emission needs at least two different "
-                                    "instrument temperatures (and 4 rows) to be told from the "
-                                    "offset")
-            optics = dataclasses.replace(optics, instrument_temperature=None)
-            black = dataclasses.replace(optics, emissivity=1.0)
-            emission = np.array([black.emitted_radiance(self.fpa.quantum_efficiency, ti)
-                                 for ti in t_i]) * self.rate_per_signal * t_int  # [e⁻]
-            columns.append(emission)
-        unit = self.replace(optics=optics, electronics=dataclasses.replace(
-            el, gain=1.0, offset=0.0, adc_bits=None), assumed_emissivity=emissivity)
-        charge = unit.calibration(t_int).electrons(t)  # [e⁻]: photo (and emission), dark
-        signal = charge
-        if el.nonlinearity and el.full_well is not None:
-            from radiosim.electronics import apply_nonlinearity
-
-            signal = apply_nonlinearity(charge, el.nonlinearity, el.full_well)
-        design = np.column_stack([signal, *columns, np.ones_like(signal)])
-        total = charge
-        for _ in range(2):  # weights from the charge, then with the fitted optics' emission
-            noise = el.gain * el.temporal_noise(total) / math.sqrt(max(int(frames), 1))  # [DN]
-            noise = np.maximum(noise, 1e-12)
-            solution, *_ = np.linalg.lstsq(design / noise[:, None], y / noise, rcond=None)
-            if not columns:
-                break
-            total = charge + max(float(solution[1] / solution[0]), 0.0) * columns[0]
-        gain, offset = float(solution[0]), float(solution[-1])
-        if not gain > 0:
-            raise RadiosimError(f"the fitted gain is {gain:.3g} DN/e⁻: the counts do not rise "
-                                "with temperature as this camera's radiometry predicts")
-        changes = {"electronics": dataclasses.replace(el, gain=gain, offset=offset)}
-        if columns:
-            optics_emissivity = float(solution[1]) / gain
-            if not 0 <= optics_emissivity <= 1:
-                warnings.warn(f"{self.name}: the fitted optics emissivity {optics_emissivity:.3g}"
-                              " lies outside [0, 1]; it is clipped", RadiosimWarning,
-                              stacklevel=2)
-            changes["optics"] = dataclasses.replace(
-                self.optics, emissivity=float(np.clip(optics_emissivity, 0.0, 1.0)))
-        fitted = self.replace(**changes)
-        residuals = y - design @ solution
-        chi2 = float(np.sum((residuals / (gain / el.gain * noise)) ** 2)) / max(
-            t.size - design.shape[1], 1)
-        if chi2 > 4:
-            slope = np.gradient(gain * signal, t)  # [DN/K]
-            worst = int(np.argmax(np.abs(residuals)))
-            warnings.warn(
-                f"{self.name}: the calibration residuals exceed the counts' noise (χ²/dof = "
-                f"{chi2:.3g}): up to {abs(residuals[worst]):.3g} DN at {t[worst]:g} K, "
-                f"{abs(residuals[worst] / slope[worst]):.3g} K of model error there",
-                RadiosimWarning, stacklevel=2)
-        return fitted, residuals
+        return fit_calibration(self, temperatures, counts, integration_time, frames,
+                               emissivity, instrument_temperatures, exclude_unusable,
+                               fit_full_well)
 
     # -- performance ----------------------------------------------------------------------------
 
@@ -698,11 +653,30 @@ class Camera:
 
     def measurable_range(self, integration_time: float) -> tuple[float, float]:
         """
-        (lowest temperature above the noise floor, saturation temperature) [K] of a grey body
-        at ``integration_time`` [s] (NaN or ∞ where the calibration range does not hold them).
+        (lowest measurable temperature, saturation temperature) [K] of a grey body at
+        ``integration_time`` [s]: the temperature whose mean counts reach the detection limit
+        (blank + k σ, k = :attr:`detection_sigma`), and the one that fills the well or the
+        converter (NaN or ∞ where the calibration range does not hold them).
         """
         calibration = self.calibration(integration_time)
         return calibration.lowest_measurable_temperature(), calibration.saturation_temperature
+
+
+def check_scene(scene) -> Scene:
+    """
+    ``scene`` if it is a :class:`~radiosim.scenes.Scene`; otherwise a :class:`RadiosimError`
+    saying how to make one (a bare array of temperatures: wrap it in a FrameStack).
+    """
+    if isinstance(scene, Scene):
+        return scene
+    if isinstance(scene, (np.ndarray, list, tuple)):
+        what = (f"a numpy array of shape {scene.shape}" if isinstance(scene, np.ndarray)
+                else f"a {type(scene).__name__} of {len(scene)} item(s)")
+        raise RadiosimError(
+            f"measure needs a Scene, got {what}: wrap temperature frames [K] in "
+            "FrameStack(frames, dt=…, dx=…) (frame interval [s], sample pitch [m])")
+    raise RadiosimError(f"measure needs a Scene (e.g. FrameStack(frames, dt=…, dx=…) or "
+                        f"UniformBlackbody), got {type(scene).__name__} {scene!r:.60}")
 
 
 def measure_many(scene: Scene, cases, rng=None, progress=None) -> list[Measurement]:
@@ -728,6 +702,8 @@ def measure_many(scene: Scene, cases, rng=None, progress=None) -> list[Measureme
     rng = check_rng(rng)
     cases = list(cases)
     windows = [camera.window(scene, t_int, t_start) for camera, t_int, t_start in cases]
+    for (camera, _, _), window in zip(cases, windows):
+        camera.check_measurable(window.duration)
     integrators = {}
     jobs = []
     snapshot = [i for i, (camera, _, _) in enumerate(cases) if not camera.rolling]

@@ -14,7 +14,7 @@ import numpy as np
 from radiosim.errors import RadiosimError
 
 __all__ = ["check_positive", "check_non_negative", "check_fraction", "check_frame", "check_rng",
-           "bad_sample_message"]
+           "check_time", "check_whole", "bad_sample_message"]
 
 
 def check_rng(rng) -> np.random.Generator:
@@ -29,6 +29,39 @@ def check_rng(rng) -> np.random.Generator:
         return np.random.default_rng(rng)
     raise RadiosimError(f"rng must be a seed (a whole number ≥ 0), a numpy Generator or None, "
                         f"got {rng!r}")
+
+
+def check_time(value, name: str, positive: bool = True) -> float:
+    """
+    A time [s] as a finite float (> 0; any finite value with ``positive=False``: the scene's
+    own time decides what it may be); strings and booleans are refused with a hint (times
+    are numbers in seconds: 1e-6 for 1 µs).
+
+    Examples
+    --------
+    >>> check_time(2e-6, "integration_time")
+    2e-06
+    """
+    if isinstance(value, (str, bytes, bool, np.bool_)):
+        hint = (f" (times are numbers in seconds: e.g. 1e-6 for 1 µs; "
+                f"radiosim.units.parse_quantity({value!r}, 'time') converts text)"
+                if isinstance(value, str) else "")
+        raise RadiosimError(f"{name} must be a number [s], got {value!r}{hint}")
+    if positive:
+        return check_positive(value, name, "s")
+    number = _number(value, name, "s")
+    if not math.isfinite(number):
+        raise RadiosimError(f"{name} must be a finite time [s], got {value!r}")
+    return number
+
+
+def check_whole(value, name: str, minimum: int = 1) -> int:
+    """``value`` as an int ≥ ``minimum`` (booleans, fractions, strings refused)."""
+    if isinstance(value, (bool, np.bool_, str, bytes)) or not isinstance(
+            value, (int, float, np.integer, np.floating)) or not math.isfinite(value) or \
+            int(value) != value or value < minimum:
+        raise RadiosimError(f"{name} must be a whole number ≥ {minimum}, got {value!r}")
+    return int(value)
 
 
 def _number(value, name: str, unit: str) -> float:

@@ -14,6 +14,7 @@ from __future__ import annotations
 import dataclasses
 import difflib
 import math
+import re
 import tomllib
 from decimal import Decimal
 from pathlib import Path
@@ -35,6 +36,7 @@ __all__ = [
     "build_from_toml",
     "dumps_toml",
     "reject_unknown",
+    "build_checked",
 ]
 
 
@@ -125,7 +127,61 @@ def _read_value(key: str, value, meta: dict, what: str, converters: dict):
         if not isinstance(value, str):
             raise RadiosimError(f"{what}: {key} must be a string, got {value!r}")
         return value
-    return converters[kind](key, value)
+    try:
+        return converters[kind](key, value)
+    except RadiosimError as exc:
+        message = str(exc)
+        raise RadiosimError(message if key in message else
+                            f"{_where(what)}{key} = {_shown(value)}: {message}") from None
+
+
+def _where(what: str) -> str:
+    """The table's name as a prefix: "[optics] ", or nothing for the top level."""
+    return f"{what} " if what and what.startswith("[") else ""
+
+
+def _shown(value) -> str:
+    """A TOML value as the file writes it (short)."""
+    if isinstance(value, bool):
+        return "true" if value else "false"
+    if isinstance(value, str):
+        return f'"{value}"'
+    text = repr(value)
+    return text if len(text) <= 60 else text[:57] + "..."
+
+
+def build_checked(cls, kwargs: dict, table: dict, what: str):
+    """
+    ``cls(**kwargs)`` (kwargs read from the TOML ``table``); a :class:`RadiosimError` of its
+    checks is re-raised naming the TOML key and the value as the file gives it, e.g.
+    ``[electronics] full_well_e = -5: full_well must be None or > 0 [e⁻]``.
+    """
+    try:
+        return cls(**kwargs)
+    except RadiosimError as exc:
+        raise RadiosimError(_name_key(cls, str(exc), table, what)) from None
+
+
+def _name_key(cls, message: str, table: dict, what: str) -> str:
+    fields = [f for f in dataclasses.fields(cls) if "toml" in f.metadata
+              and f.metadata["toml"] in table]
+    named = None
+    # The field the message names (the longest name first: full_well before well), else the
+    # key whose text value it quotes (an unknown curve name).
+    for f in sorted(fields, key=lambda f: -len(f.name)):
+        key = f.metadata["toml"]
+        if re.search(rf"(?<![\w-]){re.escape(f.name)}(?![\w-])", message) or re.search(
+                rf"(?<![\w-]){re.escape(key)}(?![\w-])", message):
+            named = key
+            break
+    if named is None:
+        quoted = [f.metadata["toml"] for f in fields if isinstance(table[f.metadata["toml"]], str)
+                  and repr(table[f.metadata["toml"]]) in message]
+        named = quoted[0] if quoted else None
+    if named is None:
+        return f"{what}: {message}" if what and not message.startswith(what) else message
+    expected = re.sub(r",? got .*$", "", message)
+    return f"{_where(what)}{named} = {_shown(table[named])}: {expected}"
 
 
 def reject_unknown(keys, known, what: str):
@@ -166,7 +222,8 @@ def from_table(cls, table: dict, what: str, converters: dict | None = None,
     :func:`fields_from_table`); fields without a TOML key are taken from ``extra``, missing keys
     take the defaults.
     """
-    return cls(**(dict(extra or {}) | fields_from_table(cls, table, what, converters, required)))
+    kwargs = dict(extra or {}) | fields_from_table(cls, table, what, converters, required)
+    return build_checked(cls, kwargs, table, what)
 
 
 def read_number(table: dict, key: str, what: str, scale: float = 1.0):
@@ -209,12 +266,13 @@ def to_table(obj, converters: dict | None = None, skip_defaults_none: bool = Tru
 
 def load_toml(path, what: str) -> dict:
     """
-    Parse a TOML file; unreadable or invalid files raise a :class:`RadiosimError` naming the
-    file, what it should hold (``what``) and the problem.
+    Parse a TOML file (UTF-8, with or without a byte-order mark); unreadable or invalid files
+    raise a :class:`RadiosimError` naming the file, what it should hold (``what``) and the
+    problem.
     """
     path = Path(path)
     try:
-        return tomllib.loads(path.read_text(encoding="utf-8"))
+        return tomllib.loads(path.read_text(encoding="utf-8-sig"))
     except (OSError, UnicodeDecodeError) as exc:
         raise RadiosimError(f"cannot read {what} {path}: {exc}") from exc
     except tomllib.TOMLDecodeError as exc:

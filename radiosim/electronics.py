@@ -256,6 +256,26 @@ class Electronics:
             after = after / (1.0 - 2.0 * self.nonlinearity * charge / self.full_well) ** 2
         return np.sqrt(shot + after)
 
+    def temporal_noise_counts(self, electrons) -> np.ndarray:
+        """
+        Temporal noise of a reading [DN rms] for a mean charge ``electrons`` [e⁻] (signal and
+        dark): the EMVA 1288 σ_y = √(K² (c'² μ_e + σ_read²) + σ_q²), σ_q² = 1/12 DN² with a
+        quantising converter, c' the conversion's slope (1 when linear).
+
+        Examples
+        --------
+        >>> el = Electronics(read_noise=3.0, gain=0.5, adc_bits=12)
+        >>> round(float(el.temporal_noise_counts(16.0)), 12)  # √(0.25·(16 + 9) + 1/12)
+        2.516611478424
+        """
+        charge = np.asarray(electrons, dtype=float)
+        slope = 1.0
+        if self.nonlinearity and self.full_well is not None:
+            slope = 1.0 - 2.0 * self.nonlinearity * charge / self.full_well
+        shot = charge if self.shot_noise else 0.0
+        quantisation = 1 / 12 if self.adc_bits is not None else 0.0  # [DN²]
+        return np.sqrt(self.gain**2 * (slope**2 * shot + self.read_noise**2) + quantisation)
+
     def mean_counts(self, photoelectrons, integration_time: float) -> np.ndarray:
         """
         Noise-free, unrounded, unclipped digital numbers [DN] of a mean photo-charge [e⁻]:

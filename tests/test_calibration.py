@@ -70,6 +70,15 @@ class Forward:
     def counts(self, temperature):  # noise-free DN
         return self.el.gain * (self.photo(temperature) + self.dark()) + self.el.offset
 
+    def blank(self):  # mean counts with no object signal: dark only here (no background)
+        return self.el.gain * self.dark() + self.el.offset
+
+    def blank_sigma(self):  # EMVA 1288: σ²_y = K²(σ²_read + μ_e,dark) + 1/12 [DN]
+        return math.sqrt(self.el.gain**2 * (self.el.read_noise**2 + self.dark()) + 1 / 12)
+
+    def detection_limit(self, k=3.0):  # [DN]
+        return self.blank() + k * self.blank_sigma()
+
     def noise(self, temperature):  # temporal noise [e⁻ rms]
         return math.sqrt(float(self.photo(temperature)) + self.dark() + self.el.read_noise**2
                          + 1 / (12 * self.el.gain**2))
@@ -172,11 +181,14 @@ def test_nist_calibration_inverts_the_written_out_forward_model(nist):
 
 
 @pytest.mark.parametrize("t_int", [10e-6, 100e-6, 1e-3])
-@pytest.mark.parametrize("snr", [1.0, 3.0])
-def test_lowest_measurable_temperature_by_bisection(nist, t_int, snr):
+@pytest.mark.parametrize("k", [1.0, 3.0])
+def test_lowest_measurable_temperature_by_bisection(nist, t_int, k):
+    # Issue 20: the temperature whose mean counts reach the detection limit, blank + k σ_blank
+    # (it was the SNR = k point of the photo-signal against its own noise).
     forward = Forward(nist, t_int)
-    floor = bisect(lambda t: float(forward.photo(t)) - snr * forward.noise(t), 150.0, 3000.0)
-    low = nist.calibration(t_int).lowest_measurable_temperature(snr)
+    limit = forward.detection_limit(k)
+    floor = bisect(lambda t: float(forward.counts(t)) - limit, 150.0, 3000.0)
+    low = nist.calibration(t_int).lowest_measurable_temperature(k)
     # brentq's xtol (1e-6 K) plus the table's radiance error turned into kelvin.
     assert low == pytest.approx(floor, abs=1e-6 + forward.table_tolerance(floor))
 
@@ -226,7 +238,9 @@ def test_read_flags_hand_built_exposures(nist):
     cal = nist.calibration(t_int)
     forward = Forward(nist, t_int)
     el = nist.electronics
-    floor = bisect(lambda t: float(forward.photo(t)) - forward.noise(t), 150.0, 3000.0)
+    # Issue 20: the floor is the detection limit, blank + 3σ (it was SNR = 1).
+    limit = forward.detection_limit()
+    floor = bisect(lambda t: float(forward.counts(t)) - limit, 150.0, 3000.0)
     assert 160.0 < floor < 2900.0  # the noise floor lies inside the calibration range
     top = float(forward.counts(3000.0))
     assert top < el.max_count - 10  # "above the range" is reachable without saturating
@@ -271,12 +285,16 @@ def test_read_flags_hand_built_exposures(nist):
 def test_noise_floor_counts_are_the_counts_of_the_floor(nist):
     t_int = 10e-6
     forward = Forward(nist, t_int)
-    floor = bisect(lambda t: float(forward.photo(t)) - forward.noise(t), 150.0, 3000.0)
-    # Counts are ≈ 1000 DN; the table's 1e-7 on the photo part (≈ 1 DN here) is ≪ 1e-6 DN,
-    # plus dDN/dT × brentq's 1e-6 K.
-    slope = float(forward.counts(floor + 0.01) - forward.counts(floor - 0.01)) / 0.02
+    # Issue 20: the floor's counts are the detection limit itself, blank + 3σ_blank, written
+    # out (it was the counts of the SNR = 1 temperature); only roundings separate them.
     assert nist.calibration(t_int).noise_floor_counts == pytest.approx(
-        float(forward.counts(floor)), abs=1e-6 + slope * 2e-6)
+        forward.detection_limit(), abs=1e-9)
+    floor = nist.calibration(t_int).lowest_measurable_temperature()
+    slope = float(forward.counts(floor + 0.01) - forward.counts(floor - 0.01)) / 0.02
+    # The floor's mean counts are the limit: the table's 1e-7 on the photo part (≈ 2 DN here)
+    # plus dDN/dT × brentq's 1e-6 K.
+    assert float(forward.counts(floor)) == pytest.approx(forward.detection_limit(),
+                                                         abs=1e-6 + slope * 2e-6)
 
 
 # -- (e) a near-zero integration time ---------------------------------------------------------

@@ -57,7 +57,7 @@ def _independent_range(camera, t_int):
             * etendue * t_int
 
     def noise(t):  # shot (photo + dark), read, quantisation, in e⁻
-        return math.sqrt(photo(t) + el.dark_current * t_int + el.read_noise**2
+        return math.sqrt((photo(t) if t > 0 else 0.0) + el.dark_current * t_int + el.read_noise**2
                          + 1 / 12 / el.gain**2)
 
     def bisect(f, lo, hi):
@@ -66,7 +66,10 @@ def _independent_range(camera, t_int):
             lo, hi = (mid, hi) if f(mid) < 0 else (lo, mid)
         return 0.5 * (lo + hi)
 
-    floor = bisect(lambda t: photo(t) - noise(t), 150.0, 3000.0)
+    # The detection limit (issue 20): the blank's noise in DN, EMVA 1288 σ²_y = K²(σ²_read +
+    # μ_e,dark) + 1/12, three times over the blank; the floor is where the mean photo-charge
+    # reaches it (noise(0) is the blank's noise in e⁻, the same σ over K).
+    floor = bisect(lambda t: photo(t) - 3 * noise(0.0), 150.0, 3000.0)
     # The converter's top code begins at K·e⁻ + offset = 2^bits − 1 − ½: with the dark charge.
     top = (el.max_count - 0.5 - el.offset) / el.gain
     limit = min(top, el.full_well) - el.dark_current * t_int

@@ -514,11 +514,12 @@ def test_netd_of_a_nonlinear_camera():
 def _hot_spot_scene(n_frames=6):
     """Constant frames of 3 µm samples (2 per pixel, regions on pixel boundaries, so each
     pixel's active square sees one temperature): 450 K background, a 900 K spot (valid only at
-    20 µs), a 2500 K spot (saturated at every time), a 205 K patch (near the noise floor)."""
+    20 µs), a 2500 K spot (saturated at every time), a 220 K patch (near the detection limit;
+    205 K before issue 20 raised the floor from SNR = 1 to blank + 3σ)."""
     frame = np.full((240, 320), 450.0)
     frame[40:80, 40:100] = 900.0
     frame[160:200, 200:260] = 2500.0
-    frame[100:140, 140:180] = 205.0
+    frame[100:140, 140:180] = 220.0
     return FrameStack(np.repeat(frame[None], n_frames, axis=0), dt=1e-3, dx=3e-6)
 
 
@@ -576,9 +577,9 @@ def test_superframe_merges_the_longest_valid_subframe(timing):
     np.testing.assert_allclose(merged.apparent_temperature[spot], 900.0, atol=5.0)
     blaze = (slice(81, 99), slice(101, 129))
     assert merged.saturated[blaze].all() and (merged.subframe[blaze] == 1).all()
-    # The cold patch, just above the 1280 µs noise floor (193.8 K): read at 1280 µs wherever
-    # that subframe is valid (most pixels); where it is not, a shorter subframe that noise
-    # lifted over its own floor is taken (documented: about one reading in six near the floor).
+    # The cold patch, just above the 1280 µs detection limit (208.4 K; it was 193.8 K at
+    # SNR = 1): read at 1280 µs wherever that subframe is valid (most pixels); where it is not,
+    # a shorter subframe that noise lifted over its own limit is taken.
     cold = (slice(51, 69), slice(71, 89))
     longest_valid = subframes[2].valid[cold]
     assert longest_valid.mean() > 0.5
