@@ -108,7 +108,8 @@ class Window:
 def integration_window(scene: Scene, duration: float, t_start: float | None = None) -> Window:
     """
     The window of one integration: from ``t_start`` [s] if given, else centred on the scene's
-    ``event_time``, else from t = 0.
+    ``event_time``, else from the scene's first frame (t = 0, or the first frame holding data
+    for a scene that keeps a file's own time origin, such as an FEA export starting at 5 µs).
 
     Examples
     --------
@@ -130,7 +131,8 @@ def integration_window(scene: Scene, duration: float, t_start: float | None = No
                                 "(t = 0)")
         return Window(start, duration, "given")
     if scene.event_time is None:
-        return Window(0.0, duration, "scene start")
+        first = getattr(scene, "first_frame", 0) * scene.dt  # [s] in the scene's own time
+        return Window(float(first), duration, "scene start")
     start = scene.event_time - 0.5 * duration
     if start < 0:
         raise RadiosimError(

@@ -64,8 +64,10 @@ def write_exr(path, image, **attributes):
 
 
 def test_exr_sequence_in_natural_order_with_header_units(tmp_path, stack):
-    for k in (0, 1, 2, 10):  # frame_10 must come after frame_2
-        write_exr(tmp_path / f"frame_{k}.exr", stack[min(k, 4)], temperature_unit="C",
+    # frame_10 must come after frame_9 (issue 20: the numbers may not skip one, so the
+    # sequence is 8-11 rather than 0, 1, 2, 10; the frames hold stack 0, 1, 2 and 4 as before)
+    for k, i in zip((8, 9, 10, 11), (0, 1, 2, 4)):
+        write_exr(tmp_path / f"frame_{k}.exr", stack[i], temperature_unit="C",
                   dt_s=0.2e-6, dx_m=0.5e-6)
     scene = read_frames(tmp_path)
     assert scene.n_frames == 4 and scene.shape == (6, 8)

@@ -29,6 +29,7 @@ plain floats would be stored as 32-bit): ``radiosim:version``, ``radiosim:integr
 
 from __future__ import annotations
 
+import re
 import tomllib
 from pathlib import Path
 
@@ -221,8 +222,13 @@ def write_exr_sequence(folder, measurements, stem: str = "frame") -> list[Path]:
 
 
 def read_exr_sequence(folder, stem: str = "frame") -> list[Measurement]:
-    """Read the numbered files written by :func:`write_exr_sequence`, in order."""
-    files = sorted(Path(folder).glob(f"{stem}_*.exr"))
+    """Read the numbered files written by :func:`write_exr_sequence`, in the order of their
+    numbers; a duplicate or missing number raises, naming the files."""
+    from radiosim.scenes.exr_sequence import check_numbering
+
+    files = sorted(Path(folder).glob(f"{stem}_*.exr"),
+                   key=lambda f: [int(t) if t.isdigit() else t for t in re.split(r"(\d+)", f.name)])
     if not files:
         raise RadiosimError(f"no {stem}_*.exr files in {folder}")
+    check_numbering(files)
     return [read_exr(f) for f in files]

@@ -24,7 +24,7 @@ from pathlib import Path
 import numpy as np
 from radiosim.checks import check_positive
 from radiosim.errors import RadiosimError
-from radiosim.scenes.fea_nodes import FeaMesh, FeaNodes, triangulate
+from radiosim.scenes.fea_nodes import INTERPOLATIONS, FeaMesh, FeaNodes, triangulate
 from radiosim.units import TEMPERATURE_OFFSETS, UNITS, to_kelvin
 
 __all__ = ["read_fea_nodes", "FeaNodes", "read_fea_mesh", "FeaMesh"]
@@ -57,8 +57,15 @@ class _decoding:
 #: The quantity of each column, whose unit a suffix in its name may state.
 _QUANTITY = {"time": "time", "x": "length", "y": "length", "temperature": "temperature"}
 _SUFFIX = re.compile(r"^(?P<name>time|x|y|temperature)(?:\s*[_ ]\s*|\s*)"
-                     r"(?:[\[(]\s*(?P<bracketed>[^\])]+?)\s*[\])]|(?P<plain>[A-Za-zµ]+))?$",
+                     r"(?:[\[(]\s*(?P<bracketed>[^\])]+?)\s*[\])]"
+                     r"|(?P<plain>[A-Za-z\u00b5\u03bc]+))?$",
                      re.IGNORECASE)
+
+
+def _micro(unit: str) -> str:
+    """A unit with its micro prefix as ``u``: the micro sign (U+00B5) and the Greek mu
+    (U+03BC, what many fonts and NFKC normalisation give) alike."""
+    return unit.replace("\u00b5", "u").replace("\u03bc", "u")
 
 
 def _grid(xy: np.ndarray, bounds, dx: float, where: str, hint: str):
@@ -80,8 +87,9 @@ def _grid(xy: np.ndarray, bounds, dx: float, where: str, hint: str):
 
 
 def _header(path, number, line, columns):
-    """Indices of (time, x, y, temperature) in a header row, and the units its names state
-    (``time_us``, ``x [um]``, ``temperature_C``); ``columns`` maps a column to its name."""
+    """Indices of (time, x, y, temperature) in a header row, its width, and the units its
+    names state (``time_us``, ``x [um]``, ``temperature_C``) as quantity → (unit, column
+    name); ``columns`` maps a column to its name. Two columns read as one raise."""
     names = [c.strip() for c in line]
     lower = [n.lower() for n in names]
     columns = {k: v for k, v in (columns or {}).items()}
@@ -97,20 +105,31 @@ def _header(path, number, line, columns):
                 raise RadiosimError(f"{path}, line {number}: no column {columns[column]!r} "
                                     f"(for {column}); the header has {', '.join(names)}")
             index = lower.index(wanted)
+            twice = [i for i, n in enumerate(lower) if n == wanted]
+            if len(twice) > 1:
+                raise RadiosimError(f"{path}, line {number}: columns {twice[0] + 1} and "
+                                    f"{twice[1] + 1} are both named {names[twice[0]]!r} (for "
+                                    f"{column}); a column name must be unique")
         else:
             matches = [(i, _SUFFIX.match(n)) for i, n in enumerate(names)]
             matches = [(i, m) for i, m in matches if m and m["name"].lower() == column]
             if not matches:
                 continue
+            if len(matches) > 1:
+                (i, _), (j, _) = matches[:2]
+                raise RadiosimError(f"{path}, line {number}: columns {i + 1} ({names[i]!r}) and "
+                                    f"{j + 1} ({names[j]!r}) both read as {column}; keep one, "
+                                    f"or say which with columns={{'{column}': …}}")
             index, match = matches[0]
             unit = match["bracketed"] or match["plain"]
             if unit:
-                unit = unit.replace("µ", "u")
+                unit = _micro(unit)
                 quantity = _QUANTITY[column]
-                if quantity in stated and stated[quantity] != unit:
+                if quantity in stated and stated[quantity][0] != unit:
                     raise RadiosimError(f"{path}, line {number}: the columns state two "
-                                        f"{quantity} units, {stated[quantity]} and {unit}")
-                stated[quantity] = unit
+                                        f"{quantity} units, {stated[quantity][0]} "
+                                        f"({stated[quantity][1]!r}) and {unit} ({names[index]!r})")
+                stated[quantity] = (unit, names[index])
         found[column] = index
     missing = [c for c in _COLUMNS if c not in found]
     if missing:
@@ -124,7 +143,7 @@ def _header(path, number, line, columns):
 def _parse(path: Path, columns=None):
     """Rows of (time, x, y, temperature) and the units stated in the file (a ``# units:``
     comment, or suffixes of the column names), if any."""
-    stated = {}
+    stated, where = {}, {}
     try:
         handle = path.open(newline="", encoding="utf-8-sig")  # a BOM (Excel's CSV UTF-8) too
     except OSError as exc:
@@ -142,11 +161,21 @@ def _parse(path: Path, columns=None):
                     for item in text[6:].split(","):
                         key, sep, value = item.partition("=")
                         if sep:
-                            stated[key.strip().lower()] = value.strip()
+                            key, value = key.strip().lower(), _micro(value.strip())
+                            if key in stated and stated[key] != value:
+                                raise RadiosimError(
+                                    f"{path}, line {number}: '# units:' states {key}={value}, "
+                                    f"but {where[key]} states {key}={stated[key]}")
+                            stated[key], where[key] = value, f"line {number}"
                 continue
             if header is None:
                 header, width, suffixes = _header(path, number, line, columns)
-                stated.update(suffixes)
+                for key, (unit, name) in suffixes.items():
+                    if key in stated and stated[key] != unit:
+                        raise RadiosimError(
+                            f"{path}, line {number}: column {name!r} states {key} in {unit}, "
+                            f"but {where[key]}'s '# units:' states {key}={stated[key]}")
+                    stated[key], where[key] = unit, f"line {number}"
                 continue
             if len(line) != width:
                 raise RadiosimError(f"{path}, line {number}: expected {width} fields, got "
@@ -157,11 +186,15 @@ def _parse(path: Path, columns=None):
                 raise RadiosimError(f"{path}, line {number}: a value is not a number: "
                                     f"{','.join(line)!r}") from None
             if not all(math.isfinite(v) for v in values):
-                raise RadiosimError(f"{path}, line {number}: NaN or infinite value")
+                name, value = next((c, v) for c, v in zip(_COLUMNS, values)
+                                   if not math.isfinite(v))
+                text = line[header[_COLUMNS.index(name)]].strip()
+                raise RadiosimError(f"{path}, line {number}: {name} is {text!r} (NaN or "
+                                    "infinite); expected a finite number")
             rows.append(values)
     if header is None or not rows:
         raise RadiosimError(f"{path}: no data (expected a header {','.join(_COLUMNS)} and rows)")
-    return np.array(rows), stated
+    return np.array(rows), stated, where
 
 
 def _unique_nodes(path, k, t, rows, xy, temperature, units):
@@ -185,8 +218,41 @@ def _unique_nodes(path, k, t, rows, xy, temperature, units):
     return unique, kept
 
 
+def _check_interpolation(interpolation, where) -> None:
+    if interpolation not in INTERPOLATIONS:
+        raise RadiosimError(f"{where}: interpolation={interpolation!r} is not one of "
+                            f"{', '.join(map(repr, INTERPOLATIONS))}")
+
+
+def _merge_units(path, stated: dict, where: dict, given) -> dict:
+    """The file's units with the caller's: a caller's unit that contradicts the file's raises,
+    naming both (and where the file states it)."""
+    units = dict(stated)
+    for key, value in (given or {}).items():
+        if value is None:
+            continue
+        value = _micro(str(value).strip())
+        if key in stated and _canonical(key, stated[key]) != _canonical(key, value):
+            flag = {"temperature": "--units", "time": "--time-unit",
+                    "length": "--length-unit"}.get(key, "units=")
+            raise RadiosimError(f"{path}: the given {key} unit {value} ({flag}; units= in "
+                                f"Python) contradicts the file's {key}={stated[key]} "
+                                f"({where.get(key, 'header')}); drop the option or correct the "
+                                "file")
+        units[key] = value
+    return units
+
+
+def _canonical(key: str, unit: str) -> str:
+    """A unit as the tables name it (``degC`` and ``celsius`` are ``C``), else as given."""
+    if key == "temperature":
+        return {"k": "K", "kelvin": "K", "c": "C", "°c": "C", "degc": "C",
+                "celsius": "C"}.get(unit.strip().lower(), unit)
+    return unit
+
+
 def read_fea_nodes(path, dx, dt=None, units=None, fill=293.15, bounds=None, max_edge=None,
-                   emissivity=1.0, columns=None) -> FeaNodes:
+                   emissivity=1.0, columns=None, interpolation="hold") -> FeaNodes:
     """
     Read an FEA nodal CSV (time, x, y, temperature) and resample it onto a regular grid.
 
@@ -198,11 +264,13 @@ def read_fea_nodes(path, dx, dt=None, units=None, fill=293.15, bounds=None, max_
         Sample pitch of the output grid [m].
     dt
         Frame interval [s]; ``None``: the step of the file's times, which must be uniform.
-        If given, it must match them.
+        With ``interpolation="hold"`` a given ``dt`` must match that step; with ``"linear"``
+        it may be any interval (finer frames follow the field more closely).
     units
         Dict with ``time`` (s, ms, us, ns), ``length`` (m, mm, um) and ``temperature`` (K, C);
         keys not given come from the header comment ``# units: time=…, length=…,
-        temperature=…``; a unit stated nowhere is an error.
+        temperature=…`` or the columns' unit suffixes; a unit stated nowhere is an error, and
+        so is a unit given here that contradicts the file's.
     fill
         Temperature outside the mesh [K] (e.g. the ambient 293.15 K).
     bounds
@@ -217,19 +285,26 @@ def read_fea_nodes(path, dx, dt=None, units=None, fill=293.15, bounds=None, max_
         The file's names of the columns ``time``, ``x``, ``y``, ``temperature``, where they
         differ (``{"temperature": "NT11"}``); names with a unit suffix (``time_s``,
         ``x_um``, ``temperature [C]``) are found without it, and state their unit.
+    interpolation
+        Between the file's steps: ``"hold"`` (default; each step holds until the next) or
+        ``"linear"`` (each frame is the field at its mid-time, linear in time between the
+        two steps around it).
 
     Returns
     -------
     FeaNodes
-        A scene with one frame per step.
+        A scene on the file's own time axis: frame k covers [k·dt, (k+1)·dt) [s] of the
+        file's time, so a window's ``t_start`` is in the file's time; the first time stamp is
+        the scene's ``t0`` [s] (not moved to 0) and frames before it are refused.
     """
     path = Path(path)
+    _check_interpolation(interpolation, path)
     fill = check_positive(fill, "fill (temperature outside the mesh)", "K")
     dx = check_positive(dx, "dx (sample pitch; --dx on the command line)", "m")
     if dt is not None:
         dt = check_positive(dt, "dt (frame interval; --dt on the command line)", "s")
-    data, stated = _parse(path, columns)
-    units = {**stated, **(units or {})}
+    data, stated, where = _parse(path, columns)
+    units = _merge_units(path, stated, where, units)
     for key, table in (("time", TIME_UNITS), ("length", LENGTH_UNITS),
                        ("temperature", TEMPERATURE_OFFSETS)):
         if key not in units:
@@ -263,9 +338,10 @@ def read_fea_nodes(path, dx, dt=None, units=None, fill=293.15, bounds=None, max_
             k = int(np.argmax(uneven))
             raise RadiosimError(f"{path}: steps are not evenly spaced in time (step {k} → {k + 1}"
                                 f" is {step[k]:g} s, the mean is {step.mean():g} s)")
-        if dt is not None and abs(dt - step.mean()) > 1e-6 * step.mean():
+        if (dt is not None and interpolation != "linear"
+                and abs(dt - step.mean()) > 1e-6 * step.mean()):
             raise RadiosimError(f"{path}: dt = {dt:g} s does not match the file's step "
-                                f"{step.mean():g} s")
+                                f"{step.mean():g} s (a finer dt needs interpolation='linear')")
     elif dt is None:
         raise RadiosimError(f"{path}: a single step; pass dt [s]")
     origin, shape = _grid(xy, bounds, dx, str(path), f"µm data read as {units['length']}?")
@@ -274,11 +350,8 @@ def read_fea_nodes(path, dx, dt=None, units=None, fill=293.15, bounds=None, max_
         corners = steps[0][0][tri.simplices]
         max_edge = 4 * float(np.median(np.linalg.norm(corners - np.roll(corners, 1, axis=1),
                                                       axis=2)))
-    scene = FeaNodes(steps, times, dx, origin, shape, float(fill), float(max_edge),
-                     emissivity, str(path))
-    if dt is not None:
-        scene.dt = check_positive(dt, "dt", "s")
-    return scene
+    return FeaNodes(steps, times, dx, origin, shape, float(fill), float(max_edge),
+                    emissivity, str(path), dt=dt, interpolation=interpolation)
 
 
 # -- FEA meshes through meshio ---------------------------------------------------------------
@@ -371,18 +444,24 @@ def _triangles(cells, where):
 
 
 def _temperature_unit(field: str, units: dict, where: str) -> str:
+    named = next((unit for unit in TEMPERATURE_OFFSETS
+                  if field.endswith(f"_{unit}") or field.endswith(f"[{unit}]")), None)
     if "temperature" in units:
+        if named is not None and named != units["temperature"]:
+            raise RadiosimError(f"{where}: units temperature={units['temperature']} contradicts "
+                                f"the field's name {field!r} (temperature in {named}); drop "
+                                "one or correct it")
         return units["temperature"]
-    for unit in TEMPERATURE_OFFSETS:
-        if field.endswith(f"_{unit}") or field.endswith(f"[{unit}]"):
-            return unit
+    if named is not None:
+        return named
     raise RadiosimError(f"{where}: the temperature unit of field {field!r} is stated nowhere; "
                         f"pass units={{'temperature': …}} ({', '.join(TEMPERATURE_OFFSETS)}) or "
                         "name the field with a unit suffix (temperature_C)")
 
 
 def read_fea_mesh(source, dx, times=None, field: str = "temperature", units=None,
-                  fill=293.15, bounds=None, emissivity=1.0) -> FeaMesh:
+                  fill=293.15, bounds=None, emissivity=1.0, interpolation="hold",
+                  dt=None) -> FeaMesh:
     """
     Read a time series of FEA meshes (meshio: VTU, VTK, XDMF, Exodus, …) and resample it onto a
     regular grid, inside the mesh by its own cells, outside by ``fill``.
@@ -408,14 +487,21 @@ def read_fea_mesh(source, dx, times=None, field: str = "temperature", units=None
         (x_min, x_max, y_min, y_max) of the grid [m]; ``None``: the meshes' extent.
     emissivity
         As for :class:`~radiosim.FrameStack`.
+    interpolation
+        ``"hold"`` (default) or ``"linear"`` between steps, as for :func:`read_fea_nodes`.
+    dt
+        Frame interval [s] with ``interpolation="linear"``; ``None``: the steps' interval.
 
     Returns
     -------
     FeaMesh
-        A scene with one frame per step; the steps must be evenly spaced in time.
+        A scene on the series' own time axis (the steps must be evenly spaced): frame k
+        covers [k·dt, (k+1)·dt) [s], the first step's time is the scene's ``t0`` (not moved
+        to 0), and a window's ``t_start`` is in that time.
     """
     units = dict(units or {})
     where = str(source if isinstance(source, (str, Path)) else "the mesh files")
+    _check_interpolation(interpolation, where)
     if units.get("length") not in LENGTH_UNITS:
         raise RadiosimError(f"{where}: the length unit of the coordinates must be stated: "
                             f"units={{'length': …}} ({', '.join(LENGTH_UNITS)})")
@@ -431,12 +517,19 @@ def read_fea_mesh(source, dx, times=None, field: str = "temperature", units=None
     for k, (t, points, cells, point_data, cell_data) in enumerate(
             _mesh_steps(source, times, units.get("time"))):
         here = f"{where}, step {k}"
+        if not math.isfinite(t):
+            raise RadiosimError(f"{here}: its time is {t!r}; expected a finite time [s]")
         xy = np.asarray(points, dtype=float)[:, :2] * scale
+        bad = ~np.isfinite(xy).all(axis=1)
+        if bad.any():
+            i = int(np.argmax(bad))
+            raise RadiosimError(f"{here}: node {i} has coordinates {points[i][:2].tolist()} "
+                                f"{units['length']}; expected finite numbers")
         triangles, owners = _triangles(cells, here)
         if field in point_data:
-            values, kind = np.asarray(point_data[field], dtype=float).reshape(-1), "point"
+            values, kind = _scalar(point_data[field], field, "point", here), "point"
         elif field in cell_data:
-            blocks = [np.asarray(b, dtype=float).reshape(-1) for b in cell_data[field]]
+            blocks = [_scalar(b, field, "cell", here) for b in cell_data[field]]
             starts = np.cumsum([0] + [b.size for b in blocks[:-1]])  # each block's first cell
             values, kind = np.concatenate(blocks)[starts[owners[:, 0]] + owners[:, 1]], "cell"
         else:
@@ -456,8 +549,27 @@ def read_fea_mesh(source, dx, times=None, field: str = "temperature", units=None
         if np.any(step <= 0) or np.any(np.abs(step - step.mean()) > 1e-6 * step.mean()):
             raise RadiosimError(f"{where}: the steps are not evenly spaced and increasing in "
                                 f"time ({step_times.tolist()} s)")
-        dt = float(step.mean())
+        if dt is None:
+            dt = float(step.mean())
+        else:
+            dt = check_positive(dt, "dt (frame interval)", "s")
+            if interpolation != "linear" and abs(dt - step.mean()) > 1e-6 * step.mean():
+                raise RadiosimError(f"{where}: dt = {dt:g} s does not match the steps' "
+                                    f"{step.mean():g} s (a finer dt needs "
+                                    "interpolation='linear')")
     else:
         raise RadiosimError(f"{where}: a single step; a scene needs at least two")
     origin, shape = _grid(np.concatenate([s[0] for s in steps]), bounds, dx, where, "")
-    return FeaMesh(steps, step_times, dt, dx, origin, shape, float(fill), emissivity, where)
+    return FeaMesh(steps, step_times, dt, dx, origin, shape, float(fill), emissivity, where,
+                   interpolation=interpolation)
+
+
+def _scalar(data, field: str, kind: str, where: str) -> np.ndarray:
+    """A field's values as one number per point or cell; a vector or tensor field raises,
+    naming the field and its shape."""
+    values = np.asarray(data, dtype=float)
+    if values.ndim > 1 and int(np.prod(values.shape[1:])) != 1:
+        raise RadiosimError(f"{where}: {kind} field {field!r} has shape {values.shape} "
+                            f"({int(np.prod(values.shape[1:]))} components per {kind}); a "
+                            "temperature is one number per point or cell")
+    return values.reshape(-1)

@@ -17,7 +17,7 @@ from radiosim.scenes.base import Scene
 from radiosim.scenes.exr_sequence import EXR_TEMPERATURE_CHANNELS, ExrSequence, temperature_unit
 from radiosim.scenes.framestack import FrameStack
 
-__all__ = ["read_frames", "ExrSequence", "EXR_TEMPERATURE_CHANNELS"]
+__all__ = ["read_frames", "ExrSequence", "EXR_TEMPERATURE_CHANNELS", "NO_TIME_UNIT"]
 
 
 def _npz_member(path: Path, key: str | None):
@@ -68,6 +68,7 @@ def _npy(path: Path) -> np.ndarray:
     if start != b"\x93NUMPY":
         raise RadiosimError(f"{path} is not a NumPy .npy file (it starts with {start!r}, not the "
                             "NumPy magic '\\x93NUMPY'); save the stack with numpy.save")
+    _check_length(path)
     try:
         stack = np.load(path, mmap_mode="r")
     except ValueError as exc:
@@ -80,12 +81,39 @@ def _npy(path: Path) -> np.ndarray:
     return stack
 
 
+def _check_length(path: Path) -> None:
+    """A ``.npy`` file at least as long as its header says (its header's length plus rows ×
+    columns × frames × item size): a shorter one raises, naming both byte counts, before it is
+    memory-mapped (reading past a mapped file's end kills the process with SIGBUS)."""
+    try:
+        with open(path, "rb") as handle:
+            version = np.lib.format.read_magic(handle)
+            read_header = (np.lib.format.read_array_header_1_0 if version == (1, 0)
+                           else np.lib.format.read_array_header_2_0)
+            shape, _, dtype = read_header(handle)
+            start = handle.tell()
+    except (ValueError, OSError, EOFError):
+        return  # a damaged header: np.load names it
+    if dtype.hasobject:
+        return
+    expected = start + int(np.prod(shape, dtype=np.int64)) * dtype.itemsize
+    actual = path.stat().st_size
+    if actual < expected:
+        raise RadiosimError(f"{path} is truncated: its header describes a {shape} {dtype} "
+                            f"stack of {expected} bytes, the file has {actual} bytes")
+
+
 def _natural_key(path: Path):
     return [int(t) if t.isdigit() else t for t in re.split(r"(\d+)", path.name)]
 
 
+#: Formats whose frame interval is a number of seconds with no time axis of its own: a
+#: time unit (the command's --time-unit, for FEA files) means nothing for them.
+NO_TIME_UNIT = (".npy", ".npz", ".exr")
+
+
 def read_frames(path, dt=None, dx=None, units=None, key=None, channel=None, emissivity=1.0,
-                event_time=None) -> Scene:
+                event_time=None, time_unit=None, length_unit=None) -> Scene:
     """
     A scene from a NumPy stack or an EXR frame sequence.
 
@@ -105,6 +133,10 @@ def read_frames(path, dt=None, dx=None, units=None, key=None, channel=None, emis
         The array in an ``.npz``; the temperature channel of the EXR files.
     emissivity, event_time
         As for :class:`~radiosim.FrameStack`.
+    time_unit, length_unit
+        The command's ``--time-unit`` and ``--length-unit``, if the user gave them: these
+        formats have no time or length axis whose unit could be stated (``dt`` and ``dx`` are
+        in seconds and metres), so anything but ``None`` raises, naming the option.
 
     Returns
     -------
@@ -113,6 +145,13 @@ def read_frames(path, dt=None, dx=None, units=None, key=None, channel=None, emis
     """
     text = str(path)
     path = Path(path)
+    for value, flag, axis, instead in ((time_unit, "--time-unit", "time", "--dt 0.2us"),
+                                       (length_unit, "--length-unit", "length", "--dx 0.5um")):
+        if value is not None:
+            kind = "a NumPy stack" if path.suffix.lower() in (".npy", ".npz") else "EXR frames"
+            raise RadiosimError(f"{text}: {flag} {value} means nothing for {kind}: it has no "
+                                f"{axis} axis whose unit could be stated; drop {flag} and give "
+                                f"{instead.split()[0]} with its unit (e.g. {instead})")
     if path.suffix.lower() in (".npy", ".npz"):
         if not path.is_file():
             raise RadiosimError(f"{path} does not exist")

@@ -71,6 +71,11 @@ def check_emissivity(emissivity, shape: tuple[int, int]):
     Validate a scene emissivity: a scalar or curve (via :func:`~radiosim.spectral.as_spectrum`)
     or a grey map of shape ``shape`` with values in [0, 1].
     """
+    if isinstance(emissivity, (bool, np.bool_)):
+        raise RadiosimError(f"emissivity is {emissivity!r} (a bool); expected a number in "
+                            "[0, 1], a map, a spectral curve or a curve's name")
+    if isinstance(emissivity, np.ndarray) and emissivity.dtype == bool:
+        raise RadiosimError("emissivity map holds booleans; expected numbers in [0, 1]")
     if isinstance(emissivity, np.ndarray) and emissivity.ndim == 2:
         if emissivity.shape != tuple(shape):
             raise RadiosimError(
@@ -105,7 +110,9 @@ class Scene(ABC):
     dx : float
         Sample pitch in object space [m].
     dt : float
-        Frame interval [s]; frame k holds over [k·dt, (k+1)·dt).
+        Frame interval [s]; frame k holds over [k·dt, (k+1)·dt) of the scene's own time (an
+        FEA scene keeps its file's time: its first time stamp is its ``t0``, frames before
+        it are refused, and a window's ``t_start`` is stated in that time).
     shape : tuple of int
         Frame shape (rows, columns).
     n_frames : int or None

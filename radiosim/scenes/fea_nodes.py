@@ -10,9 +10,19 @@ Scenes resampled from FEA output, one frame per simulation step.
     to step.
 
 Samples outside the mesh get the stated ``fill`` temperature.
+
+Time: the scenes keep the file's own time origin. Frame k covers [k·dt, (k+1)·dt) in the
+file's time, so a window's ``t_start`` is in the data's time (a file whose first time stamp is
+5 µs is measured from ``t_start=5e-6``); the first time stamp is the scene's ``t0`` [s], and
+frames before it (``k < first_frame``) are refused when read. Between snapshots the field is
+held (``interpolation="hold"``, sample-and-hold: each snapshot holds until the next) or
+interpolated linearly in time (``interpolation="linear"``: each frame is the field at its
+mid-time, linear between the two snapshots around it).
 """
 
 from __future__ import annotations
+
+import math
 
 import numpy as np
 from scipy.spatial import Delaunay
@@ -20,7 +30,96 @@ from scipy.spatial import Delaunay
 from radiosim.errors import RadiosimError
 from radiosim.scenes.base import Region, Scene, check_emissivity
 
-__all__ = ["FeaNodes", "FeaMesh", "triangulate"]
+__all__ = ["FeaNodes", "FeaMesh", "triangulate", "INTERPOLATIONS"]
+
+#: How the field varies between snapshots: held until the next, or linear in time.
+INTERPOLATIONS = ("hold", "linear")
+_SNAP = 1e-9  # times within this many frame intervals of a frame edge are on it
+#: A first time stamp more frame intervals than this from t = 0 is a unit slip.
+_MAX_FRAMES = 2**40
+
+
+def _snap(value: float) -> float:
+    nearest = round(value)
+    return float(nearest) if abs(value - nearest) <= _SNAP * max(1.0, abs(value)) else value
+
+
+class _Snapshots(Scene):
+    """
+    Frames on the file's own time axis from snapshots at ``times`` [s] (the subclass grids
+    snapshot ``j`` over a region with :meth:`_snapshot`).
+
+    Attributes
+    ----------
+    times : numpy.ndarray
+        The snapshots' times [s], as the file states them (not moved to 0).
+    t0 : float
+        The first snapshot's time [s]: the data's time origin.
+    first_frame : int
+        The first frame holding data; frame k covers [k·dt, (k+1)·dt) [s].
+    interpolation : str
+        ``"hold"`` or ``"linear"``.
+    """
+
+    def _timeline(self, times, dt, interpolation, source):
+        self.times = np.asarray(times, dtype=float)
+        if interpolation not in INTERPOLATIONS:
+            raise RadiosimError(f"{source}: interpolation {interpolation!r} is not one of "
+                                f"{', '.join(INTERPOLATIONS)}")
+        self.interpolation = interpolation
+        self.step = (float(np.mean(np.diff(self.times))) if self.times.size > 1
+                     else None)  # between snapshots [s]
+        if interpolation == "linear" and self.step is None:
+            raise RadiosimError(f"{source}: interpolation='linear' needs two snapshots or more; "
+                                "the file has one")
+        self.dt = float(dt if dt is not None else self.step)
+        self.t0 = float(self.times[0])
+        end = self.times[-1] + (self.step or self.dt) if interpolation == "hold" else \
+            self.times[-1]
+        if not (abs(self.t0) / self.dt < _MAX_FRAMES and abs(end) / self.dt < _MAX_FRAMES):
+            raise RadiosimError(f"{source}: its times run {self.t0:g}–{end:g} s, more than "
+                                f"{_MAX_FRAMES} frames of {self.dt:g} s from t = 0; is the time "
+                                "unit right?")
+        self.first_frame = max(0, math.ceil(_snap(self.t0 / self.dt)))
+        self.n_frames = math.floor(_snap(end / self.dt))
+        if self.n_frames <= self.first_frame:
+            raise RadiosimError(f"{source}: no whole frame of dt = {self.dt:g} s lies within its "
+                                f"times {self.t0:g}–{end:g} s at t ≥ 0 (a scene's windows start "
+                                "at t ≥ 0 of the file's time)")
+
+    def _weights(self, k: int) -> list[tuple[int, float]]:
+        """Frame ``k`` as (snapshot, weight) pairs."""
+        a, b = k * self.dt, (k + 1) * self.dt
+        if k < self.first_frame:
+            raise RadiosimError(
+                f"frame {k} covers {a:.6g}–{b:.6g} s, before {self._source}'s first time stamp "
+                f"{self.t0:.6g} s; windows are in the file's own time: start them at "
+                f"t_start ≥ {self.first_frame * self.dt:.6g} s")
+        n = self.times.size
+        if self.interpolation == "linear":
+            u = _snap(((a + b) / 2 - self.t0) / self.step)
+            j = min(max(int(math.floor(u)), 0), n - 2)
+            w = u - j
+            return [(j, 1.0)] if w == 0 else [(j + 1, 1.0)] if w == 1 else \
+                [(j, 1.0 - w), (j + 1, w)]
+        step = self.step or self.dt  # each snapshot holds over [t_j, t_j + step)
+        ua, ub = _snap((a - self.t0) / step), _snap((b - self.t0) / step)
+        out = []
+        for j in range(max(int(math.floor(ua)), 0), min(int(math.ceil(ub)), n)):
+            overlap = min(ub, j + 1) - max(ua, j)
+            if overlap > 0:
+                out.append((j, overlap * step / self.dt))
+        return out
+
+    def _read(self, k: int, region: Region) -> np.ndarray:
+        weights = self._weights(k)
+        if len(weights) == 1 and weights[0][1] == 1:
+            return self._snapshot(weights[0][0], region)
+        return sum(w * self._snapshot(j, region) for j, w in weights)
+
+    def _describe_time(self) -> dict:
+        return {"t0_s": self.t0, "first_frame": self.first_frame,
+                "interpolation": self.interpolation}
 
 
 def triangulate(points: np.ndarray, where: str):
@@ -44,27 +143,27 @@ def triangulate(points: np.ndarray, where: str):
                             f"({first})") from None
 
 
-class FeaNodes(Scene):
+class FeaNodes(_Snapshots):
     """
-    A scene resampled from FEA nodes, one frame per simulation step.
+    A scene resampled from FEA nodes, one snapshot per simulation step, on the file's own
+    time axis (see the module's notes: ``t0``, ``first_frame``, ``interpolation``).
 
-    Build it with :func:`read_fea_nodes`. Frames are interpolated on demand (the triangulation
-    of each step is kept), so memory holds the nodes, not a gridded stack.
+    Build it with :func:`read_fea_nodes`. Frames are interpolated on demand (the triangulations
+    of the last two steps are kept), so memory holds the nodes, not a gridded stack.
     """
 
-    def __init__(self, steps, times, dx, origin, shape, fill, max_edge, emissivity, source):
+    def __init__(self, steps, times, dx, origin, shape, fill, max_edge, emissivity, source,
+                 dt=None, interpolation="hold"):
         self._steps = steps  # list of (points [m], temperature [K])
-        self.times = times
-        self.dt = float(np.mean(np.diff(times))) if len(times) > 1 else None
+        self._source = source
+        self._timeline(times, dt, interpolation, source)
         self.dx = dx
         self.origin = origin  # (x of column 0's left edge, y of row 0's top edge) [m]
         self.shape = shape
-        self.n_frames = len(steps)
         self.fill = fill
         self.max_edge = max_edge
         self.emissivity = check_emissivity(emissivity, shape)
         self.event_time = None
-        self._source = source
         self._triangulations: dict[int, tuple] = {}
 
     def _mesh(self, k):
@@ -75,10 +174,11 @@ class FeaNodes(Scene):
             corners = points[tri.simplices]
             edges = np.linalg.norm(corners - np.roll(corners, 1, axis=1), axis=2).max(axis=1)
             cached = (tri, edges <= self.max_edge)
-            self._triangulations = {k: cached}  # keep the latest only
+            kept = {j: v for j, v in self._triangulations.items() if abs(j - k) == 1}
+            self._triangulations = {**kept, k: cached}  # keep the neighbours (interpolation)
         return cached
 
-    def _read(self, k: int, region: Region) -> np.ndarray:
+    def _snapshot(self, k: int, region: Region) -> np.ndarray:
         tri, valid = self._mesh(k)
         _, temperature = self._steps[k]
         rows = np.arange(region[0].start, region[0].stop)
@@ -99,14 +199,15 @@ class FeaNodes(Scene):
 
     def describe(self) -> dict:
         return super().describe() | {"source": self._source, "fill_K": self.fill,
-                                     "max_edge_m": self.max_edge}
+                                     "max_edge_m": self.max_edge} | self._describe_time()
 
 
 
 
-class FeaMesh(Scene):
+class FeaMesh(_Snapshots):
     """
-    A scene resampled from an FEA mesh's own cells, one frame per step.
+    A scene resampled from an FEA mesh's own cells, one snapshot per step, on the file's own
+    time axis (see the module's notes: ``t0``, ``first_frame``, ``interpolation``).
 
     Build it with :func:`radiosim.io.read_fea_mesh`. Each step holds its nodes (x, y) [m], its
     triangles (node indices; quads and higher-order cells split by the reader), and its
@@ -114,18 +215,17 @@ class FeaMesh(Scene):
     triangle's linear interpolation (or its cell's value), elsewhere ``fill``.
     """
 
-    def __init__(self, steps, times, dt, dx, origin, shape, fill, emissivity, source):
+    def __init__(self, steps, times, dt, dx, origin, shape, fill, emissivity, source,
+                 interpolation="hold"):
         self._steps = steps  # list of (points [m], triangles, values [K], "point" | "cell")
-        self.times = times
-        self.dt = dt
+        self._source = source
+        self._timeline(times, dt, interpolation, source)
         self.dx = dx
         self.origin = origin  # (x of column 0's left edge, y of row 0's top edge) [m]
         self.shape = shape
-        self.n_frames = len(steps)
         self.fill = fill
         self.emissivity = check_emissivity(emissivity, shape)
         self.event_time = None
-        self._source = source
         self._finders: dict[int, object] = {}
 
     def _finder(self, k):
@@ -141,10 +241,11 @@ class FeaMesh(Scene):
                 raise RadiosimError(f"step {k} of {self._source}: its cells do not form a valid "
                                     f"2-D mesh (overlapping or degenerate triangles: "
                                     f"{exc})") from None
-            self._finders = {k: finder}  # keep the latest only
+            kept = {j: v for j, v in self._finders.items() if abs(j - k) == 1}
+            self._finders = {**kept, k: finder}  # keep the neighbours (interpolation)
         return finder
 
-    def _read(self, k: int, region: Region) -> np.ndarray:
+    def _snapshot(self, k: int, region: Region) -> np.ndarray:
         points, triangles, values, kind = self._steps[k]
         rows = np.arange(region[0].start, region[0].stop)
         cols = np.arange(region[1].start, region[1].stop)
@@ -169,4 +270,5 @@ class FeaMesh(Scene):
         return out.reshape(rows.size, cols.size)
 
     def describe(self) -> dict:
-        return super().describe() | {"source": self._source, "fill_K": self.fill}
+        return super().describe() | {"source": self._source, "fill_K": self.fill} | \
+            self._describe_time()

@@ -4,9 +4,11 @@ A scene from an array of temperature frames, in memory or memory-mapped.
 
 from __future__ import annotations
 
+import os
+
 import numpy as np
 
-from radiosim.errors import RadiosimError
+from radiosim.errors import RadiosimError, RadiosimIOError
 from radiosim.units import TEMPERATURE_OFFSETS, UNITS, to_kelvin
 from radiosim.checks import check_non_negative
 from radiosim.scenes.base import Region, Scene, check_emissivity, check_grid
@@ -53,7 +55,11 @@ class FrameStack(Scene):
     def __init__(self, temperature, dt, dx, emissivity=1.0, event_time=None, units="K",
                  description=None):
         if not hasattr(temperature, "ndim") or not hasattr(temperature, "dtype"):
-            temperature = np.asarray(temperature)
+            try:
+                temperature = np.asarray(temperature)
+            except ValueError:  # numpy's "inhomogeneous shape": say where
+                raise RadiosimError(f"temperature is a ragged nested list: {_ragged(temperature)}"
+                                    "; expected equal-length frames, rows and columns") from None
         if temperature.ndim != 3:
             raise RadiosimError(
                 f"temperature must be a 3-D array (frames, rows, columns), got {temperature.ndim}"
@@ -83,7 +89,27 @@ class FrameStack(Scene):
         self.units = units
         self._extra = dict(description or {})
 
+    def _check_mapped(self) -> None:
+        """A memory-mapped stack's file still holds the whole stack: a file cut short while
+        a run reads it raises :class:`~radiosim.errors.RadiosimIOError` naming it (and both
+        byte counts), instead of the process dying of SIGBUS on the missing pages. One
+        ``stat`` per read; a file cut between this check and the copy can still end the
+        process."""
+        stack = self._stack
+        name = getattr(stack, "filename", None) if isinstance(stack, np.memmap) else None
+        if name is None:
+            return
+        try:
+            size = os.stat(name).st_size
+        except OSError:
+            return  # removed: the mapping keeps the pages
+        needed = int(stack.offset) + int(stack.nbytes)
+        if size < needed:
+            raise RadiosimIOError(f"{name} was cut short while being read: it has {size} bytes, "
+                                  f"the stack needs {needed}")
+
     def _read(self, k: int, region: Region) -> np.ndarray:
+        self._check_mapped()
         values = self._stack[k, region[0], region[1]]
         if self.units == "K" and values.dtype in (np.float32, np.float64):
             return values  # as stored (a memory-mapped view): the consumer converts or checks
@@ -98,6 +124,7 @@ class FrameStack(Scene):
                 or type(self)._sample is not Scene._sample):
             return None  # converted, lazily loaded, or frames a subclass makes its own way
         start, region = self._where(start, region)
+        self._check_mapped()
         stop = int(stop)
         if not start < stop <= self.n_frames:
             raise RadiosimError(f"frames {start} to {stop - 1} are not a range of the scene's "
@@ -115,37 +142,83 @@ class FrameStack(Scene):
         NetCDF file or a zarr store (``xr.open_dataset(..., chunks=…)``, ``xr.open_zarr``):
         frames are read one at a time over the region the camera sees, never the whole.
 
-        ``dt`` [s] and ``dx`` [m] default to the spacing of the ``time`` and ``x``
-        coordinates (in seconds and metres, or with a ``units`` attribute of s/ms/us/ns,
-        m/mm/um), ``units`` (K or C) to the variable's ``units`` attribute.
+        Dimensions named ``time``/``t``, ``y``/``row``/``rows`` and ``x``/``column``/``columns``
+        (or a time dimension with datetime64/timedelta64 values) are put in the order (time, y,
+        x) by name, whatever their order in the variable; other names are read in the order
+        (time, y, x).
+
+        ``dt`` [s] and ``dx`` [m] default to the spacing of the time and x coordinates (in
+        seconds and metres, or with a ``units`` attribute of s/ms/us/ns, m/mm/um; datetime64
+        and timedelta64 times are converted to seconds), ``units`` (K or C) to the variable's
+        ``units`` attribute. Coordinates must be evenly spaced, the x and y spacings equal, and
+        a given ``dt``/``dx`` must agree with the coordinates.
         """
         if getattr(variable, "ndim", None) != 3 or not hasattr(variable, "dims"):
             raise RadiosimError(f"need an xarray variable with 3 dimensions (time, y, x), got "
                                 f"{type(variable).__name__}")
+        name = f"xarray variable {variable.name!r}"
+        variable = _time_y_x(variable, name)
 
-        def spacing(dim, given, kind):
-            if given is not None:
-                return given
+        def coordinate(dim, kind):
+            """The spacing of coordinate ``dim`` [s or m], or None if it has none."""
             if dim not in variable.coords or variable.sizes[dim] < 2:
-                raise RadiosimError(f"the variable has no {dim!r} coordinate to read d{dim} "
-                                    f"from; pass {'dt' if kind == 'time' else 'dx'}")
-            values = np.asarray(variable[dim].values, dtype=float)
-            step = np.diff(values)
-            if np.any(np.abs(step - step.mean()) > 1e-6 * abs(step.mean())):
-                raise RadiosimError(f"the {dim!r} coordinate is not evenly spaced")
-            unit = variable[dim].attrs.get("units", "s" if kind == "time" else "m")
+                return None
+            raw = np.asarray(variable[dim].values)
+            if raw.dtype.kind in "mM":
+                if kind != "time":
+                    raise RadiosimError(f"{name}: the {dim!r} coordinate holds "
+                                        f"{raw.dtype} values; expected lengths")
+                values, unit = (raw - raw[0]) / np.timedelta64(1, "ns") * 1e-9, "s"
+            else:
+                try:
+                    values = raw.astype(float)
+                except (TypeError, ValueError):
+                    raise RadiosimError(f"{name}: the {dim!r} coordinate holds {raw.dtype} "
+                                        "values, not numbers") from None
+                unit = str(variable[dim].attrs.get("units", "s" if kind == "time" else "m"))
             table = UNITS[kind]
-            if unit.replace("µ", "u") not in table:
-                raise RadiosimError(f"the {dim!r} coordinate's unit {unit!r} is not one of "
-                                    f"{', '.join(table)}")
-            return float(step.mean()) * 10.0 ** table[unit.replace("µ", "u")][0]
+            unit = unit.replace("\u00b5", "u").replace("\u03bc", "u")
+            if unit not in table:
+                raise RadiosimError(f"{name}: the {dim!r} coordinate's unit {unit!r} is not one "
+                                    f"of {', '.join(table)}")
+            step = np.diff(values) * 10.0 ** table[unit][0]
+            uneven = np.abs(step - step[0]) > 1e-6 * abs(step[0])
+            if step[0] <= 0 or uneven.any():
+                k = int(np.argmax(uneven)) if uneven.any() else 0
+                raise RadiosimError(f"{name}: the {dim!r} coordinate is not evenly spaced and "
+                                    f"increasing (from {dim}[0] to {dim}[1] it steps "
+                                    f"{step[0]:g}, from {dim}[{k}] to {dim}[{k + 1}] {step[k]:g} "
+                                    f"{'s' if kind == 'time' else 'm'})")
+            return float(step.mean())
+
+        def spacing(dim, given, kind, flag):
+            found = coordinate(dim, kind)
+            if given is None:
+                if found is None:
+                    raise RadiosimError(f"{name} has no {dim!r} coordinate to read d{dim} "
+                                        f"from; pass {flag}")
+                return found
+            try:
+                mine = float(given)
+            except (TypeError, ValueError):
+                return given  # the constructor names it
+            if found is not None and abs(mine - found) > 1e-6 * abs(found):
+                raise RadiosimError(f"{name}: {flag}={mine:g} contradicts its {dim!r} "
+                                    f"coordinate's spacing {found:g} "
+                                    f"{'s' if kind == 'time' else 'm'}")
+            return given
 
         time, y, x = variable.dims
+        dx = spacing(x, dx, "length", "dx")
+        dy = coordinate(y, "length")
+        if dy is not None and isinstance(dx, (int, float)) and abs(dy - dx) > 1e-6 * abs(dx):
+            raise RadiosimError(f"{name}: its {y!r} spacing {dy:g} m differs from its {x!r} "
+                                f"spacing {dx:g} m; a scene's samples are square (dx = dy)")
         unit = units or variable.attrs.get("units", "K")
         unit = {"degC": "C", "°C": "C", "celsius": "C", "kelvin": "K"}.get(unit, unit)
-        return cls(_LazyFrames(variable), spacing(time, dt, "time"), spacing(x, dx, "length"),
+        return cls(_LazyFrames(variable), spacing(time, dt, "time", "dt"), dx,
                    emissivity=emissivity, event_time=event_time, units=unit,
-                   description={"source": f"xarray variable {variable.name!r}"})
+                   description={"source": name})
 
     def __reduce__(self):
         """Pickled as a recipe where the frames are a file (a memory map: its path, offset,
@@ -159,6 +232,57 @@ class FrameStack(Scene):
             frames = (np.asarray, (stack,))
         state = {k: v for k, v in self.__dict__.items() if k != "_stack"}
         return (_rebuild_stack, (frames, state))
+
+
+_NAMES = {"time": ("time", "t"), "y": ("y", "row", "rows"), "x": ("x", "column", "columns",
+                                                             "col", "cols")}
+
+
+def _time_y_x(variable, name):
+    """The variable with its dimensions in the order (time, y, x), found by name (or the time
+    by its datetime values); unrecognised names keep their order."""
+    role = {}
+    for dim in variable.dims:
+        kinds = [k for k, names in _NAMES.items() if str(dim).lower() in names]
+        if not kinds and dim in variable.coords and \
+                np.asarray(variable[dim].values).dtype.kind in "mM":
+            kinds = ["time"]
+        if kinds:
+            if kinds[0] in role:
+                raise RadiosimError(f"{name}: dimensions {role[kinds[0]]!r} and {dim!r} both "
+                                    f"read as {kinds[0]}; expected (time, y, x)")
+            role[kinds[0]] = dim
+    if len(role) < 3:
+        if role and any(variable.dims.index(d) != ("time", "y", "x").index(k)
+                        for k, d in role.items()):
+            raise RadiosimError(f"{name}: dimensions {variable.dims} are not in the order "
+                                "(time, y, x) and cannot all be told apart by name; transpose "
+                                "it (variable.transpose(time, y, x))")
+        return variable
+    order = (role["time"], role["y"], role["x"])
+    return variable if tuple(variable.dims) == order else variable.transpose(*order)
+
+
+def _ragged(nested) -> str:
+    """Where a nested list stops being rectangular: the index path and the two lengths."""
+    def walk(item, path):
+        if not isinstance(item, (list, tuple)):
+            return None
+        lengths = [len(e) if isinstance(e, (list, tuple)) else None for e in item]
+        first = lengths[0] if lengths else None
+        for i, n in enumerate(lengths):
+            if n != first:
+                where = "".join(f"[{p}]" for p in path)
+                show = lambda v: "a number" if v is None else f"{v} values"
+                return (f"temperature{where}[0] has {show(first)}, temperature{where}[{i}] has "
+                        f"{show(n)}")
+        for i, e in enumerate(item):
+            found = walk(e, path + [i])
+            if found:
+                return found
+        return None
+
+    return walk(nested, []) or "its elements have different shapes"
 
 
 class _LazyFrames:
