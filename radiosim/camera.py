@@ -46,8 +46,8 @@ from radiosim.presets import PRESET_DIRECTORY, available_presets, camera_fields,
 from radiosim.response import LinearResponse, PlanckResponse, Response
 from radiosim.scenes.base import Scene
 
-__all__ = ["Optics", "FocalPlaneArray", "Camera", "measure_many", "available_presets",
-           "PRESET_DIRECTORY"]
+__all__ = ["Optics", "FocalPlaneArray", "Camera", "measure_many", "measure_many_statistics",
+           "available_presets", "PRESET_DIRECTORY"]
 
 
 @dataclass(frozen=True, eq=False)
@@ -701,6 +701,24 @@ def measure_many(scene: Scene, cases, rng=None, progress=None) -> list[Measureme
     """
     rng = check_rng(rng)
     cases = list(cases)
+    return [camera.read_out(stats, window, scene, rng)
+            for (camera, _, _), (window, stats) in zip(
+                cases, measure_many_statistics(scene, cases, progress))]
+
+
+def measure_many_statistics(scene: Scene, cases, progress=None) -> list:
+    """
+    The noise-free part of :func:`measure_many`: each case's window and tensor statistics
+    (mean signal, with the optics' image where the camera forms one), from one pass over the
+    scene's frames. A read-out (:meth:`Camera.read_out`) with any generator turns each into a
+    measurement, so callers can give each case its own seed.
+
+    Returns
+    -------
+    list of (Window, TensorStatistics)
+        In the order of ``cases``.
+    """
+    cases = list(cases)
     windows = [camera.window(scene, t_int, t_start) for camera, t_int, t_start in cases]
     for (camera, _, _), window in zip(cases, windows):
         camera.check_measurable(window.duration)
@@ -721,5 +739,4 @@ def measure_many(scene: Scene, cases, rng=None, progress=None) -> list[Measureme
     statistics = [dataclasses.replace(stats, signal_mean=camera.image(scene, window))
                   if not camera.rolling and camera.forms_image(scene) else stats
                   for (camera, _, _), window, stats in zip(cases, windows, statistics)]
-    return [camera.read_out(stats, window, scene, rng)
-            for (camera, _, _), window, stats in zip(cases, windows, statistics)]
+    return list(zip(windows, statistics))

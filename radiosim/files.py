@@ -16,9 +16,11 @@ Files radiosim writes: atomically, into folders it owns, never over a user's fil
 from __future__ import annotations
 
 import contextlib
+import errno
 import json
 import os
 import shutil
+import socket
 import sys
 import tempfile
 import threading
@@ -27,7 +29,8 @@ from pathlib import Path
 from radiosim.errors import RadiosimError, RadiosimIOError
 
 __all__ = ["atomic_write", "atomic_path", "write_text", "OutputFolder", "MANIFEST",
-           "native_output_silenced"]
+           "native_output_silenced", "check_output_folder", "check_not_an_input", "safe_name",
+           "is_staging", "RUN_MARKER", "check_name"]
 
 _NATIVE = threading.Lock()
 
@@ -81,10 +84,7 @@ def atomic_write(path, mode: str = "w", **kwargs):
     ['a.txt']
     """
     path = Path(path)
-    if not path.parent.is_dir():
-        raise RadiosimError(f"cannot write {path}: folder {path.parent} does not exist")
-    if path.is_dir():
-        raise RadiosimError(f"cannot write {path}: it is a folder")
+    _check_destination(path)
     try:
         handle, temporary = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".partial",
                                              dir=path.parent)
@@ -92,13 +92,60 @@ def atomic_write(path, mode: str = "w", **kwargs):
         raise RadiosimIOError(f"cannot write {path}: {exc.strerror or exc}") from None
     temporary = Path(temporary)
     try:
-        with os.fdopen(handle, mode, **kwargs) as stream:
-            yield stream
-        os.chmod(temporary, 0o666 & ~_umask())  # as open() would create it, not mkstemp's 0600
-        os.replace(temporary, path)
+        try:
+            with os.fdopen(handle, mode, **kwargs) as stream:
+                yield stream
+                stream.flush()
+                os.fsync(stream.fileno())  # on the disk before the name points to it
+            os.chmod(temporary, 0o666 & ~_umask())  # as open() would create it, not mkstemp's
+            os.replace(temporary, path)
+        except OSError as exc:  # a full disk, a quota: the earlier file stays as it was
+            raise _io_error(path, exc) from None
+        _sync_folder(path.parent)
     except BaseException:
         temporary.unlink(missing_ok=True)
         raise
+
+
+def _check_destination(path: Path) -> None:
+    """A file can be written at ``path``: its folder exists and it is not a folder."""
+    if not path.parent.is_dir():
+        raise RadiosimError(f"cannot write {path}: folder {path.parent} does not exist")
+    if path.is_dir():
+        raise RadiosimError(f"cannot write {path}: it is a folder")
+
+
+def _io_error(path: Path, exc: BaseException) -> RadiosimIOError:
+    """A system's refusal to write ``path`` as one line naming the file."""
+    if isinstance(exc, OSError) and exc.errno == errno.ENOSPC:
+        return RadiosimIOError(f"cannot write {path}: the disk is full (no space left on "
+                               "device); nothing was written and any earlier file is unchanged")
+    reason = exc.strerror if isinstance(exc, OSError) and exc.strerror else exc
+    return RadiosimIOError(f"cannot write {path}: {reason}; nothing was written and any earlier "
+                           "file is unchanged")
+
+
+def _sync_folder(folder: Path) -> None:
+    """fsync a folder, so that a rename in it survives a crash (where the system allows)."""
+    try:
+        fd = os.open(folder, os.O_RDONLY)
+    except OSError:
+        return
+    try:
+        os.fsync(fd)
+    except OSError:  # some file systems cannot sync a folder: the rename itself stands
+        pass
+    finally:
+        os.close(fd)
+
+
+def _sync_file(path: Path) -> None:
+    """fsync a file written by name (by a library), before it is renamed into place."""
+    fd = os.open(path, os.O_RDONLY)
+    try:
+        os.fsync(fd)
+    finally:
+        os.close(fd)
 
 
 @contextlib.contextmanager
@@ -109,17 +156,18 @@ def atomic_path(path):
     library's own error becomes a :class:`~radiosim.errors.RadiosimIOError` naming ``path``.
     """
     path = Path(path)
-    if not path.parent.is_dir():
-        raise RadiosimError(f"cannot write {path}: folder {path.parent} does not exist")
+    _check_destination(path)
     temporary = path.with_name(f".{path.name}.{os.getpid()}.partial")
     try:
         yield temporary
+        _sync_file(temporary)
         os.replace(temporary, path)
+        _sync_folder(path.parent)
     except BaseException as exc:  # interrupts too: no temporary file is left behind
         temporary.unlink(missing_ok=True)
         if not isinstance(exc, Exception) or isinstance(exc, RadiosimError):
             raise
-        raise RadiosimIOError(f"cannot write {path}: {exc}") from exc
+        raise _io_error(path, exc) from exc
 
 
 def _umask() -> int:
@@ -135,6 +183,141 @@ def write_text(path, text: str) -> Path:
     return Path(path)
 
 
+#: The marker a running run leaves in its staging folder: its process id and host.
+RUN_MARKER = ".radiosim-run"
+
+_STAGING: set[Path] = set()  # staging folders of the OutputFolders open in this process
+
+
+def is_staging(path) -> bool:
+    """Whether ``path`` is the staging folder of an :class:`OutputFolder` open in this process
+    (a run writes straight into it; the folder's owner commits it)."""
+    try:
+        return Path(path).resolve() in _STAGING
+    except OSError:
+        return False
+
+
+def _process_alive(pid: int) -> bool:
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except PermissionError:  # alive, another user's
+        return True
+    except (OSError, OverflowError, ValueError):
+        return False
+    return True
+
+
+def _read_marker(staging: Path) -> tuple[int | None, str]:
+    try:
+        pid, _, host = (staging / RUN_MARKER).read_text(encoding="utf-8").strip().partition(" ")
+        return int(pid), host
+    except (OSError, ValueError):
+        return None, ""
+
+
+def check_output_folder(path, overwrite: bool = False, option: str = "--out") -> list[str]:
+    """
+    The policy for a run's output folder, shared by the commands and :meth:`Study.run
+    <radiosim.study.Study.run>`: ``path`` must be new, an empty folder, or — with
+    ``overwrite`` — a folder radiosim wrote (its manifest lists its files, all inside it).
+    A dangling symbolic link, a file or any other non-folder is refused. Returns the files the
+    previous run's manifest lists (to be replaced), checked before any work.
+    """
+    path = Path(path)
+    if path.is_symlink() and not path.exists():
+        raise RadiosimError(f"{option} {path} is a symbolic link to {os.readlink(path)}, which "
+                            "does not exist; give a folder (new or empty)")
+    if path.exists() and not path.is_dir():
+        raise RadiosimError(f"{option} {path} is an existing file, not a folder; choose a "
+                            "new folder")
+    for parent in path.parents:  # a file where a parent folder should be
+        if parent.exists() or parent.is_symlink():
+            if not parent.is_dir():
+                raise RadiosimError(f"{option} {path}: {parent} is not a folder")
+            break
+    if not (path.is_dir() and any(path.iterdir())):
+        return []
+    manifest = path / MANIFEST
+    if not overwrite:
+        raise RadiosimError(
+            f"{option} {path} is not empty; choose a new or empty folder, or pass "
+            "--overwrite (overwrite=True) to replace the files of radiosim's previous run there "
+            f"(those listed in {MANIFEST})")
+    if not manifest.is_file():
+        raise RadiosimError(
+            f"{option} {path} is not empty and radiosim did not write it (it holds no "
+            f"{MANIFEST}); --overwrite replaces only radiosim's own files: choose a new "
+            "or empty folder")
+    try:
+        previous = [str(f) for f in json.loads(manifest.read_text())["files"]]
+    except (OSError, ValueError, KeyError, TypeError):
+        raise RadiosimError(f"{manifest} is not a radiosim manifest; --overwrite "
+                            "will not touch that folder") from None
+    root = path.resolve()
+    for name in previous:  # only files inside the folder, never beyond it
+        target = (path / name).resolve()
+        if Path(name).is_absolute() or root not in target.parents:
+            raise RadiosimError(f"{manifest} lists {name!r}, outside {path}; "
+                                "--overwrite will not touch that folder")
+        if target.exists() and not target.is_file():
+            raise RadiosimError(f"{manifest} lists {name!r}, which is a folder, "
+                                "not a file radiosim wrote; --overwrite will not "
+                                "touch that folder")
+    return previous
+
+
+def check_not_an_input(path, inputs, option: str = "--out") -> None:
+    """Refuse to write ``path`` if it is one of ``inputs`` (the files a command reads)."""
+    target = Path(path).resolve()
+    for item in inputs:
+        if Path(item).resolve() == target:
+            raise RadiosimError(f"{option} {path} is one of this command's inputs ({item}); "
+                                "writing it would destroy what is being read: choose another "
+                                "name")
+
+
+def safe_name(name, what: str) -> str:
+    """
+    A name from a study file made safe as one file-name component: path separators, ``..``,
+    leading dots and characters other than letters, digits, ``-``, ``_``, ``.``, ``+`` become
+    ``_``; an empty name (or one that would still leave the folder) is refused.
+
+    Examples
+    --------
+    >>> safe_name("../../x", "sweep name")
+    '_.__._x'
+    >>> safe_name("long integration", "sweep name")
+    'long_integration'
+    """
+    import re
+
+    text = str(name).strip()
+    cleaned = re.sub(r"[^\w.+-]", "_", text)
+    cleaned = cleaned.replace("..", "_.")
+    cleaned = cleaned.lstrip(".")
+    if not text or not cleaned or set(cleaned) <= {"_", "."}:
+        raise RadiosimError(f"{what} {name!r} cannot name a file: give letters or digits "
+                            "(e.g. name = \"sweep-1\")")
+    return cleaned
+
+
+def check_name(name, what: str) -> str:
+    """
+    A name from a study file that radiosim uses in file names (a study's, a sweep's, a
+    camera's): refused if empty, ``.`` or ``..``, or if it holds a path separator or a control
+    character, so that nothing it names can land outside the output folder.
+    """
+    text = name if isinstance(name, str) else str(name)
+    if (not text.strip() or text.strip(".") == "" or any(c in text for c in "/\\")
+            or any(ord(c) < 32 for c in text)):
+        raise RadiosimError(f"{what} {name!r} cannot name files: give a name without path "
+                            "separators (/ or \\), control characters, or only dots")
+    return text
+
+
 class OutputFolder:
     """
     The folder a run writes into (see the module docstring).
@@ -146,47 +329,23 @@ class OutputFolder:
     overwrite
         Allow a folder that holds radiosim's own files from an earlier run (listed in its
         manifest); other files are never touched, and a run that would write over one refuses.
+    inputs
+        Files the run reads: refused if the run would replace or delete one of them.
 
     Use :attr:`staging` as the run's folder, :meth:`commit` when it completed, and
-    :meth:`abandon` when it failed.
+    :meth:`abandon` when it failed. While the run lasts, the staging folder holds
+    :data:`RUN_MARKER` (the process id), so that a second run on the same folder is told that
+    another run is writing it; a marker whose process is gone is recognised as stale.
     """
 
-    def __init__(self, path, overwrite: bool = False):
+    def __init__(self, path, overwrite: bool = False, inputs=()):
         self.path = Path(path)
         self.overwrite = overwrite
-        self.previous: list[str] = []
-        if self.path.exists() and not self.path.is_dir():
-            raise RadiosimError(f"--out {self.path} is an existing file, not a folder; choose a "
-                                "new folder")
-        if self.path.is_dir() and any(self.path.iterdir()):
-            manifest = self.path / MANIFEST
-            if not overwrite:
-                raise RadiosimError(
-                    f"--out {self.path} is not empty; choose a new or empty folder, or pass "
-                    "--overwrite to replace the files of radiosim's previous run there "
-                    f"(those listed in {MANIFEST})")
-            if not manifest.is_file():
-                raise RadiosimError(
-                    f"--out {self.path} is not empty and radiosim did not write it (it holds no "
-                    f"{MANIFEST}); --overwrite replaces only radiosim's own files: choose a new "
-                    "or empty folder")
-            if manifest.is_file():
-                try:
-                    self.previous = [str(f) for f in json.loads(manifest.read_text())["files"]]
-                except (OSError, ValueError, KeyError, TypeError):
-                    raise RadiosimError(f"{manifest} is not a radiosim manifest; --overwrite "
-                                        "will not touch that folder") from None
-                root = self.path.resolve()
-                for name in self.previous:  # only files inside the folder, never beyond it
-                    target = (self.path / name).resolve()
-                    if Path(name).is_absolute() or root not in target.parents:
-                        raise RadiosimError(f"{manifest} lists {name!r}, outside {self.path}; "
-                                            "--overwrite will not touch that folder")
-                    if target.exists() and not target.is_file():
-                        raise RadiosimError(f"{manifest} lists {name!r}, which is a folder, "
-                                            "not a file radiosim wrote; --overwrite will not "
-                                            "touch that folder")
+        self.previous: list[str] = check_output_folder(self.path, overwrite)
+        self.check_inputs(inputs)
         parent = self.path.parent
+        self.staging = parent / f"{self.path.name}.partial"
+        self._refuse_existing_staging()
         self.created: list[Path] = []  # parent folders made for this run, removed if it fails
         try:
             for folder in [*reversed(parent.parents), parent]:
@@ -196,25 +355,62 @@ class OutputFolder:
         except OSError as exc:
             raise RadiosimIOError(f"cannot create {exc.filename or parent}: "
                                   f"{exc.strerror or exc}") from None
-        self.staging = parent / f"{self.path.name}.partial"
-        if self.staging.exists():
-            raise RadiosimError(f"{self.staging} exists (an earlier run's partial result); move "
-                                "or delete it first")
         try:
             self.staging.mkdir()
+        except FileExistsError:  # another run took it in the meantime
+            self._remove_created()
+            self._refuse_existing_staging()
+            raise
         except OSError as exc:
             self._remove_created()
             raise RadiosimIOError(f"cannot write in {parent}: {exc.strerror or exc}") from None
+        try:
+            write_text(self.staging / RUN_MARKER, f"{os.getpid()} {socket.gethostname()}\n")
+        except BaseException:
+            shutil.rmtree(self.staging, ignore_errors=True)
+            self._remove_created()
+            raise
+        _STAGING.add(self.staging.resolve())
+
+    def check_inputs(self, inputs) -> None:
+        """Refuse if committing would replace or delete one of ``inputs``."""
+        at_risk = {(self.path / name).resolve() for name in self.previous}
+        for item in inputs:
+            if Path(item).resolve() in at_risk:
+                raise RadiosimError(f"--out {self.path}: the run reads {item}, a file of "
+                                    "radiosim's previous run there that --overwrite would "
+                                    "replace; copy it elsewhere or choose another --out")
+
+    def _refuse_existing_staging(self):
+        if not (self.staging.exists() or self.staging.is_symlink()):
+            return
+        pid, host = _read_marker(self.staging)
+        if pid is not None and host in ("", socket.gethostname()) and _process_alive(pid):
+            raise RadiosimError(f"another run (pid {pid}) is writing {self.path} (its partial "
+                                f"results are in {self.staging}); wait for it to finish or "
+                                "choose another --out")
+        if pid is not None and host not in ("", socket.gethostname()):
+            raise RadiosimError(f"another run (pid {pid} on {host}) is writing {self.path} "
+                                f"or was interrupted ({self.staging}); if it is not running, "
+                                f"move or delete {self.staging}")
+        stale = (f" (left by run pid {pid}, which is no longer running)" if pid is not None
+                 else " (an earlier run's partial result)")
+        raise RadiosimError(f"{self.staging} exists{stale}; move or delete it first")
 
     def _remove_created(self):
         for folder in reversed(self.created):
             with contextlib.suppress(OSError):
                 folder.rmdir()
 
+    def _release(self):
+        (self.staging / RUN_MARKER).unlink(missing_ok=True)
+        _STAGING.discard(self.staging.resolve())
+
     def files(self) -> list[str]:
         """The files written in the staging folder, relative to it."""
         return sorted(str(p.relative_to(self.staging)) for p in self.staging.rglob("*")
-                      if p.is_file() and not p.name.endswith(".partial"))
+                      if p.is_file() and not p.name.endswith(".partial")
+                      and p.name != RUN_MARKER)
 
     def commit(self) -> list[Path]:
         """Move the staged files into the destination and write the manifest; returns the
@@ -229,6 +425,7 @@ class OutputFolder:
                                 f"{self.staging}")
         write_text(self.staging / MANIFEST, json.dumps(
             {"radiosim": __version__, "files": written}, indent=1) + "\n")
+        self._release()
         if not self.path.exists():
             self.staging.rename(self.path)
         else:
@@ -240,6 +437,7 @@ class OutputFolder:
                 target.parent.mkdir(parents=True, exist_ok=True)
                 os.replace(self.staging / name, target)
             shutil.rmtree(self.staging, ignore_errors=True)
+        _sync_folder(self.path)
         return [self.path / f for f in written]
 
     def abandon(self, keep: bool) -> Path | None:
@@ -247,6 +445,7 @@ class OutputFolder:
         After a failure: keep the staging folder as a clearly named partial result if ``keep``
         and it holds files, else remove it. Returns the partial folder kept, if any.
         """
+        self._release()
         if keep and self.files():
             return self.staging
         shutil.rmtree(self.staging, ignore_errors=True)

@@ -35,6 +35,7 @@ from __future__ import annotations
 
 import contextlib
 import csv
+import dataclasses
 import importlib
 import itertools
 import math
@@ -45,18 +46,19 @@ from pathlib import Path
 
 import numpy as np
 
-from radiosim.camera import Camera, measure_many
+from radiosim.camera import Camera, measure_many_statistics
 from radiosim.checks import check_positive, check_rng
 from radiosim.config import build_from_toml, read_number, reject_unknown
-from radiosim.errors import RadiosimError, RadiosimWarning
-from radiosim.files import atomic_write
+from radiosim.errors import RadiosimError, RadiosimIOError, RadiosimWarning
+from radiosim.files import OutputFolder, atomic_write, check_name, is_staging, safe_name
 from radiosim.measurement import Measurement
 from radiosim.scenes.base import Scene
-from radiosim.uncertainty import INPUTS, connect, distribution_from_table, propagate
+from radiosim.uncertainty import (INPUTS, MAX_DRAWS, connect, distribution_from_table, propagate,
+                                  recorded_warnings)
 from radiosim.units import shift, to_celsius
 
 __all__ = ["Study", "Sweep", "StudyResult", "available_studies", "summarise", "STUDY_DIRECTORY",
-           "RESULT_COLUMNS", "HOOKS", "load_hook", "format_value"]
+           "RESULT_COLUMNS", "HOOKS", "load_hook", "format_value", "format_table"]
 
 #: Folder of the shipped studies.
 STUDY_DIRECTORY = Path(__file__).resolve().parent / "studies"
@@ -67,7 +69,7 @@ RESULT_COLUMNS = [
     "study", "sweep", "camera", "response", "integration_time_us", "n_frames", "pixel_pitch_um",
     "pixel_samples", "sensor_area_um2", "alignment", "t_start_us", "peak_scene_C", "peak_C",
     "peak_bias_K", "peak_uncertainty_K", "saturated_fraction", "under_range_fraction",
-    "over_range_fraction", "exr",
+    "over_range_fraction", "warnings", "exr",
 ]
 ALIGNMENTS = ("centred", "starting", "ending")
 #: The top-level keys of a study file.
@@ -166,6 +168,10 @@ class UncertaintySpec:
                 least = {"draws": 2, "seed": 0, "batch": 1}[key]
                 raise RadiosimError(f"[uncertainty] {key} must be a whole number ≥ {least}, "
                                     f"got {value!r}")
+            if key == "draws" and value is not None and value > MAX_DRAWS:
+                raise RadiosimError(f"[uncertainty] draws = {value} is above radiosim's bound "
+                                    f"of {MAX_DRAWS} draws; give at most {MAX_DRAWS} (or no "
+                                    "draws: the adaptive procedure)")
             counts[key] = value
         inputs = table.get("inputs", {})
         if not isinstance(inputs, dict) or not inputs:
@@ -194,7 +200,7 @@ class Sweep:
     @classmethod
     def from_dict(cls, data: dict, cameras) -> Sweep:
         data = dict(data)
-        name = str(data.pop("name", "sweep"))
+        name = check_name(data.pop("name", "sweep"), "[[sweeps]] name")
         reject_unknown([k for k in data if k not in SWEEP_KEYS], SWEEP_KEYS, f"sweep {name!r}")
         for key in ("cameras", "response", "alignment"):
             if key in data and not isinstance(data[key], list):
@@ -305,6 +311,8 @@ class Study:
         self.hooks = dict(hooks or {})
         #: The study's uncertainty budget (:class:`UncertaintySpec`), if it has one.
         self.uncertainty: UncertaintySpec | None = None
+        #: The camera files the study reads (never written over by its run).
+        self.camera_files: list[Path] = []
         reject_unknown([k for k in self.hooks if k not in HOOKS], HOOKS, "[hooks]")
         self._scene = None
 
@@ -334,7 +342,7 @@ class Study:
         data = dict(data)
         base = base or Path.cwd()
         reject_unknown([k for k in data if k not in STUDY_KEYS], STUDY_KEYS, "study")
-        name = str(data.pop("name", "study"))
+        name = check_name(data.pop("name", "study"), "study name")
         description = str(data.pop("description", ""))
         scene = data.pop("scene", None)
         if not isinstance(scene, dict) or "type" not in scene:
@@ -342,7 +350,8 @@ class Study:
         camera_tables = data.pop("cameras", None)
         if not isinstance(camera_tables, dict) or not camera_tables:
             raise RadiosimError("a study needs at least one [cameras.NAME] table")
-        cameras = {n: _camera_from(t, n, base) for n, t in camera_tables.items()}
+        cameras = {check_name(n, "[cameras.NAME] name"): _camera_from(t, n, base)
+                   for n, t in camera_tables.items()}
         sweep_tables = data.pop("sweeps", [])
         if not isinstance(sweep_tables, list) or not all(isinstance(t, dict)
                                                          for t in sweep_tables):
@@ -360,6 +369,8 @@ class Study:
             raise RadiosimError(f"[hooks] must be a table, got {hooks!r}")
         study = cls(name, scene, cameras, sweeps, description, base, hooks)
         study.uncertainty = uncertainty
+        study.camera_files = [base / t["file"] for t in camera_tables.values()
+                              if isinstance(t, dict) and isinstance(t.get("file"), str)]
         for name in study.hooks:
             study.hook(name)  # fail now, not after the first measurements
         return study
@@ -419,9 +430,33 @@ class Study:
                          t_start=spec.t_start, workers=workers, batch=spec.batch,
                          progress=progress)
 
+    def inputs(self) -> list[Path]:
+        """The files the study reads (its scene's files, parameter and camera files): a run
+        never writes over one of them."""
+        found = []
+        spec = self.scene_spec
+        for key in ("path", "params"):
+            if isinstance(spec.get(key), str) and spec[key]:
+                found.append(self.base / spec[key])
+        scene = self._scene
+        for attribute in ("paths", "path"):
+            value = getattr(scene, attribute, None) if scene is not None else None
+            if isinstance(value, (str, Path)):
+                found.append(Path(value))
+            elif isinstance(value, (list, tuple)):
+                found.extend(Path(v) for v in value if isinstance(v, (str, Path)))
+        found += list(self.camera_files)
+        expanded = []
+        for path in found:
+            if path.is_dir():
+                expanded.extend(p for p in path.rglob("*") if p.is_file())
+            else:
+                expanded.append(path)
+        return expanded
+
     def run(self, out=None, rng=0, write_exr: bool = True,
             progress: Callable[[int, int, str], None] | None = None, scheduler=None,
-            workers: int | None = None) -> StudyResult:
+            workers: int | None = None, overwrite: bool = False) -> StudyResult:
         """
         Run every measurement of the study.
 
@@ -429,77 +464,101 @@ class Study:
         ----------
         out
             Folder for ``results.csv``, ``exr/`` and ``pixel_history.csv``; ``None``: keep
-            results in memory only.
+            results in memory only. The command's rules hold (:class:`radiosim.files.
+            OutputFolder`): a new or empty folder, or with ``overwrite`` one that radiosim's
+            earlier run wrote (only the files its manifest lists are replaced); a dangling link
+            or a file is refused before any work, and so is a run that would replace one of
+            its own inputs. Files are staged in ``OUT.partial`` (marked with this process's
+            id while the run lasts) and moved in when the run completes; a run that fails
+            keeps its completed rows there. An :class:`~radiosim.files.OutputFolder`'s
+            staging folder is written into directly (its owner commits it).
         rng
-            Seed or generator for the cameras' noise (one generator for the whole study).
+            Seed (a whole number ≥ 0), :class:`numpy.random.SeedSequence` or Generator of the
+            cameras' noise. Measurement ``i`` of the plan draws its noise from the ``i``-th
+            seed spawned from it (:meth:`numpy.random.SeedSequence.spawn`), in this process as
+            on any scheduler: the same seed gives the same bits everywhere.
         write_exr
             Write each field measurement as an EXR file.
         progress
             Called as ``progress(done, total, label)`` after each measurement.
         scheduler, workers
             Run on Dask (:func:`radiosim.uncertainty.connect`): every measurement is a task,
-            the scene travels as its recipe, and each measurement's noise comes from its own
-            seed spawned from ``rng`` (an integer), so the results are the same bits on any
-            scheduler and any number of workers. Without them, the measurements of a scene
-            share one pass over its frames in this process, drawing their noise from one
-            generator in turn (a different, equally valid, sequence).
+            the scene travels as its recipe. Without them, the measurements of a scene share
+            one pass over its frames in this process.
+        overwrite
+            Allow ``out`` to hold radiosim's own earlier results (see above).
+
+        Warnings raised while measuring a row are kept in its ``warnings`` column and reach
+        the caller as :class:`~radiosim.errors.RadiosimWarning`\\ s (never silenced).
         """
-        engine = None
-        if scheduler is not None or workers is not None:
-            if isinstance(rng, bool) or not isinstance(rng, (int, np.integer)) or rng < 0:
-                raise RadiosimError(f"a study on a Dask scheduler needs an integer seed ≥ 0, got "
-                                    f"{rng!r}")
-            seed_sequence = np.random.SeedSequence(int(rng))
-        else:
-            rng = check_rng(rng)
+        seeds = _spawn(rng, scheduler is not None or workers is not None)
         plan = list(self.plan())
         summary, pick_pixel = self.hook("summary"), self.hook("pixel")
         columns = self.columns()
+        folder = None
+        if out is not None and not is_staging(out):
+            folder = OutputFolder(out, overwrite=overwrite, inputs=self.inputs())
+            target, out = Path(out), folder.staging
         out = None if out is None else Path(out)
         exr_dir = None
         created = []
         if out is not None:
             try:
-                for folder in [*reversed(out.parents), out] + ([out / "exr"] if write_exr else []):
-                    if not folder.exists():
-                        folder.mkdir()
-                        created.append(folder)
+                for path in [*reversed(out.parents), out] + ([out / "exr"] if write_exr else []):
+                    if not path.exists():
+                        path.mkdir()
+                        created.append(path)
             except OSError as exc:
-                raise RadiosimError(f"cannot create {exc.filename or out}: "
-                                    f"{exc.strerror or exc}") from None
+                if folder is not None:
+                    folder.abandon(keep=False)
+                raise RadiosimIOError(f"cannot create {exc.filename or out}: "
+                                      f"{exc.strerror or exc}") from None
             exr_dir = out / "exr" if write_exr else None
         result = StudyResult(rows=[], exr_directory=exr_dir, columns=columns)
         history = {}
+        engine = None
+        completed = False
         try:
             if scheduler is not None or workers is not None:
-                engine = (connect(scheduler, workers), seed_sequence)
-            self._measure_all(plan, result, history, summary, pick_pixel, exr_dir, rng,
+                engine = connect(scheduler, workers)
+            self._measure_all(plan, result, history, summary, pick_pixel, exr_dir, seeds,
                               progress, engine)
-        except BaseException:
-            if out is not None and result.rows:  # what completed, as a table of its own
-                _write_csv(out / "results.csv", columns, result.rows)
-            for folder in reversed(created):  # never an empty skeleton
-                with contextlib.suppress(OSError):
-                    folder.rmdir()
-            raise
+            if engine is not None:
+                engine[1]()  # close the cluster or client it opened
+                engine = None
+            if out is not None:
+                result.table = out / "results.csv"
+                _write_csv(result.table, columns, result.rows)
+                if history:
+                    result.history = out / "pixel_history.csv"
+                    self._write_history(result.history, history)
+            if folder is not None:
+                folder.commit()
+                result = _moved(result, out, target)
+            completed = True
         finally:
             if engine is not None:
-                engine[0][1]()  # close the cluster or client it opened
-        if out is not None:
-            result.table = out / "results.csv"
-            _write_csv(result.table, columns, result.rows)
-            if history:
-                result.history = out / "pixel_history.csv"
-                self._write_history(result.history, history)
+                with contextlib.suppress(Exception):
+                    engine[1]()
+            if not completed and out is not None:
+                if result.rows:  # what completed, as a table of its own
+                    with contextlib.suppress(Exception):
+                        _write_csv(out / "results.csv", columns, result.rows)
+                if folder is not None:
+                    folder.abandon(keep=True)
+                else:
+                    for path in reversed(created):  # never an empty skeleton
+                        with contextlib.suppress(OSError):
+                            path.rmdir()
         return result
 
-    def _measure_all(self, plan, result, history, summary, pick_pixel, exr_dir, rng, progress,
-                     engine=None):
+    def _measure_all(self, plan, result, history, summary, pick_pixel, exr_dir, seeds,
+                     progress, engine=None):
         """
-        Measure every planned case into ``result.rows`` (and ``history``). Consecutive cases on
-        the same scene are measured in one pass over its frames
-        (:func:`~radiosim.camera.measure_many`); read-outs keep the plan's order, so the noise
-        is the same as measuring case by case.
+        Measure every planned case into ``result.rows`` (and ``history``); case ``i`` draws
+        its noise from ``seeds[i]``. Consecutive cases on the same scene are measured in one
+        pass over its frames where the camera module offers it; the warnings each case raises
+        go to its row and are raised again here, in the plan's order.
         """
         from radiosim.io.exr import write_exr as write
 
@@ -517,28 +576,29 @@ class Study:
                 scene = pixels[pitch]
             cases.append((sweep, name, camera, t_int, alignment, scene))
         groups = [list(g) for _, g in itertools.groupby(cases, key=lambda c: id(c[5]))]
-        seeds = iter(engine[1].spawn(len(cases))) if engine is not None else None
         done = 0
         for group in groups:
             scene = group[0][5]
             starts = [self._window_start(t_int, alignment)
                       for _, _, _, t_int, alignment, _ in group]
+            group_seeds = seeds[done:done + len(group)]
+            triples = [(camera, t_int, start)
+                       for (_, _, camera, t_int, _, _), start in zip(group, starts)]
             if engine is not None:  # one task per measurement, the scene shared as a recipe
-                run = engine[0][0]
-                measurements = run(_measure_task, [
-                    (camera, t_int, start, next(seeds))
-                    for (_, _, camera, t_int, _, _), start in zip(group, starts)],
+                outcomes = engine[0](_measure_task, [
+                    (*triple, seed) for triple, seed in zip(triples, group_seeds)],
                     shared=(scene,))
             else:
-                with warnings.catch_warnings():
-                    warnings.simplefilter("ignore", RadiosimWarning)
-                    measurements = measure_many(scene, [
-                        (camera, t_int, start)
-                        for (_, _, camera, t_int, _, _), start in zip(group, starts)], rng)
-            for (sweep, name, camera, t_int, alignment, scene), m in zip(group, measurements):
+                outcomes = _measure_group(scene, triples, group_seeds)
+            for (sweep, name, camera, t_int, alignment, scene), (m, caught) in zip(group,
+                                                                                   outcomes):
                 done += 1
-                result.rows.append(self._row(sweep, name, camera, t_int, alignment, scene, m,
-                                             summary, exr_dir, write, history))
+                for text in caught:  # to the caller, as raised: never silenced
+                    warnings.warn(text, RadiosimWarning, stacklevel=3)
+                row = self._row(sweep, name, camera, t_int, alignment, scene, m, summary,
+                                exr_dir, write, history)
+                row["warnings"] = " | ".join(dict.fromkeys(caught))
+                result.rows.append(row)
                 if progress is not None:
                     progress(done, len(cases), f"{sweep.name}: {name} ({camera.response}), "
                              f"{t_int * 1e6:g} µs, {camera.fpa.pixel_pitch * 1e6:.3g} µm")
@@ -566,8 +626,10 @@ class Study:
             if summary is not None:
                 row.update(summary(m, scene))
             if exr_dir is not None:
-                filename = (f"{sweep.name}_{name}_{camera.response}_{t_int * 1e6:g}us_"
-                            f"{camera.fpa.pixel_pitch * 1e6:.4g}um_{alignment}.exr")
+                filename = (f"{safe_name(sweep.name, 'sweep name')}_"
+                            f"{safe_name(name, 'camera name')}_{camera.response}_"
+                            f"{t_int * 1e6:g}us_{camera.fpa.pixel_pitch * 1e6:.4g}um_"
+                            f"{alignment}.exr")
                 write(exr_dir / filename, m)
                 row["exr"] = f"exr/{filename}"
         return {k: row.get(k, "") for k in result_columns(self, summary)}
@@ -583,6 +645,42 @@ class Study:
                              "time_us": ((k + 0.5) * pixel.dt - t_start) * 1e6,
                              "mean_C": to_celsius(float(pixel.frame(k).mean()))})
         _write_csv(path, ["camera", "response", "time_us", "mean_C"], rows)
+
+
+def format_table(rows: list[dict]) -> list[str]:
+    """
+    The console table of a run's rows: sweep, camera (its full name), response, alignment,
+    integration time, pixel pitch, the peak reading and its bias, Column I (where the study
+    has it), the saturated fraction, and a note number for each row with warnings, the notes
+    listed below the table.
+    """
+    def cell(value, width=9):
+        if value == "" or value is None or (isinstance(value, float) and math.isnan(value)):
+            return f"{'—':>{width}}"
+        return f"{value:>{width}.1f}"
+
+    sweep_w = max([5, *(len(str(r["sweep"])) for r in rows)]) + 2
+    camera_w = max([6, *(len(str(r["camera"])) for r in rows)]) + 2
+    align_w = max([9, *(len(str(r["alignment"])) for r in rows)]) + 2
+    lines = [f"{'sweep':<{sweep_w}}{'camera':<{camera_w}}{'response':<9}{'alignment':<{align_w}}"
+             f"{'t_int':>8}{'pixel':>7}{'peak':>9}{'bias':>9}{'col. I':>9}{'bias':>9}"
+             f"{'sat.':>7}  flags",
+             f"{'':<{sweep_w + camera_w + 9 + align_w}}{'[µs]':>8}{'[µm]':>7}{'[°C]':>9}"
+             f"{'[K]':>9}{'[°C]':>9}{'[K]':>9}{'[%]':>7}",
+             "  (bias = reading − scene peak: negative when the camera reads low)"]
+    notes: dict[str, int] = {}
+    for r in rows:
+        flags = [t for t in str(r.get("warnings", "") or "").split(" | ") if t]
+        marks = " ".join(f"[{notes.setdefault(t, len(notes) + 1)}]" for t in flags)
+        lines.append(
+            f"{str(r['sweep']):<{sweep_w}}{str(r['camera']):<{camera_w}}"
+            f"{str(r['response']):<9}{str(r['alignment']):<{align_w}}"
+            f"{r['integration_time_us']:>8.3g}{r['pixel_pitch_um']:>7.3g}{cell(r['peak_C'])}"
+            f"{cell(r['peak_bias_K'])}{cell(r.get('column_I_C', ''))}"
+            f"{cell(r.get('column_I_bias_K', ''))}{100 * r['saturated_fraction']:>7.1f}"
+            f"  {marks}".rstrip())
+    lines += [f"  [{n}] {text}" for text, n in notes.items()]
+    return lines
 
 
 def result_columns(study: Study, summary) -> list[str]:
@@ -652,11 +750,76 @@ def _camera_from(table: dict, name: str, base: Path) -> Camera:
     return camera.replace(name=name, **changes)
 
 
+def _spawn(rng, distributed: bool) -> list:
+    """A sequence whose item ``i`` seeds measurement ``i`` of a plan (spawned lazily)."""
+    if isinstance(rng, np.random.SeedSequence):
+        root = rng
+    elif isinstance(rng, np.random.Generator) and not distributed:
+        # a root drawn from the generator: its state moves on, as when it draws noise itself
+        return _Spawned(np.random.SeedSequence([int(v) for v in rng.integers(2**63, size=4)]))
+    elif rng is None and not distributed:
+        root = np.random.SeedSequence()
+    elif isinstance(rng, (int, np.integer)) and not isinstance(rng, bool) and rng >= 0:
+        root = np.random.SeedSequence(int(rng))
+    elif distributed:
+        raise RadiosimError(f"a study on a Dask scheduler needs an integer seed ≥ 0 (or a "
+                            f"SeedSequence), got {rng!r}")
+    else:
+        check_rng(rng)  # raises, naming what it accepts
+        raise RadiosimError(f"rng must be a seed ≥ 0, a SeedSequence or a Generator, got "
+                            f"{rng!r}")
+    return _Spawned(root)
+
+
+class _Spawned:
+    """``root.spawn(n)``'s children, item ``i`` the same whatever slice is asked first."""
+
+    def __init__(self, root: np.random.SeedSequence):
+        self.root = np.random.SeedSequence(entropy=root.entropy, spawn_key=root.spawn_key)
+        self.children: list = []
+
+    def __getitem__(self, index):
+        stop = index.stop if isinstance(index, slice) else index + 1
+        if stop > len(self.children):
+            self.children += self.root.spawn(stop - len(self.children))
+        return self.children[index]
+
+
+def _caught(function, *args):
+    """``function(*args)`` and the texts of the RadiosimWarnings it raised (recorded, not
+    shown: the caller raises them again and files them in the row)."""
+    with recorded_warnings() as texts:
+        value = function(*args)
+    return value, texts
+
+
+def _measure_group(scene: Scene, cases, seeds) -> list:
+    """In this process: (measurement, warning texts) of each ``(camera, integration time,
+    start)`` case, case ``i``'s noise from ``seeds[i]``; the cases share one pass over the
+    scene's frames (:func:`~radiosim.camera.measure_many_statistics`)."""
+    statistics, caught = _caught(measure_many_statistics, scene, cases)
+    out = []
+    for ((camera, _, _), (window, stats)), seed in zip(zip(cases, statistics), seeds):
+        m, texts = _caught(camera.read_out, stats, window, scene, np.random.default_rng(seed))
+        out.append((m, caught + texts))
+    return out
+
+
 def _measure_task(scene: Scene, camera: Camera, integration_time: float, t_start, seed):
-    """One measurement of a study on Dask, its noise from its own seed."""
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore", RadiosimWarning)
-        return camera.measure(scene, integration_time, t_start, np.random.default_rng(seed))
+    """One measurement of a study on Dask, its noise from its own seed: (measurement, the
+    texts of the warnings it raised)."""
+    return _caught(camera.measure, scene, integration_time, t_start,
+                   np.random.default_rng(seed))
+
+
+def _moved(result: StudyResult, staging: Path, target: Path) -> StudyResult:
+    """``result`` with its paths moved from the staging folder to the committed one."""
+    def move(path):
+        return None if path is None else target / Path(path).relative_to(staging)
+
+    return dataclasses.replace(result, table=move(result.table),
+                               exr_directory=move(result.exr_directory),
+                               history=move(result.history))
 
 
 def _scene_from(spec: dict, base: Path) -> Scene:

@@ -35,10 +35,12 @@ References
 
 from __future__ import annotations
 
+import contextlib
 import dataclasses
 import logging
 import math
 import os
+import threading
 import warnings
 from abc import ABC, abstractmethod
 from dataclasses import dataclass
@@ -52,7 +54,8 @@ from radiosim.psf import GaussianBlur, ScatterHalo
 
 __all__ = ["Distribution", "Normal", "Uniform", "Triangular", "TruncatedNormal", "Samples",
            "INPUTS", "distribution_from_table", "propagate", "UncertaintyResult",
-           "connect", "HISTOGRAM_BINS"]
+           "connect", "HISTOGRAM_BINS", "MAX_DRAWS", "SCHEDULER_TIMEOUT",
+           "recorded_warnings"]
 
 #: Bins of each pixel's histogram (the quantile method, module docstring).
 HISTOGRAM_BINS = 400
@@ -369,8 +372,12 @@ def _domain(name: str, model) -> tuple[float, float, bool]:
         return -model.integration_time, math.inf, True
     if name in ("registration_x", "registration_y"):
         return -model.camera.fpa.origin[1 if name == "registration_x" else 0], math.inf, False
+    if name == "psf_sigma":  # a blur's width: 0 (none) or more
+        return 0.0, math.inf, False
     return -math.inf, math.inf, False
 
+
+_EDGE_UNITS = {"1": "(dimensionless)"}
 
 #: An input's distribution may put at most this probability outside the values it accepts.
 _OUTSIDE_DOMAIN = 1e-9
@@ -384,10 +391,15 @@ def _check_domains(model) -> None:
         low, high, open_low = _domain(name, model)
         lo, hi = (float(v) for v in dist.ppf(np.array([_OUTSIDE_DOMAIN, 1 - _OUTSIDE_DOMAIN])))
         if lo < low or (open_low and lo <= low) or hi > high:
+            scale, unit = INPUTS[name][2], _EDGE_UNITS.get(INPUTS[name][1], INPUTS[name][1])
+            if scale != 1.0:
+                unit = {1e-6: {"m": "µm", "s": "µs"}}.get(scale, {}).get(INPUTS[name][1], unit)
+            lo, hi, low, high = (v / scale for v in (lo, hi, low, high))
             raise RadiosimError(
-                f"input {name!r}: {type(dist).__name__} draws values in [{lo:.6g}, {hi:.6g}], "
-                f"outside what it accepts ({'(' if open_low else '['}{low:.6g}, {high:.6g}]); "
-                "narrow it or use a bounded distribution (Uniform, Triangular, TruncatedNormal)")
+                f"input {name!r}: {type(dist).__name__} draws values in [{lo:.6g}, {hi:.6g}] "
+                f"{unit}, outside its domain {'(' if open_low else '['}{low:.6g}, {high:.6g}] "
+                f"{unit} ({INPUTS[name][0]}); narrow it or use a bounded distribution "
+                "(Uniform, Triangular, TruncatedNormal)")
 
 
 def _check_inputs(inputs: dict) -> dict:
@@ -427,10 +439,8 @@ class _Model:
         settings = {"t_start": self.t_start, "integration_time": self.integration_time}
         for name, value in values.items():
             camera, scene, settings = INPUTS[name][3](camera, scene, settings, value)
-        with warnings.catch_warnings():
-            warnings.simplefilter("ignore", RadiosimWarning)
-            m = camera.measure(scene, settings["integration_time"], settings["t_start"],
-                               np.random.default_rng(noise_seed))
+        m = camera.measure(scene, settings["integration_time"], settings["t_start"],
+                           np.random.default_rng(noise_seed))
         return m.apparent_temperature.astype(np.float64)
 
 
@@ -466,7 +476,65 @@ class _quiet:
         return False
 
 
-def connect(scheduler=None, workers: int | None = None):
+#: Seconds a scheduler address has to answer (connect and handshake) before it is given up.
+SCHEDULER_TIMEOUT = 10.0
+
+
+def _check_address(address: str) -> None:
+    """A scheduler address as ``tcp://HOST:PORT`` (or tls://…), or a RadiosimError naming it."""
+    from distributed.comm.addressing import parse_address, parse_host_port
+
+    expected = "expected tcp://HOST:PORT, e.g. tcp://127.0.0.1:8786"
+    try:
+        protocol, location = parse_address(address)
+        host, port = parse_host_port(location)
+    except (ValueError, TypeError) as exc:
+        raise RadiosimError(f"scheduler address {address!r} is malformed ({exc}); "
+                            f"{expected}") from None
+    if protocol not in ("tcp", "tls", "ucx", "inproc") or not host:
+        raise RadiosimError(f"scheduler address {address!r}: no host or an unknown protocol "
+                            f"{protocol!r}; {expected}")
+    if not isinstance(port, int) or not 0 < port < 65536:
+        raise RadiosimError(f"scheduler address {address!r}: port {port!r} is not in "
+                            f"1–65535; {expected}")
+
+
+def _probe(address: str, timeout: float) -> None:
+    """Connect to ``address`` and complete distributed's handshake within ``timeout`` [s]
+    (distributed's own connect waits for the handshake without a bound), or raise a
+    RadiosimError naming it."""
+    import asyncio
+    import threading
+
+    from distributed.comm import connect as open_comm
+
+    outcome = []
+
+    async def handshake():
+        comm = await asyncio.wait_for(open_comm(address, timeout=timeout), timeout)
+        await comm.close()
+
+    def attempt():  # its own thread and loop: works under a caller's running loop too
+        try:
+            asyncio.run(handshake())
+            outcome.append(None)
+        except BaseException as exc:  # reported below, in one line
+            outcome.append(exc)
+
+    thread = threading.Thread(target=attempt, daemon=True, name="radiosim-scheduler-probe")
+    thread.start()
+    thread.join(timeout + 2.0)
+    error = outcome[0] if outcome else TimeoutError()
+    if error is None:
+        return
+    if isinstance(error, (TimeoutError, asyncio.TimeoutError)) or "Timed out" in str(error):
+        raise RadiosimError(f"the Dask scheduler at {address} did not answer within "
+                            f"{timeout:g} s (is a Dask scheduler listening there?)")
+    raise RadiosimError(f"cannot reach the Dask scheduler at {address}: "
+                        f"{getattr(error, 'strerror', None) or error}")
+
+
+def connect(scheduler=None, workers: int | None = None, timeout: float | None = None):
     """
     The Dask engine: ``(run, close)`` where ``run(function, argument_lists)`` returns the
     results in order.
@@ -475,7 +543,9 @@ def connect(scheduler=None, workers: int | None = None):
     (a local thread pool sized to the machine), a ``distributed.Client``, or an address
     ``"tcp://HOST:PORT"``; ``workers``: start a local ``distributed`` cluster of that many
     single-threaded worker processes. ``RADIOSIM_SCHEDULER`` gives the address when neither
-    is given.
+    is given. A malformed address is refused naming it; one that does not complete the
+    handshake within ``timeout`` seconds (default :data:`SCHEDULER_TIMEOUT`) is given up with
+    one error line.
     """
     import dask
 
@@ -504,9 +574,13 @@ def connect(scheduler=None, workers: int | None = None):
     elif isinstance(scheduler, str) and "://" in scheduler:
         from distributed import Client
 
+        wait = SCHEDULER_TIMEOUT if timeout is None else check_positive(timeout, "timeout",
+                                                                          "s")
+        _check_address(scheduler)
+        _probe(scheduler, wait)
         try:
-            client = Client(scheduler, timeout=10)
-        except OSError as exc:
+            client = Client(scheduler, timeout=wait)
+        except (OSError, ValueError, TypeError) as exc:
             raise RadiosimError(f"cannot reach the Dask scheduler at {scheduler}: {exc}") \
                 from None
     elif scheduler is not None and not isinstance(scheduler, str):
@@ -649,6 +723,8 @@ class UncertaintyResult:
     budget: list
     gum_std: np.ndarray
     _moments: object = None
+    #: The texts of the warnings the evaluations raised (each also raised once).
+    warnings: tuple = ()
 
     @property
     def error(self) -> np.ndarray:
@@ -721,7 +797,10 @@ def propagate(camera, scene, integration_time: float, inputs: dict, draws: int |
         Draws of each one-input-at-a-time evaluation (default: ``max(20, draws // 4)``, at
         least 20).
     progress
-        Called as ``progress(done, total)`` after each batch (total is ``None`` while adaptive).
+        Called as ``progress(done, total)`` after each batch (total is ``None`` while
+        adaptive), or as ``progress(done, total, seconds_left)`` if it takes three arguments:
+        the estimated time to ``total`` [s] from the batches so far (``None`` while adaptive
+        or before the first batch).
 
     Returns
     -------
@@ -736,6 +815,11 @@ def propagate(camera, scene, integration_time: float, inputs: dict, draws: int |
             continue
         if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < least:
             raise RadiosimError(f"{name} must be a whole number ≥ {least}, got {value!r}")
+        if name in ("draws", "max_draws", "budget_draws") and value > MAX_DRAWS:
+            raise RadiosimError(f"{name} = {value} is above radiosim's bound of {MAX_DRAWS} "
+                                "Monte Carlo draws (each draw is a whole measurement; GUM S1 "
+                                "asks 10⁶ only for a 95 % interval to two digits): give at "
+                                f"most {MAX_DRAWS}, or draws unset for the adaptive procedure")
     if isinstance(rng, np.random.SeedSequence):  # a copy: the caller's sequence is not spent
         seed = np.random.SeedSequence(entropy=rng.entropy, spawn_key=rng.spawn_key)
     elif rng is None or (isinstance(rng, (int, np.integer)) and not isinstance(rng, bool)
@@ -748,10 +832,20 @@ def propagate(camera, scene, integration_time: float, inputs: dict, draws: int |
     start = camera.window(scene, t_int, t_start).start
     model = _Model(camera, scene, t_int, start, inputs)
     _check_domains(model)
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore", RadiosimWarning)
-        nominal = camera.measure(scene, t_int, start, np.random.default_rng(noise_seed))
-    run, close = connect(scheduler, workers)
+    nominal = camera.measure(scene, t_int, start, np.random.default_rng(noise_seed))
+    engine, close = connect(scheduler, workers)
+    caught: dict[str, int] = {}
+
+    def run(function, argument_lists, shared=()):
+        """The engine's run, each task's warnings recorded (the draws are many: each distinct
+        warning is raised once, below, with how many evaluations raised it)."""
+        outcomes = engine(_Recording(function), argument_lists, shared=shared)
+        for _, texts in outcomes:
+            for text in texts:
+                caught[text] = caught.get(text, 0) + 1
+        return [value for value, _ in outcomes]
+
+    progress = _Timed(progress) if progress is not None else None
     try:
         moments, done = _monte_carlo(run, model, main_seed, draws, batch, digits, max_draws,
                                      nominal.shape, progress)
@@ -759,10 +853,105 @@ def propagate(camera, scene, integration_time: float, inputs: dict, draws: int |
         budget, gum_var = _budget(run, model, budget_seed, noise_seed, n_budget, nominal.shape)
     finally:
         close()
+    for text, count in caught.items():  # never silenced: once each, with its count
+        warnings.warn(f"{text} (in {count} Monte Carlo evaluations)", RadiosimWarning,
+                      stacklevel=2)
     return UncertaintyResult(
         mean=np.where(moments.n > 0, moments.mean, np.nan), std=np.sqrt(moments.variance),
         truth=nominal.tensor_mean, valid_fraction=moments.n / max(done, 1), draws=done,
-        budget=budget, gum_std=np.sqrt(gum_var), _moments=moments)
+        budget=budget, gum_std=np.sqrt(gum_var), _moments=moments,
+        warnings=tuple(caught))
+
+
+#: The most Monte Carlo draws radiosim runs in one evaluation (draws, max_draws, budget_draws).
+MAX_DRAWS = 1_000_000
+
+
+_RECORDER = threading.Lock()
+_RECORDING = {"depth": 0, "saved": None}
+_THREAD = threading.local()
+
+
+def _dispatch(message, category, filename, lineno, file=None, line=None):
+    """warnings.showwarning while recording: a RadiosimWarning goes to the list of the thread
+    that raised it (if it records), anything else on as before."""
+    texts = getattr(_THREAD, "texts", None)
+    if texts is not None and issubclass(category, RadiosimWarning):
+        texts.append(str(message))
+        return
+    _RECORDING["saved"][0](message, category, filename, lineno, file, line)
+
+
+@contextlib.contextmanager
+def recorded_warnings():
+    """
+    Record the :class:`~radiosim.errors.RadiosimWarning`\\ s raised in this thread during the
+    block into the list it yields, instead of showing them (the caller raises them again or
+    files them). Unlike :class:`warnings.catch_warnings`, threads that record at the same time
+    (Dask's threads scheduler) each get their own warnings.
+    """
+    texts: list[str] = []
+    with _RECORDER:
+        if _RECORDING["depth"] == 0:
+            _RECORDING["saved"] = (warnings.showwarning, list(warnings.filters))
+            warnings.simplefilter("always", RadiosimWarning)  # every one, not once per place
+            warnings.showwarning = _dispatch
+        _RECORDING["depth"] += 1
+    previous = getattr(_THREAD, "texts", None)
+    _THREAD.texts = texts
+    try:
+        yield texts
+    finally:
+        _THREAD.texts = previous
+        with _RECORDER:
+            _RECORDING["depth"] -= 1
+            if _RECORDING["depth"] == 0:
+                shown, filters = _RECORDING["saved"]
+                warnings.showwarning = shown
+                warnings.filters[:] = filters
+                for name in ("_filters_mutated", "_filters_mutated_lock_held"):
+                    if callable(getattr(warnings, name, None)):
+                        getattr(warnings, name)()  # the warnings' caches see the change
+                        break
+
+
+class _Recording:
+    """A task function whose RadiosimWarnings are recorded, not shown: returns (value, the
+    warnings' texts), so that they travel back from any worker."""
+
+    def __init__(self, function):
+        self.function = function
+
+    def __call__(self, *args):
+        with recorded_warnings() as texts:
+            value = self.function(*args)
+        return value, texts
+
+
+class _Timed:
+    """A progress callback given the estimated seconds left, if it takes a third argument."""
+
+    def __init__(self, callback):
+        import inspect
+        import time
+
+        self.callback, self.clock = callback, time.monotonic
+        self.start = self.clock()
+        try:
+            parameters = inspect.signature(callback).parameters.values()
+            positional = [p for p in parameters if p.kind in (p.POSITIONAL_ONLY,
+                                                               p.POSITIONAL_OR_KEYWORD)]
+            self.eta = len(positional) >= 3 or any(p.kind == p.VAR_POSITIONAL
+                                                   for p in parameters)
+        except (TypeError, ValueError):
+            self.eta = False
+
+    def __call__(self, done, total):
+        if not self.eta:
+            return self.callback(done, total)
+        elapsed = self.clock() - self.start
+        left = elapsed / done * (total - done) if total and done else None
+        return self.callback(done, total, left)
 
 
 def _monte_carlo(run, model, seed, draws, batch, digits, max_draws, shape, progress):
