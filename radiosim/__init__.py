@@ -16,34 +16,49 @@ studies in :mod:`radiosim.study`, and everything specific to the paper in
 :mod:`radiosim.paper`.
 """
 
+import importlib
 import logging
-import os
 
-# The compiled kernels run one short parallel region per frame. OpenMP's default waiting spins
-# idle threads for about 300 000 turns (milliseconds) between regions; on a 2-core machine they
-# then compete with the thread that prepares the next frame, and a region can stall for
-# milliseconds (measured: 8 ms per launch). Sleeping at once (OMP_WAIT_POLICY=PASSIVE) costs a
-# wake-up per region instead (measured: 0.05 ms per launch, 10 % of a paper-sized frame). A
-# short spin (GOMP_SPINCOUNT=3000, about 0.05 ms here) covers the gap between two frames'
-# regions and then sleeps: 0.005 ms per launch. Set before numba loads its OpenMP layer (at the
-# first parallel call); an explicit OMP_WAIT_POLICY or GOMP_SPINCOUNT in the environment wins.
-if "OMP_WAIT_POLICY" not in os.environ:
-    os.environ.setdefault("GOMP_SPINCOUNT", "3000")
+from radiosim._version import __version__
 
-from radiosim import errors, units  # noqa: F401  (reachable as attributes)
-from radiosim.camera import Camera, FocalPlaneArray, Optics, available_presets
-from radiosim.electronics import Electronics
-from radiosim.errors import RadiosimError, RadiosimWarning
-from radiosim.measurement import Measurement
-from radiosim.scenes import FrameStack, MovingGaussianBand, UniformBlackbody
-from radiosim import io, paper, scenes, study  # noqa: E402,F401  (public subpackages)
+# Nothing heavy is imported here: the names below load their module on first use (PEP 562), so
+# `import radiosim` (and the command's --help) costs little and changes nothing in the process:
+# numpy's print options and os.environ are left as they were. The compiled kernels' OpenMP
+# settings are applied when a kernel first launches (radiosim.kernels.threads).
+_LAZY = {
+    "Camera": "radiosim.camera",
+    "FocalPlaneArray": "radiosim.camera",
+    "Optics": "radiosim.camera",
+    "available_presets": "radiosim.camera",
+    "Electronics": "radiosim.electronics",
+    "RadiosimError": "radiosim.errors",
+    "RadiosimWarning": "radiosim.errors",
+    "Measurement": "radiosim.measurement",
+    "FrameStack": "radiosim.scenes",
+    "MovingGaussianBand": "radiosim.scenes",
+    "UniformBlackbody": "radiosim.scenes",
+}
+_SUBMODULES = frozenset({"errors", "units", "io", "paper", "scenes", "study"})
 
-__version__ = "0.1.0"
+
+def __getattr__(name):
+    if name in _LAZY:
+        value = getattr(importlib.import_module(_LAZY[name]), name)
+    elif name in _SUBMODULES:
+        value = importlib.import_module(f"radiosim.{name}")
+    else:
+        raise AttributeError(f"module 'radiosim' has no attribute {name!r}")
+    globals()[name] = value
+    return value
+
+
+def __dir__():
+    return sorted(set(globals()) | set(_LAZY) | _SUBMODULES)
 
 #: The package's modules in the order of the chain: a module imports only modules before it
 #: (tests/test_architecture.py checks this with ``ast``).
 CHAIN = (
-    "errors", "units", "checks", "config", "files", "spectral", "radiometry", "kernels", "scenes",
+    "_version", "errors", "units", "checks", "config", "files", "spectral", "radiometry", "kernels", "scenes",
     "response", "fpa", "integrator", "psf", "optics", "imaging", "electronics", "calibration", "measurement", "presets",
     "camera", "characterization", "uncertainty", "io", "study", "plotting", "paper", "cli",
 )

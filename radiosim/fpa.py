@@ -23,14 +23,17 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
-from colour import SpectralDistribution
 
 from radiosim.checks import check_fraction, check_positive
 from radiosim.config import edge_field
 from radiosim.errors import RadiosimError
 from radiosim.spectral import as_spectrum
+
+if TYPE_CHECKING:  # colour-science is imported when a curve is built
+    from colour import SpectralDistribution
 
 __all__ = ["FocalPlaneArray", "FixedPattern"]
 

@@ -298,9 +298,9 @@ def frame_weights(
     The paper's 1 µs window over 0.2 µs frames is exactly five frames:
 
     >>> frame_weights(0.0, 1e-6, 0.2e-6)
-    (0, array([ 0.2,  0.2,  0.2,  0.2,  0.2]))
+    (0, array([0.2, 0.2, 0.2, 0.2, 0.2]))
     >>> frame_weights(0.1e-6, 0.4e-6, 0.2e-6)
-    (0, array([ 0.25,  0.5 ,  0.25]))
+    (0, array([0.25, 0.5 , 0.25]))
     """
     if not (math.isfinite(duration) and duration > 0):
         raise RadiosimError(f"integration time must be finite and > 0 [s], got {duration!r}")

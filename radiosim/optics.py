@@ -24,8 +24,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-
-from colour import SpectralDistribution
+from typing import TYPE_CHECKING
 
 from radiosim.checks import check_positive
 from radiosim.config import edge_field
@@ -35,6 +34,9 @@ from radiosim.psf import PSF, as_psf
 from radiosim.radiometry import band_radiance
 from radiosim.response import reflectance
 from radiosim.spectral import as_spectrum
+
+if TYPE_CHECKING:  # colour-science is imported when a curve is built
+    from colour import SpectralDistribution
 
 __all__ = ["Optics", "etendue", "f_number_of", "collect"]
 

@@ -16,7 +16,6 @@ from __future__ import annotations
 from pathlib import Path
 
 import numpy as np
-from colour import SpectralDistribution
 
 from radiosim.config import fields_from_table, from_table, to_table
 from radiosim.electronics import Electronics
@@ -24,7 +23,8 @@ from radiosim.errors import RadiosimError
 from radiosim.fpa import FocalPlaneArray
 from radiosim.optics import Optics
 from radiosim.psf import as_psf
-from radiosim.spectral import available_spectra, read_spectrum, spectral_distribution
+from radiosim.spectral import (available_spectra, is_spectrum, read_spectrum,
+                               spectral_distribution)
 
 __all__ = ["PRESET_DIRECTORY", "available_presets", "camera_fields", "camera_table",
            "SECTIONS"]
@@ -68,7 +68,7 @@ def _curve_reader(base: Path | None):
 
 def _curve_entry(value):
     """A curve as a shipped name (if it is one, unchanged) or an inline table."""
-    if not isinstance(value, SpectralDistribution):
+    if not is_spectrum(value):
         return float(value)
     name = value.name
     if name in available_spectra():

@@ -33,16 +33,18 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
+from typing import TYPE_CHECKING
 
 import numpy as np
 import scipy.constants as sc
-from colour import SpectralDistribution
-from colour.colorimetry import planck_law
 from scipy.interpolate import CubicSpline
 from scipy.special import bernoulli, factorial
 
 from radiosim.errors import RadiosimError
-from radiosim.spectral import as_spectrum
+from radiosim.spectral import as_spectrum, colour_science, is_spectrum
+
+if TYPE_CHECKING:  # colour-science is imported when a curve is built
+    from colour import SpectralDistribution
 
 __all__ = [
     "PLANCK_C1",
@@ -147,7 +149,7 @@ def planck_spectral_radiance(wavelength, temperature, quantity: str = "energy") 
     # exp overflows to inf far in the Wien tail, where the radiance is correctly 0.
     with np.errstate(over="ignore"):
         radiance = np.reshape(
-            planck_law(wl.ravel(), t.ravel(), c1=PLANCK_C1, c2=PLANCK_C2), (wl.size, t.size)
+            colour_science().colorimetry.planck_law(wl.ravel(), t.ravel(), c1=PLANCK_C1, c2=PLANCK_C2), (wl.size, t.size)
         ).T
     if quantity == "photon":
         radiance = radiance * (wl.ravel() / (sc.h * sc.c))
@@ -214,7 +216,7 @@ def _split_factors(responsivity, emissivity):
     curves, scale = [], 1.0
     for factor in factors:
         value = as_spectrum(factor, "responsivity or emissivity")
-        if isinstance(value, SpectralDistribution):
+        if is_spectrum(value):
             curves.append(value)
         else:
             scale *= value
@@ -358,9 +360,9 @@ class BandRadianceTable:
     >>> bool(np.allclose(table(t), band_radiance(t, quantity="energy"), rtol=1e-9))
     True
     >>> table.temperature(table(t))
-    array([  300.  ,  1012.15])
+    array([ 300.  , 1012.15])
     >>> table.per_octave, table.temperatures[:2]
-    (1024, array([ 148.5  ,  148.625]))
+    (1024, array([148.5  , 148.625]))
     """
 
     def __init__(

@@ -24,15 +24,19 @@ calibration inverts a grey body's signal (:meth:`Response.grey_signal`,
 from __future__ import annotations
 
 from abc import ABC, abstractmethod
+from typing import TYPE_CHECKING
 
 import numpy as np
-from colour import SpectralDistribution
 
 from radiosim.checks import check_positive
 from radiosim.errors import RadiosimError
 from radiosim.kernels import RadianceKernelTable
 from radiosim.radiometry import QUANTITIES, BandRadianceTable, band_radiance
 from radiosim.scenes.base import SceneFrame
+from radiosim.spectral import is_spectrum
+
+if TYPE_CHECKING:  # colour-science is imported when a curve is built
+    from colour import SpectralDistribution
 
 __all__ = ["Response", "LinearResponse", "PlanckResponse", "RESPONSES",
            "PLANCK_TABLE_RANGE", "observed_signal", "object_signal", "reflectance"]
@@ -51,7 +55,7 @@ def reflectance(emissivity):
     The reflectance 1 − ε(λ) of an opaque surface of ``emissivity`` (a grey scalar, a grey map
     or a spectral curve), in the same form (Kirchhoff's law).
     """
-    if isinstance(emissivity, SpectralDistribution):
+    if is_spectrum(emissivity):
         out = emissivity.copy()
         out.values = 1.0 - np.asarray(emissivity.values, dtype=float)
         out.name = f"1 - {emissivity.name}"
@@ -233,7 +237,7 @@ class PlanckResponse(Response):
         The radiance table for a spectral emissivity curve, or the blackbody table for a grey
         (scalar or map) emissivity, which scales it.
         """
-        curve = emissivity if isinstance(emissivity, SpectralDistribution) else None
+        curve = emissivity if is_spectrum(emissivity) else None
         key = id(curve)
         if key not in self._tables and len(self._tables) >= _CACHED_TABLES:
             self._tables.pop(next(k for k in self._tables if k != id(None)))  # bounded
@@ -263,7 +267,7 @@ class PlanckResponse(Response):
         return out
 
     def _grey_or_curve(self, temperature, emissivity):
-        if isinstance(emissivity, SpectralDistribution):
+        if is_spectrum(emissivity):
             return self._radiance(temperature, emissivity)
         radiance = self._radiance(temperature, None)
         if np.isscalar(emissivity) and emissivity == 1.0:
@@ -297,14 +301,14 @@ class PlanckResponse(Response):
 
     def _packed(self, entries: tuple) -> RadianceKernelTable:
         """The tables of ``entries`` (grey scalars or curves) packed for the kernels, cached."""
-        key = tuple(id(e) if isinstance(e, SpectralDistribution) else float(e) for e in entries)
+        key = tuple(id(e) if is_spectrum(e) else float(e) for e in entries)
         packed = self._kernel_tables.get(key)
         if packed is None and len(self._kernel_tables) >= _CACHED_TABLES:
             self._kernel_tables.pop(next(iter(self._kernel_tables)))  # the oldest: bounded
         if packed is None:
             tables, exact, grey = [], [], []
             for value in entries:
-                curve = value if isinstance(value, SpectralDistribution) else None
+                curve = value if is_spectrum(value) else None
                 tables.append(self.table(curve if curve is not None else 1.0))
                 exact.append(dict(band=self.band, quantity="photon",
                                   responsivity=self.responsivity,

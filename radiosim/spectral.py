@@ -20,16 +20,21 @@ References
 from __future__ import annotations
 
 import logging
+import sys
 from collections.abc import Sequence
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
-from colour import SpectralDistribution
-from colour.algebra import Extrapolator, LinearInterpolator
 
 from radiosim.errors import RadiosimError
 
+if TYPE_CHECKING:  # colour-science is imported when a curve is first built (see colour_science)
+    from colour import SpectralDistribution
+
 __all__ = [
+    "colour_science",
+    "is_spectrum",
     "WAVELENGTH_UNITS",
     "spectra_directory",
     "available_spectra",
@@ -37,6 +42,37 @@ __all__ = [
     "read_spectrum",
     "as_spectrum",
 ]
+
+
+def colour_science():
+    """
+    The colour-science package, imported on first use (it costs seconds: its plotting package
+    and matplotlib) with numpy's print options kept as they were (colour's import switches them
+    to ``legacy="1.13"``).
+    """
+    module = sys.modules.get("colour")
+    if module is None or not hasattr(module, "SpectralDistribution"):
+        options = np.get_printoptions()
+        try:
+            import colour as module
+        finally:
+            np.set_printoptions(**options)
+    return module
+
+
+def is_spectrum(value) -> bool:
+    """
+    Whether ``value`` is a :class:`colour.SpectralDistribution` (without importing colour: no
+    curve exists before colour is imported).
+
+    Examples
+    --------
+    >>> is_spectrum(0.3)
+    False
+    """
+    module = sys.modules.get("colour")
+    cls = getattr(module, "SpectralDistribution", None) if module is not None else None
+    return cls is not None and isinstance(value, cls)
 
 logger = logging.getLogger(__name__)
 
@@ -95,7 +131,7 @@ def spectral_distribution(
     --------
     >>> sd = spectral_distribution([4e-6, 5e-6], [0.5, 1.0], "ramp")
     >>> sd[np.array([3e-6, 4.5e-6, 6e-6])]
-    array([ 0.  ,  0.75,  0.  ])
+    array([0.  , 0.75, 0.  ])
     """
     wavelength = np.asarray(wavelength, dtype=float)
     values = np.asarray(values, dtype=float)
@@ -117,12 +153,13 @@ def spectral_distribution(
         raise RadiosimError(
             f"spectrum {name!r}: values are dimensionless fractions and must lie in [0, 1]"
         )
-    return SpectralDistribution(
+    colour = colour_science()
+    return colour.SpectralDistribution(
         values,
         wavelength,
         name=name,
-        interpolator=LinearInterpolator,
-        extrapolator=Extrapolator,
+        interpolator=colour.algebra.LinearInterpolator,
+        extrapolator=colour.algebra.Extrapolator,
         extrapolator_kwargs={"method": "Constant", "left": 0.0, "right": 0.0},
     )
 
@@ -241,7 +278,7 @@ def as_spectrum(value: float | str | Path | SpectralDistribution, what: str):
     -------
     float or SpectralDistribution
     """
-    if isinstance(value, SpectralDistribution):
+    if is_spectrum(value):
         return value
     if isinstance(value, (str, Path)):
         return read_spectrum(value)

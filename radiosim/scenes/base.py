@@ -9,17 +9,20 @@ frames of interval ``dt`` [s]: frame k holds over [k·dt, (k+1)·dt). Consumers 
 
 from __future__ import annotations
 
+import dataclasses
 from abc import ABC, abstractmethod
 from collections.abc import Iterator
-import dataclasses
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
-from colour import SpectralDistribution
 
 from radiosim.checks import check_frame, check_positive
 from radiosim.errors import RadiosimError
-from radiosim.spectral import as_spectrum
+from radiosim.spectral import as_spectrum, is_spectrum
+
+if TYPE_CHECKING:  # colour-science is imported when a curve is built
+    from colour import SpectralDistribution
 
 __all__ = ["Region", "SceneFrame", "Scene", "CroppedScene", "check_frame", "check_positive",
            "check_emissivity", "check_grid", "AMBIENT_TEMPERATURE"]
@@ -307,7 +310,7 @@ class Scene(ABC):
     def describe(self) -> dict:
         """Plain metadata (str, int, float) describing the scene, with units in the keys."""
         emissivity = self.emissivity
-        if isinstance(emissivity, SpectralDistribution):
+        if is_spectrum(emissivity):
             emissivity = f"spectral: {emissivity.name}"
         elif isinstance(emissivity, np.ndarray):
             emissivity = f"map: {emissivity.min():.3g}–{emissivity.max():.3g}"
