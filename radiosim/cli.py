@@ -23,21 +23,26 @@ import signal
 import sys
 import warnings
 from pathlib import Path
+from typing import TYPE_CHECKING
 
-from radiosim import __version__
-from radiosim.camera import Camera, available_presets
-from radiosim.errors import RadiosimError, RadiosimIOError, RadiosimWarning
-from radiosim.units import parse_quantity, to_celsius, to_kelvin
+# radiosim.errors first: in the command's process it installs the start-up signal handlers
+# (one line and exit 130 on Ctrl-C or SIGTERM while the heavy modules load).
+from radiosim.errors import (Interrupted, RadiosimError, RadiosimIOError, RadiosimWarning,
+                             command_state as _Command, exit_interrupted as _exit_now,
+                             on_interrupt as _interrupt)
+from radiosim import __version__  # noqa: E402
+from radiosim.units import (join_negatives as _join_negatives, parse_length,
+                            parse_temperature, parse_time, parse_time_or_zero,
+                            typed as _typed, whole_number as _count, to_celsius, to_kelvin)
+
+if TYPE_CHECKING:
+    from radiosim.camera import Camera
 
 __all__ = ["main", "parse_time", "parse_length", "parse_temperature", "EXIT_INPUT",
            "EXIT_FAILURE", "EXIT_INTERRUPTED"]
 
 #: Exit codes: a mistake in the input or the options, a failure while running, an interrupt.
 EXIT_INPUT, EXIT_FAILURE, EXIT_INTERRUPTED = 2, 1, 130
-
-
-class Interrupted(BaseException):
-    """Ctrl-C or SIGTERM: unwinds like KeyboardInterrupt, so every ``finally`` runs."""
 
 
 def parse_seed(text: str) -> int:
@@ -50,34 +55,9 @@ def parse_seed(text: str) -> int:
         raise argparse.ArgumentTypeError(f"{text!r} is not a seed; expected a whole number ≥ 0")
     return value
 
-def _parser_of(kind: str, positive: bool = True):
-    def parse(text: str) -> float:
-        try:
-            value = parse_quantity(text, kind)
-        except RadiosimError as exc:
-            raise argparse.ArgumentTypeError(str(exc)) from None
-        if positive and not value > 0:
-            raise argparse.ArgumentTypeError(f"{text!r} must be > 0")
-        return value
-
-    return parse
-
-
-parse_length = _parser_of("length")
-parse_temperature = _parser_of("temperature")
-parse_time_or_zero = _parser_of("time", positive=False)
-
-
-def parse_time(text: str) -> float:
-    """A duration with a unit (``10us``, ``0.5ms``, ``200ns``) in seconds, > 0."""
-    try:
-        value = parse_quantity(text, "time")
-    except RadiosimError:
-        value = None
-    if value is None or not value > 0:
-        raise argparse.ArgumentTypeError(
-            f"{text!r} is not a positive duration with a unit (e.g. 10us, 0.5ms, 200ns)")
-    return value
+#: The most Monte Carlo draws a budget may ask for: GUM Supplement 1 (7.2.2) finds 10⁶ enough
+#: for a 95 % coverage interval to two significant digits.
+MAX_DRAWS = 1_000_000
 
 
 class _Progress:
@@ -106,6 +86,7 @@ class _Progress:
 def _run(args) -> int:
     from radiosim.files import OutputFolder
 
+    _check_scheduler(args.scheduler)
     study = _study(args.study)
     draw = None if args.no_figures else study.hook("figures")
     study.scene  # build (and check) the scene before anything is written
@@ -172,6 +153,13 @@ def _measure(args) -> int:
         raise RadiosimError(f"{path}: FEA meshes are read in Python, with their times and "
                             "units: radiosim.io.read_fea_mesh (docs/howto.md); radiosim "
                             "measure takes .npy/.npz stacks, EXR frames or a nodal .csv")
+    if suffix != ".csv":  # only an FEA CSV has columns in units of their own
+        given = [f"--{flag.replace('_', '-')} {getattr(args, flag)}"
+                 for flag in ("time_unit", "length_unit") if getattr(args, flag)]
+        if given:
+            raise RadiosimError(f"{' and '.join(given)}: {path} is not an FEA nodal .csv; "
+                                "the units of its frames are --dt, --dx and --units (expected "
+                                "--time-unit and --length-unit only with a .csv)")
     needed = {".csv": ("dx",), ".npy": ("dt", "dx", "units"), ".npz": ("dt", "dx", "units")}
     missing = [f"--{flag}" for flag in needed.get(suffix, ()) if getattr(args, flag) is None]
     if missing:
@@ -179,10 +167,10 @@ def _measure(args) -> int:
                             f"{'them' if len(missing) > 1 else 'it'}; e.g. --dt 0.2us --dx "
                             "0.5um --units C)")
     if suffix == ".csv":
-        units = {"time": args.time_unit, "length": args.length_unit,
-                 "temperature": args.units} if args.units else None
-        if units is not None:
-            units = {k: v for k, v in units.items() if v}
+        # The user's statements, each passed as given (the reader checks them against the
+        # file's own header and refuses a contradiction); None: the file's header alone.
+        units = {k: v for k, v in (("time", args.time_unit), ("length", args.length_unit),
+                                   ("temperature", args.units)) if v} or None
         try:
             scene = read_fea_nodes(path, dx=args.dx, dt=args.dt, units=units, fill=args.fill)
         except RadiosimError as exc:
@@ -194,7 +182,15 @@ def _measure(args) -> int:
     else:
         scene = read_frames(path, dt=args.dt, dx=args.dx, units=args.units)
     _check_out_file(args, ".exr", "radiosim measure writes one EXR file")
-    m = camera.measure(scene, args.integration_time, t_start=args.start, rng=args.seed)
+    _check_scale(args, scene, camera)
+    try:
+        m = camera.measure(scene, args.integration_time, t_start=args.start, rng=args.seed)
+    except RadiosimError as exc:  # the library states SI values: add the user's own
+        if "--integration-time" in str(exc):
+            raise
+        given = f"--integration-time {_typed(args.integration_time)}" + (
+            f", --start {_typed(args.start)}" if args.start is not None else "")
+        raise type(exc)(f"{exc} ({given})") from None
     summary = summarise(m)
     print(f"{camera.name}: {m.shape[1]} × {m.shape[0]} pixels, {m.integration_time * 1e6:g} µs "
           f"from {m.t_start * 1e6:g} µs ({m.n_frames} frames)")
@@ -206,6 +202,32 @@ def _measure(args) -> int:
     if args.out:
         print(f"wrote {write_exr(args.out, m)}")
     return 0
+
+
+def _check_scale(args, scene, camera: Camera):
+    """The measurement's scales against the scene's, with the options the user typed: a pixel
+    or a window a thousandth of a sample or of a frame (or smaller) is a unit slip, and the
+    message names the quantities involved (the library's check cannot know which was typed)."""
+    from radiosim.integrator import IMPLAUSIBLE_RATIO
+
+    pitch, t_int = camera.fpa.pixel_pitch, args.integration_time
+    if pitch / scene.dx <= IMPLAUSIBLE_RATIO:
+        pitch_text = (f"--pixel-pitch {_typed(args.pixel_pitch, 'm')}" if args.pixel_pitch
+                      is not None else f"{camera.name}'s pixel pitch {pitch * 1e6:g} µm")
+        dx_text = (f"--dx {_typed(args.dx, 'm')}" if args.dx is not None
+                   else f"the scene's sample pitch {scene.dx * 1e6:g} µm")
+        raise RadiosimError(
+            f"{pitch_text} is {pitch / scene.dx:.2g} of {dx_text}: a pixel would see a "
+            f"fraction of one sample; expected a pitch ≥ {IMPLAUSIBLE_RATIO:g} × dx. Is one "
+            "of them in the wrong unit (µm given as nm, or as m)?")
+    if t_int / scene.dt <= IMPLAUSIBLE_RATIO:
+        dt_text = (f"--dt {_typed(args.dt)}" if args.dt is not None
+                   else f"the scene's frame interval {scene.dt * 1e6:g} µs")
+        raise RadiosimError(
+            f"--integration-time {_typed(t_int)} is {t_int / scene.dt:.2g} of {dt_text}: the "
+            f"window would see a fraction of one frame; expected at least "
+            f"{IMPLAUSIBLE_RATIO:g} × dt. Is one of them in the wrong unit (µs given as ns, "
+            "or as s)?")
 
 
 def _check_out_file(args, suffix: str, what: str):
@@ -224,7 +246,7 @@ def _add_dask_options(parser, what: str):
     parser.add_argument("--scheduler", default=os.environ.get("RADIOSIM_SCHEDULER"),
                         help=f"run {what} as Dask tasks: synchronous, threads or "
                         "tcp://HOST:PORT (default $RADIOSIM_SCHEDULER; none: in this process)")
-    parser.add_argument("--workers", type=int, default=None,
+    parser.add_argument("--workers", type=_count(1, what="a number of workers"), default=None,
                         help=f"run {what} on a local Dask cluster of N worker processes")
 
 
@@ -234,14 +256,82 @@ def _add_out_file(parser, what: str):
     parser.add_argument("--overwrite", action="store_true", help="replace --out if it exists")
 
 
-def _camera(name: str, pixel_pitch: float | None = None) -> Camera:
-    """A camera from the command line: a preset name, linear-ideal (with a pitch) or a TOML."""
+def _camera(name: str, pixel_pitch: float | None = None, command: str | None = None) -> Camera:
+    """A camera from the command line: a preset name, linear-ideal (with a pitch) or a TOML.
+    ``command``: the subcommand, when it has no ``--pixel-pitch`` option."""
+    from radiosim.camera import Camera, available_presets  # heavy: not for --help
+
     if name == "linear-ideal":
+        if command is not None:
+            raise RadiosimError(
+                f"radiosim {command} takes a camera preset ({', '.join(available_presets())}) "
+                "or a camera TOML file, not linear-ideal (an ideal camera of any pitch, "
+                "for radiosim measure --pixel-pitch)")
         if pixel_pitch is None:
             raise RadiosimError("the linear-ideal camera needs --pixel-pitch (e.g. 6um)")
         return Camera.linear_ideal(pixel_pitch)
-    camera = Camera.from_toml(name) if name.endswith(".toml") else Camera.preset(name)
+    if name.endswith(".toml"):
+        camera = _from_file(name, "camera file", Camera.from_toml)
+    else:
+        camera = Camera.preset(name)
     return camera if pixel_pitch is None else camera.with_pixel_pitch(pixel_pitch)
+
+
+def _from_file(path, what: str, load):
+    """``load(path)``, with the file named in any error whose message does not name it."""
+    path = Path(path)
+    if not path.is_file():
+        raise RadiosimError(f"{path}: no such {what}" if not path.exists()
+                            else f"{path} is not a file (expected a {what}, TOML)")
+    try:
+        return load(path)
+    except RadiosimError as exc:
+        message = str(exc)
+        if str(path) in message or path.name in message:
+            raise
+        raise type(exc)(f"{path}: {message}") from None
+
+
+def _check_frame_period(camera: Camera, integration_time: float):
+    """The rule :meth:`Camera.window` applies to every measurement: the integration (with its
+    readout) must fit in the camera's frame period."""
+    if camera.frame_rate is None:
+        return
+    needed = camera.fpa.frame_period(integration_time, camera.readout_shape)
+    if needed > 1.0 / camera.frame_rate * (1 + 1e-12):
+        raise RadiosimError(
+            f"--integration-time {_typed(integration_time)}"
+            + (f" with its readout ({needed * 1e6:g} µs)" if needed != integration_time else "")
+            + f" exceeds the frame period of {camera.name} ({1e6 / camera.frame_rate:g} µs at "
+            f"{camera.frame_rate:g} Hz); expected at most "
+            f"{(1 / camera.frame_rate - (needed - integration_time)) * 1e6:g} µs")
+
+
+#: Dask protocols a scheduler address may use.
+_PROTOCOLS = ("tcp", "tls", "ucx", "inproc", "ws", "wss")
+
+
+def _check_scheduler(address):
+    """``--scheduler``: synchronous, threads or PROTOCOL://HOST:PORT, checked before any work
+    (a malformed address would otherwise fail deep inside distributed)."""
+    import re
+
+    if address is None or address in ("synchronous", "sync", "threads"):
+        return
+    match = re.fullmatch(r"([a-z]+)://(\[[0-9A-Fa-f:.]+\]|[A-Za-z0-9_.-]+)(?::([0-9]+))?",
+                         address)
+    problem = None
+    if not match:
+        problem = "not synchronous, threads nor an address PROTOCOL://HOST:PORT"
+    elif match.group(1) not in _PROTOCOLS:
+        problem = f"unknown protocol {match.group(1)!r} (expected {', '.join(_PROTOCOLS)})"
+    elif match.group(3) is not None and not 0 < int(match.group(3)) < 65536:
+        problem = f"port {match.group(3)} is outside 1-65535"
+    if problem:
+        source = "" if address != os.environ.get("RADIOSIM_SCHEDULER") else \
+            " (from $RADIOSIM_SCHEDULER)"
+        raise RadiosimError(f"--scheduler {address!r}{source}: {problem}; expected "
+                            "synchronous, threads or e.g. tcp://127.0.0.1:8786")
 
 
 def _sse(args) -> int:
@@ -250,7 +340,8 @@ def _sse(args) -> int:
     from radiosim.characterization import fit_scatter_halo, size_of_source
     from radiosim.files import write_text
 
-    camera = _camera(args.camera)
+    camera = _camera(args.camera, command="sse")
+    _check_frame_period(camera, args.integration_time)
     _check_out_file(args, ".csv", "the SSE curve is a CSV table")
     pitch = camera.fpa.pixel_pitch
     diameters = (np.array(args.diameters) if args.diameters else
@@ -283,7 +374,7 @@ def _study(target: str):
     from radiosim.study import Study, available_studies
 
     if Path(target).suffix == ".toml" or Path(target).is_file():
-        return Study.from_toml(target)
+        return _from_file(target, "study file", Study.from_toml)
     if target in available_studies():
         return Study.preset(target)
     raise RadiosimError(f"{target!r} is neither a study file nor a shipped study "
@@ -300,13 +391,12 @@ def _uncertainty(args) -> int:
     from radiosim.io.exr import write_uncertainty_exr
     from radiosim.plotting import figure, save_figure
 
+    _check_scheduler(args.scheduler)
     study = _study(args.study)
     spec = study.uncertainty
     if spec is None:
         raise RadiosimError(f"study {study.name} has no [uncertainty] table (see docs/"
                             "user_guide.md)")
-    if args.workers is not None and args.workers < 1:
-        raise RadiosimError(f"--workers must be ≥ 1, got {args.workers}")
     study.scene  # build (and check) the scene before anything is written
     out = OutputFolder(Path(args.out or f"radiosim-{study.name}-uncertainty"),
                        overwrite=args.overwrite)
@@ -370,14 +460,15 @@ def _calibrate(args) -> int:
 
     from radiosim.files import write_text
 
-    camera = _camera(args.camera)
+    camera = _camera(args.camera, command="calibrate")
+    _check_frame_period(camera, args.integration_time)
     path = Path(args.table)
     if not path.is_file():
         raise RadiosimError(f"{path} does not exist (expected a CSV of temperature_K or "
                             "temperature_C, and counts)")
     _check_out_file(args, ".toml", "the fitted camera is a TOML file")
     try:
-        with path.open(newline="", encoding="utf-8") as handle:
+        with path.open(newline="", encoding="utf-8-sig") as handle:  # a BOM is not a name
             rows = list(csv.DictReader(line for line in handle if not line.startswith("#")))
     except (OSError, UnicodeDecodeError, csv.Error) as exc:
         raise RadiosimError(f"cannot read {path}: {exc}") from None
@@ -431,7 +522,8 @@ def _report(args) -> int:
     from radiosim.files import OutputFolder, write_text
     from radiosim.plotting import figure, save_figure
 
-    camera = _camera(args.camera)
+    camera = _camera(args.camera, command="report")
+    _check_frame_period(camera, args.integration_time)
     if camera.fpa.shape is None:
         raise RadiosimError(f"{camera.name} has no array shape ([fpa] shape): a datasheet "
                             "measures its whole array")
@@ -506,6 +598,8 @@ def _presets(args) -> int:
 
     print("cameras (radiosim measure --camera NAME):")
     print(f"  {'linear-ideal':<14} linear  the paper's ideal camera (any pixel pitch)")
+    from radiosim.camera import Camera, available_presets
+
     for name in available_presets():
         camera = Camera.preset(name)
         rows, cols = camera.fpa.shape or ("-", "-")
@@ -591,8 +685,9 @@ def build_parser() -> argparse.ArgumentParser:
                          "camera (GUM Supplement 1 Monte Carlo on Dask) and write budget.csv, "
                          "uncertainty.exr and budget.png in --out.")
     unc.add_argument("study", help="a study TOML file with an [uncertainty] table")
-    unc.add_argument("--draws", type=int, default=None,
-                     help="Monte Carlo draws (default: the study's, else adaptive)")
+    unc.add_argument("--draws", type=_count(1, MAX_DRAWS, "a number of draws"), default=None,
+                     help="Monte Carlo draws, 1 to 1,000,000 (default: the study's, else "
+                     "adaptive)")
     unc.add_argument("--seed", type=parse_seed, default=None,
                      help="seed ≥ 0 (default: the study's)")
     _add_dask_options(unc, "the draws")
@@ -628,7 +723,7 @@ def build_parser() -> argparse.ArgumentParser:
     cal.add_argument("--camera", required=True, help="preset name or camera TOML")
     cal.add_argument("--integration-time", type=parse_time, required=True, metavar="T",
                      help="integration time of the table, e.g. 100us")
-    cal.add_argument("--frames", type=int, default=1,
+    cal.add_argument("--frames", type=_count(1, what="a number of read-outs"), default=1,
                      help="read-outs averaged in each counts value (default 1)")
     _add_out_file(cal, "the fitted camera (.toml)")
     cal.set_defaults(func=_calibrate)
@@ -640,7 +735,8 @@ def build_parser() -> argparse.ArgumentParser:
     report.add_argument("camera", help="preset name or camera TOML")
     report.add_argument("--integration-time", type=parse_time, default=240e-6, metavar="T",
                         help="integration time of the datasheet (default 240us)")
-    report.add_argument("--frames", type=int, default=16,
+    report.add_argument("--frames", type=_count(2, what="a number of read-outs (temporal "
+                        "variances need two)"), default=16,
                         help="read-outs per flat field (default 16)")
     report.add_argument("--seed", type=parse_seed, default=0, help="noise seed ≥ 0 (default 0)")
     report.add_argument("--out", help="output folder, new or empty (default "
@@ -676,19 +772,30 @@ def _show_warning(message, category, filename, lineno, file=None, line=None):
     print(f"radiosim: {name}: {message}", file=sys.stderr)
 
 
-def _interrupt(signum, frame):
-    raise Interrupted(signal.Signals(signum).name)
-
-
 def main(argv=None) -> int:
     """Run the command; returns the exit code (see the module docstring)."""
-    args = build_parser().parse_args(argv)
+    command = argv is None  # the radiosim command itself (tests pass their argv)
+    parser = build_parser()
+    args = parser.parse_args(_join_negatives(parser, sys.argv[1:] if argv is None
+                                             else [str(a) for a in argv]))
     logging.basicConfig(level=logging.INFO if args.verbose else logging.WARNING,
                         format="%(levelname)s %(name)s: %(message)s")
-    previous = signal.getsignal(signal.SIGTERM)
+    # The work's handlers: Ctrl-C and SIGTERM unwind (every ``finally`` removes its temporary
+    # files), then one line. They replace the start-up handlers (radiosim.errors), which end
+    # the process at once, and are restored after.
+    signals = (signal.SIGINT, signal.SIGTERM)
     in_main_thread = _main_thread()
+    previous = {s: signal.getsignal(s) for s in signals} if in_main_thread else {}
+    if command:
+        # After an interrupt the command ends its local cluster's workers at once (see
+        # _exit_now), and multiprocessing's resource tracker (a process of its own, started
+        # with these options) unlinks what they left: it need not tell the user it did.
+        sys.warnoptions.append("ignore::UserWarning:multiprocessing.resource_tracker")
     if in_main_thread:
+        if previous[signal.SIGINT] is not signal.SIG_IGN:  # e.g. a background job
+            signal.signal(signal.SIGINT, _interrupt)
         signal.signal(signal.SIGTERM, _interrupt)
+    _Command.active, _Command.interrupted = command, False
     try:
         with warnings.catch_warnings():
             warnings.showwarning = _show_warning
@@ -697,8 +804,13 @@ def main(argv=None) -> int:
     except (KeyboardInterrupt, Interrupted) as exc:
         if args.debug:
             raise
+        if command:  # the cleanup is done: a second signal must not cut the one line
+            for signum in signals:
+                signal.signal(signum, signal.SIG_IGN)
         what = "SIGTERM" if isinstance(exc, Interrupted) else "Ctrl-C"
         print(f"radiosim: interrupted ({what}); temporary files removed", file=sys.stderr)
+        if command:
+            _exit_now()
         return EXIT_INTERRUPTED
     except RadiosimError as exc:
         if args.debug:
@@ -718,8 +830,11 @@ def main(argv=None) -> int:
               "the traceback and please report it", file=sys.stderr)
         return EXIT_FAILURE
     finally:
-        if in_main_thread:
-            signal.signal(signal.SIGTERM, previous)
+        for signum, handler in previous.items():
+            signal.signal(signum, handler)
+        if _Command.interrupted:  # only the command silences logging (and then exits)
+            logging.disable(logging.NOTSET)
+        _Command.active = False
 
 
 def _main_thread() -> bool:

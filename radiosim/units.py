@@ -10,6 +10,7 @@ study values survive a round trip unchanged.
 
 from __future__ import annotations
 
+import argparse
 import math
 import re
 from decimal import Decimal
@@ -27,6 +28,15 @@ __all__ = [
     "to_si",
     "to_kelvin",
     "to_celsius",
+    "Quantity",
+    "looks_negative",
+    "parse_time",
+    "parse_length",
+    "parse_temperature",
+    "parse_time_or_zero",
+    "whole_number",
+    "typed",
+    "join_negatives",
 ]
 
 #: 0 °C in kelvin [K] (exact, by the definition of the Celsius scale).
@@ -39,6 +49,49 @@ UNITS = {
                "nm": (-9, 0.0)},
     "temperature": {"K": (0, 0.0), "C": (0, CELSIUS_OFFSET), "°C": (0, CELSIUS_OFFSET)},
 }
+
+#: Spellings of the micro prefix: the micro sign (U+00B5, ``µ``, what most keyboards type) and
+#: the Greek small letter mu (U+03BC, ``μ``, what NFKC normalisation and many fonts produce).
+_MICRO = ("\u00b5", "\u03bc")
+
+#: A number with a unit, as typed: sign, digits, exponent, then the unit.
+_QUANTITY = re.compile(r"\s*([-+]?[0-9]*\.?[0-9]+(?:[eE][-+]?[0-9]+)?)\s*([^\s0-9].*?)\s*")
+
+
+class Quantity(float):
+    """
+    A value in SI units [s, m, K] that remembers how it was typed (``text``), so that a message
+    about it can quote the user's own ``5us`` rather than ``5e-06 s``.
+
+    Examples
+    --------
+    >>> q = Quantity(5e-06, "5us")
+    >>> q * 2, q.text
+    (1e-05, '5us')
+    """
+
+    text: str
+
+    def __new__(cls, value: float, text: str):
+        self = super().__new__(cls, value)
+        self.text = str(text).strip()
+        return self
+
+
+def looks_negative(text: str) -> bool:
+    """
+    Whether ``text`` is a negative number with or without a unit (``-5us``, ``-1e-3``), as
+    opposed to an option name (``-v``, ``--out``).
+
+    Examples
+    --------
+    >>> looks_negative("-5us"), looks_negative("-0.5 ms"), looks_negative("-v")
+    (True, True, False)
+    """
+    match = _QUANTITY.fullmatch(str(text))
+    return bool(match) and match.group(1).startswith("-") or bool(
+        re.fullmatch(r"-[0-9]*\.?[0-9]+(?:[eE][-+]?[0-9]+)?", str(text)))
+
 
 #: Temperature units of files and their offset to kelvin [K].
 TEMPERATURE_OFFSETS = {unit: offset for unit, (_, offset) in UNITS["temperature"].items()
@@ -114,12 +167,101 @@ def parse_quantity(text: str, kind: str) -> float:
     --------
     >>> parse_quantity("10us", "time"), parse_quantity("739C", "temperature")
     (1e-05, 1012.15)
+    >>> parse_quantity("10\u00b5s", "time") == parse_quantity("10\u03bcs", "time") == 1e-05
+    True
     """
     units = UNITS[kind]
-    match = re.fullmatch(r"\s*([-+]?[0-9]*\.?[0-9]+(?:[eE][-+]?[0-9]+)?)\s*([^\s0-9].*?)\s*",
-                         str(text))
-    if not match or match.group(2) not in units:
+    match = _QUANTITY.fullmatch(str(text))
+    unit = match.group(2) if match else None
+    if unit is not None and unit[:1] in _MICRO:  # 10μs (Greek mu) is 10µs (micro sign)
+        unit = "u" + unit[1:]
+    if not match or unit not in units:
         raise RadiosimError(f"{text!r} is not a {kind} with a unit; expected a number followed "
                             f"by one of {', '.join(units)} (e.g. "
                             f"{ {'time': '10us', 'length': '6um', 'temperature': '739C'}[kind]})")
-    return to_si(float(match.group(1)), match.group(2), kind)
+    return to_si(float(match.group(1)), unit, kind)
+
+
+# -- the command line's quantities (argparse types of radiosim.cli) ---------------------------
+
+#: Examples of each kind of quantity, for messages.
+_EXAMPLES = {"time": "10us, 0.5ms, 200ns", "length": "6um, 0.5mm",
+             "temperature": "739C, 1012K"}
+
+def _parser_of(kind: str, positive: bool = True):
+    """An argparse type: a ``kind`` with a unit, as a :class:`~radiosim.units.Quantity` in SI
+    that remembers the text typed (messages quote it)."""
+    def parse(text: str) -> float:
+        try:
+            value = parse_quantity(text, kind)
+        except RadiosimError:
+            raise argparse.ArgumentTypeError(
+                f"{text.strip()!r} is not a {kind} with a unit; expected e.g. "
+                f"{_EXAMPLES[kind]}") from None
+        if positive and not value > 0:
+            raise argparse.ArgumentTypeError(
+                f"{text.strip()} must be " + ("above absolute zero (0 K, -273.15C)"
+                                              if kind == "temperature" else "positive")
+                + f" (a {kind} with a unit, e.g. {_EXAMPLES[kind]})")
+        return Quantity(value, text)
+
+    parse.__name__ = f"parse_{kind}"
+    return parse
+
+
+#: A duration with a unit (``10us``, ``0.5ms``, ``200ns``, ``10µs``, ``10μs``) in seconds, > 0.
+parse_time = _parser_of("time")
+parse_length = _parser_of("length")
+parse_temperature = _parser_of("temperature")
+parse_time_or_zero = _parser_of("time", positive=False)
+
+
+def whole_number(least: int, most: int | None = None, what: str = "a whole number"):
+    """An argparse type: a whole number in [least, most]."""
+    def parse(text: str) -> int:
+        try:
+            value = int(text)
+        except ValueError:
+            value = None
+        if value is None or value < least or (most is not None and value > most):
+            bound = f"≥ {least}" if most is None else f"from {least} to {most:,}"
+            raise argparse.ArgumentTypeError(f"{text.strip()!r} is not {what} {bound}")
+        return value
+
+    return parse
+
+
+def typed(value, unit: str = "s") -> str:
+    """A value as the user typed it (``5us``) when the command knows, else in SI."""
+    return value.text if isinstance(value, Quantity) else f"{value:g} {unit}"
+
+
+def join_negatives(parser: argparse.ArgumentParser, argv: list[str]) -> list[str]:
+    """
+    ``--opt -5us`` as ``--opt=-5us``: argparse takes a token that starts with ``-`` and is
+    not a plain number for an option, and would report "expected one argument" instead of
+    checking the value. Only after an option that takes one value.
+    """
+    takes_one, takes_many = set(), set()
+    stack = [parser]
+    while stack:
+        p = stack.pop()
+        for action in p._actions:  # argparse exposes no public list of options
+            if isinstance(action, argparse._SubParsersAction):
+                stack.extend(action.choices.values())
+            elif action.option_strings and action.nargs is None:
+                takes_one.update(action.option_strings)
+            elif action.option_strings and action.nargs in ("+", "*"):
+                takes_many.update(action.option_strings)
+    out, many = [], None  # many: the option of a list being read (--diameters 12um 60um)
+    for token in argv:
+        if out and looks_negative(token) and out[-1] in takes_one:
+            out[-1] = f"{out[-1]}={token}"
+        elif many is not None and looks_negative(token):
+            parser.error(f"argument {many}: {token} must be positive (a list of values with "
+                         "units, e.g. 12um 60um)")
+        else:
+            out.append(token)
+        if token.startswith("-") and not looks_negative(token):
+            many = token if token in takes_many else None
+    return out
