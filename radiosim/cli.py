@@ -33,7 +33,7 @@ from radiosim.errors import (Interrupted, RadiosimError, RadiosimIOError, Radios
 from radiosim import __version__  # noqa: E402
 from radiosim.units import (join_negatives as _join_negatives, parse_length,
                             parse_temperature, parse_time, parse_time_or_zero,
-                            typed as _typed, whole_number as _count, to_celsius, to_kelvin)
+                            typed as _typed, whole_number as _count, to_celsius)
 
 if TYPE_CHECKING:
     from radiosim.camera import Camera
@@ -55,8 +55,9 @@ def parse_seed(text: str) -> int:
         raise argparse.ArgumentTypeError(f"{text!r} is not a seed; expected a whole number ≥ 0")
     return value
 
-#: The most Monte Carlo draws a budget may ask for: GUM Supplement 1 (7.2.2) finds 10⁶ enough
-#: for a 95 % coverage interval to two significant digits.
+#: The most Monte Carlo draws a budget may ask for (radiosim.uncertainty.MAX_DRAWS, kept equal
+#: by a test; not imported here so that --help loads nothing heavy): GUM Supplement 1 (7.2.2)
+#: finds 10⁶ enough for a 95 % coverage interval to two significant digits.
 MAX_DRAWS = 1_000_000
 
 
@@ -90,7 +91,8 @@ def _run(args) -> int:
     study = _study(args.study)
     draw = None if args.no_figures else study.hook("figures")
     study.scene  # build (and check) the scene before anything is written
-    out = OutputFolder(Path(args.out or f"radiosim-{study.name}"), overwrite=args.overwrite)
+    out = OutputFolder(Path(args.out or f"radiosim-{study.name}"), overwrite=args.overwrite,
+                       inputs=study.inputs())
     completed = False
     try:
         print(f"radiosim {__version__}: study {study.name} → {out.path}/")
@@ -123,20 +125,9 @@ def _run(args) -> int:
 
 
 def _print_table(rows):
-    def cell(value, width=9):
-        if value == "" or (isinstance(value, float) and math.isnan(value)):
-            return f"{'—':>{width}}"
-        return f"{value:>{width}.1f}"
+    from radiosim.study import format_table
 
-    print(f"{'sweep':<18}{'camera':<9}{'t_int':>8}{'pixel':>7}{'peak':>9}{'bias':>9}"
-          f"{'col. I':>9}{'bias':>9}{'sat.':>7}")
-    print(f"{'':<27}{'[µs]':>8}{'[µm]':>7}{'[°C]':>9}{'[K]':>9}{'[°C]':>9}{'[K]':>9}{'[%]':>7}")
-    print("  (bias = reading − scene peak: negative when the camera reads low)")
-    for r in rows:
-        print(f"{r['sweep'][:17]:<18}{r['camera'][:8]:<9}{r['integration_time_us']:>8.3g}"
-              f"{r['pixel_pitch_um']:>7.3g}{cell(r['peak_C'])}{cell(r['peak_bias_K'])}"
-              f"{cell(r.get('column_I_C', ''))}{cell(r.get('column_I_bias_K', ''))}"
-              f"{100 * r['saturated_fraction']:>7.1f}")
+    print("\n".join(format_table(rows)))
 
 
 def _measure(args) -> int:
@@ -182,6 +173,10 @@ def _measure(args) -> int:
     else:
         scene = read_frames(path, dt=args.dt, dx=args.dx, units=args.units)
     _check_out_file(args, ".exr", "radiosim measure writes one EXR file")
+    if args.out:
+        from radiosim.files import check_not_an_input
+
+        check_not_an_input(args.out, [*getattr(scene, "paths", ()), path])
     _check_scale(args, scene, camera)
     try:
         m = camera.measure(scene, args.integration_time, t_start=args.start, rng=args.seed)
@@ -399,12 +394,13 @@ def _uncertainty(args) -> int:
                             "user_guide.md)")
     study.scene  # build (and check) the scene before anything is written
     out = OutputFolder(Path(args.out or f"radiosim-{study.name}-uncertainty"),
-                       overwrite=args.overwrite)
+                       overwrite=args.overwrite, inputs=study.inputs())
     draws = args.draws if args.draws is not None else spec.draws
     print(f"radiosim {__version__}: uncertainty of study {study.name} → {out.path}/ "
           f"({draws or 'adaptive'} draws, {', '.join(spec.inputs)} and the noise)")
-    def progress(done, total):
-        print(f"[{done}/{total or 'adaptive'}] draws", file=sys.stderr, flush=True)
+    def progress(done, total, seconds_left=None):
+        left = "" if seconds_left is None else f", about {seconds_left:.0f} s left"
+        print(f"[{done}/{total or 'adaptive'}] draws{left}", file=sys.stderr, flush=True)
 
     completed = False
     try:
@@ -454,10 +450,9 @@ def _uncertainty(args) -> int:
 
 
 def _calibrate(args) -> int:
-    import csv
+    import math
 
-    import numpy as np
-
+    from radiosim.characterization import calibrate_from_table
     from radiosim.files import write_text
 
     camera = _camera(args.camera, command="calibrate")
@@ -467,45 +462,21 @@ def _calibrate(args) -> int:
         raise RadiosimError(f"{path} does not exist (expected a CSV of temperature_K or "
                             "temperature_C, and counts)")
     _check_out_file(args, ".toml", "the fitted camera is a TOML file")
-    try:
-        with path.open(newline="", encoding="utf-8-sig") as handle:  # a BOM is not a name
-            rows = list(csv.DictReader(line for line in handle if not line.startswith("#")))
-    except (OSError, UnicodeDecodeError, csv.Error) as exc:
-        raise RadiosimError(f"cannot read {path}: {exc}") from None
-    columns = set(rows[0]) if rows else set()
-    unit = "K" if "temperature_K" in columns else "C" if "temperature_C" in columns else None
-    if unit is None or "counts" not in columns:
-        raise RadiosimError(f"{path}: needs columns temperature_K (or temperature_C) and "
-                            f"counts, found {sorted(columns)}")
-    try:
-        temperatures = np.array([float(r[f"temperature_{unit}"]) for r in rows])
-        counts = np.array([float(r["counts"]) for r in rows])
-    except (TypeError, ValueError) as exc:
-        raise RadiosimError(f"{path}: a value is not a number ({exc})") from None
-    if unit == "C":
-        temperatures = to_kelvin(temperatures, "C")
-    instrument = None
-    for suffix in ("K", "C"):
-        if f"instrument_temperature_{suffix}" in columns:
-            try:
-                instrument = to_kelvin(np.array([float(r[f"instrument_temperature_{suffix}"])
-                                                 for r in rows]), suffix)
-            except (TypeError, ValueError) as exc:
-                raise RadiosimError(f"{path}: an instrument temperature is not a number "
-                                    f"({exc})") from None
-    fitted, residuals = camera.fit_calibration(temperatures, counts, args.integration_time,
-                                               frames=args.frames,
-                                               instrument_temperatures=instrument)
+    # The library reads and checks the table (columns, units, BOM, monotonic counts) and
+    # checks each point against the full well and the converter's range.
+    fitted, residuals, table = calibrate_from_table(
+        camera, path, args.integration_time, frames=args.frames,
+        exclude_unusable=args.exclude_unusable, fit_full_well=args.fit_full_well)
     el = fitted.electronics
-    print(f"{camera.name} fitted to {path.name} ({len(rows)} points, "
+    print(f"{camera.name} fitted to {path.name} ({len(table.temperature)} points, "
           f"{args.integration_time * 1e6:g} µs): gain {el.gain:.6g} DN/e⁻ (was "
           f"{camera.electronics.gain:.6g}), offset {el.offset:.6g} DN (was "
           f"{camera.electronics.offset:.6g})"
-          + (f", optics emissivity {fitted.optics.emissivity:.4g}" if instrument is not None
-             else ""))
+          + (f", optics emissivity {fitted.optics.emissivity:.4g}"
+             if table.instrument_temperature is not None else ""))
     print(f"{'T [K]':>10}{'counts':>12}{'residual':>10}")
-    for t, c, r in zip(temperatures, counts, residuals):
-        print(f"{t:>10.2f}{c:>12.1f}{r:>10.2f}")
+    for t, c, r in zip(table.temperature, table.counts, residuals):
+        print(f"{t:>10.2f}{c:>12.1f}" + (f"{'excluded':>10}" if math.isnan(r) else f"{r:>10.2f}"))
     if args.out:
         write_text(args.out, fitted.replace(name=f"{camera.name}-fitted").to_toml())
         print(f"wrote {args.out}")
@@ -575,7 +546,7 @@ def _report(args) -> int:
         t_range, lowest, highest = sheet.range
         highest = np.minimum(highest, camera.calibration_range[1])  # +∞: not within the range
         ax.fill_between(t_range * 1e6, lowest, highest, alpha=0.3)
-        ax.semilogx(t_range * 1e6, lowest, label="lowest measurable (SNR = 1)")
+        ax.semilogx(t_range * 1e6, lowest, label="lowest measurable (blank + 3σ)")
         ax.semilogx(t_range * 1e6, highest, label="saturation")
         ax.set(xlabel="integration time [µs]", ylabel="temperature [K]",
                title=f"{camera.name}: measurable range")
@@ -725,6 +696,11 @@ def build_parser() -> argparse.ArgumentParser:
                      help="integration time of the table, e.g. 100us")
     cal.add_argument("--frames", type=_count(1, what="a number of read-outs"), default=1,
                      help="read-outs averaged in each counts value (default 1)")
+    cal.add_argument("--exclude-unusable", action="store_true",
+                     help="leave out (with a warning naming them) the points past the full well "
+                     "or the converter's range, instead of refusing the table")
+    cal.add_argument("--fit-full-well", action="store_true",
+                     help="raise the full well to hold the points past it")
     _add_out_file(cal, "the fitted camera (.toml)")
     cal.set_defaults(func=_calibrate)
     report = sub.add_parser("report", help="an EMVA 1288-style datasheet of a camera",

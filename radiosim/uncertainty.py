@@ -40,6 +40,7 @@ import dataclasses
 import logging
 import math
 import os
+import signal
 import threading
 import warnings
 from abc import ABC, abstractmethod
@@ -566,10 +567,21 @@ def connect(scheduler=None, workers: int | None = None, timeout: float | None = 
         # Each worker's compiled kernels get their share of the cores (not all of them each:
         # N workers × all cores would oversubscribe the machine).
         threads = str(max(1, (os.cpu_count() or 1) // int(workers)))
-        cluster = LocalCluster(n_workers=int(workers), threads_per_worker=1, processes=True,
-                               dashboard_address=":0",  # any free port
-                               silence_logs=logging.ERROR,
-                               env={"NUMBA_NUM_THREADS": threads, "OMP_WAIT_POLICY": "PASSIVE"})
+        # SIGINT blocked while the cluster starts: the threads Dask starts (and the worker
+        # processes they spawn) inherit the mask, so a Ctrl-C reaches this process alone, which
+        # shuts the workers down, instead of printing one traceback per worker.
+        blocked = threading.current_thread() is threading.main_thread()
+        if blocked:
+            mask = signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT})
+        try:
+            cluster = LocalCluster(
+                n_workers=int(workers), threads_per_worker=1, processes=True,
+                dashboard_address=":0",  # any free port
+                silence_logs=logging.ERROR,
+                env={"NUMBA_NUM_THREADS": threads, "OMP_WAIT_POLICY": "PASSIVE"})
+        finally:
+            if blocked:
+                signal.pthread_sigmask(signal.SIG_SETMASK, mask)
         client = Client(cluster)
     elif isinstance(scheduler, str) and "://" in scheduler:
         from distributed import Client

@@ -267,7 +267,7 @@ def test_calibration_table_with_a_byte_order_mark(here, capsys):
     # ['\\ufefftemperature_K', 'counts']").
     (here / "table.csv").write_text("temperature_K,counts\n300,many\n", encoding="utf-8-sig")
     refused(["calibrate", "table.csv", "--camera", "nist-ir", "--integration-time", "10us"],
-            capsys, here, "table.csv", "not a number")
+            capsys, here, "table.csv", "counts", "many", "expected a number")
 
 
 def test_study_file_with_a_byte_order_mark(here, capsys):
@@ -396,3 +396,10 @@ def test_signals_with_local_workers_end_in_one_line(tmp_path):
         if proc.returncode == 0:
             pytest.fail(f"{name}: the run completed before the signal; make the study longer")
         _assert_interrupted(proc, out, err, root)
+
+
+def test_the_commands_draw_bound_is_the_librarys():
+    # The command states the bound without importing the engine (a fast --help); one number.
+    from radiosim import cli, uncertainty
+
+    assert cli.MAX_DRAWS == uncertainty.MAX_DRAWS

@@ -408,7 +408,7 @@ def test_calibrate_from_table_names_the_file_and_the_points(nist, tmp_path):
     true = _true_camera(nist)
     temperatures = [350.0, 450.0, 550.0, 650.0]
     counts = list(_table(true, temperatures, 1e-5)) + [16383.0]
-    rows = "".join(f"{t},{c!r}\n" for t, c in zip(temperatures + [3000.0], counts))
+    rows = "".join(f"{t},{float(c)!r}\n" for t, c in zip(temperatures + [3000.0], counts))
     path = _write(tmp_path, "temperature_K,counts\n" + rows)
     with pytest.raises(RadiosimError) as info:
         calibrate_from_table(true, path, 1e-5)
