@@ -24,7 +24,8 @@ from radiosim._version import __version__
 # Nothing heavy is imported here: the names below load their module on first use (PEP 562), so
 # `import radiosim` (and the command's --help) costs little and changes nothing in the process:
 # numpy's print options and os.environ are left as they were. The compiled kernels' OpenMP
-# settings are applied when a kernel first launches (radiosim.kernels.threads).
+# settings are applied when a kernel first launches
+# (radiosim.kernels.launch.apply_thread_settings).
 _LAZY = {
     "Camera": "radiosim.camera",
     "FocalPlaneArray": "radiosim.camera",

@@ -8,7 +8,7 @@ reaching a pixel also depends on other samples or on the environment:
 
 1.  per sample and per spectral sub-band, the window mean of the surface's radiance
     ε L(T) + (1 − ε) L(T_refl) (emission and reflection of an opaque surface, Kirchhoff's law),
-    one compiled pass per frame and sub-band (:func:`radiosim.kernels.accumulate` with one
+    one compiled pass per frame and sub-band (the engine's ``accumulate`` with one
     piece per sample);
 2.  the path: τ · (that) + (1 − τ) · L(T_path) (:func:`radiosim.response.observed_signal`);
 3.  the point-spread function, once per sub-band on the window mean (:func:`radiosim.psf.blur`,
@@ -29,9 +29,9 @@ import math
 
 import numpy as np
 
-from radiosim import kernels
 from radiosim.integrator import (FootprintIntegrator, Window, _prefetched, axis_footprints,
                                  frame_weights)
+from radiosim.kernels.engines import get_engine
 from radiosim.psf import PSF, blur
 from radiosim.response import Response, observed_signal, reflectance
 from radiosim.scenes.base import Scene, SceneFrame
@@ -79,7 +79,7 @@ def _reflection(frame: SceneFrame, complement: _Reflectances) -> SceneFrame:
 
 
 def sample_signals(scene: Scene, window: Window, responses: list[Response],
-                   progress=None) -> np.ndarray:
+                   progress=None, engine: str | None = None) -> np.ndarray:
     """
     Window mean of each sample's surface signal, ε L(T) + (1 − ε) L(T_refl), per response.
 
@@ -93,12 +93,16 @@ def sample_signals(scene: Scene, window: Window, responses: list[Response],
         Response models (e.g. spectral sub-bands); a non-radiometric one gives the mean T.
     progress
         Called as ``progress(done, total)`` after each frame.
+    engine
+        The engine's name (:func:`radiosim.kernels.engines.get_engine`; ``None``: the chosen
+        one).
 
     Returns
     -------
     numpy.ndarray
         (len(responses), rows, columns) [each response's unit].
     """
+    accumulate = get_engine(engine).accumulate
     first, weights = frame_weights(window.start, window.duration, scene.dt, scene.n_frames)
     rows_n, cols_n = scene.shape
     rows = axis_footprints(rows_n, scene.dx, scene.dx, 1.0, rows_n, axis="y (rows)")
@@ -117,15 +121,14 @@ def sample_signals(scene: Scene, window: Window, responses: list[Response],
         for n, response in enumerate(responses):
             table = response.kernel_table(frame)
             if table is None:  # the signal is T: its mean is the first moment about 0
-                kernels.accumulate(frame.temperature, rows, cols, weight, zero, out[n], sq,
-                                   t_max, frame_index=frame.index)
+                accumulate(frame.temperature, rows, cols, weight, zero, out[n], sq, t_max,
+                           frame_index=frame.index)
                 continue
-            kernels.accumulate(frame.temperature, rows, cols, weight, zero, dev, sq, t_max,
-                               out[n], table, frame_index=frame.index)
+            accumulate(frame.temperature, rows, cols, weight, zero, dev, sq, t_max, out[n],
+                       table, frame_index=frame.index)
             if reflection is not None and response.radiometric:
-                kernels.accumulate(reflection.temperature, rows, cols, weight, zero, dev, sq,
-                                   t_max, out[n], response.kernel_table(reflection),
-                                   frame_index=frame.index)
+                accumulate(reflection.temperature, rows, cols, weight, zero, dev, sq, t_max,
+                           out[n], response.kernel_table(reflection), frame_index=frame.index)
         if progress is not None:
             progress(done, weights.size)
     return out
@@ -133,7 +136,7 @@ def sample_signals(scene: Scene, window: Window, responses: list[Response],
 
 def image_signal(scene: Scene, integrator: FootprintIntegrator, window: Window,
                  response: Response, psfs: tuple[PSF, ...] | None, band: tuple[float, float],
-                 object_na: float, progress=None) -> np.ndarray:
+                 object_na: float, progress=None, engine: str | None = None) -> np.ndarray:
     """
     Mean signal per pixel [response unit] of the image the optics form (module docstring).
 
@@ -149,6 +152,8 @@ def image_signal(scene: Scene, integrator: FootprintIntegrator, window: Window,
         Object-side numerical aperture of the working cone [1] (for diffraction).
     progress
         Called as ``progress(done, total)`` after each frame.
+    engine
+        As for :func:`sample_signals`.
 
     Returns
     -------
@@ -156,7 +161,7 @@ def image_signal(scene: Scene, integrator: FootprintIntegrator, window: Window,
         Mean signal per pixel.
     """
     bands = response.sub_bands(sub_band_count(psfs))
-    maps = sample_signals(scene, window, [r for r, _ in bands], progress)
+    maps = sample_signals(scene, window, [r for r, _ in bands], progress, engine)
     tau, path_temperature = scene.path_transmission, scene.path_temperature
     total = np.zeros(scene.shape)
     for (sub, wavelength), field in zip(bands, maps):

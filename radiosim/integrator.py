@@ -37,6 +37,9 @@ from dataclasses import dataclass
 import numpy as np
 
 from radiosim.errors import RadiosimError
+from radiosim.kernels import Members
+from radiosim.kernels.engines import ENGINES as _ENGINES
+from radiosim.kernels.engines import Engine, get_engine
 from radiosim.response import Response
 from radiosim.scenes.base import Region, Scene, SceneFrame
 
@@ -532,13 +535,14 @@ def _within(frame: SceneFrame, outer: Region, inner: Region) -> SceneFrame:
                       frame.region_emissivity, frame.index, cut(frame.reflected_temperature))
 
 
-#: The integration engines: ``"compiled"`` (numba kernels, :mod:`radiosim.kernels`) and
-#: ``"numpy"`` (the reference implementation the kernels are tested against).
-ENGINES = ("compiled", "numpy")
+#: The integration engines' names (the engines themselves, and the choice between them:
+#: :mod:`radiosim.kernels.engines`): ``"compiled"`` (numba kernels) and ``"numpy"`` (the
+#: reference implementation the kernels are tested against).
+ENGINES = tuple(_ENGINES)
 
 
 def integrate_many(scene: Scene, jobs: list[Job], progress=None,
-                   engine: str = "compiled", emission_only: bool = False
+                   engine: str | None = None, emission_only: bool = False
                    ) -> list[TensorStatistics]:
     """
     Integrate several measurements of one scene in one pass: each frame any window touches is
@@ -561,13 +565,14 @@ def integrate_many(scene: Scene, jobs: list[Job], progress=None,
     progress
         Called as ``progress(done, total)`` after each frame.
     engine
-        ``"compiled"`` or ``"numpy"`` (:data:`ENGINES`).
+        ``"compiled"`` or ``"numpy"`` (:data:`ENGINES`); ``None``: the chosen one
+        (:func:`radiosim.kernels.engines.get_engine`: ``set_engine``, ``RADIOSIM_ENGINE``, else
+        compiled).
     emission_only
         The signal need hold each sample's own emission only (the caller adds reflections), so
         a reflecting scene may take the compiled engine.
     """
-    if engine not in ENGINES:
-        raise RadiosimError(f"engine must be one of {', '.join(ENGINES)}, got {engine!r}")
+    engine = get_engine(engine)
     accumulators = [_Accumulator(job, scene) for job in jobs]
     if not accumulators:
         return []
@@ -578,9 +583,9 @@ def integrate_many(scene: Scene, jobs: list[Job], progress=None,
     # caller forms the reflected light itself (the camera's image stage: ``emission_only``).
     reflects = not emission_only and scene.reflected_temperature is not None and any(
         a.job.response.radiometric for a in accumulators)
-    if engine == "compiled" and not reflects and all(a.job.response.has_kernel
+    if not engine.reference and not reflects and all(a.job.response.has_kernel
                                                      for a in accumulators):
-        return _integrate_compiled(scene, accumulators, frames, region, progress)
+        return _integrate_compiled(scene, accumulators, frames, region, progress, engine)
     for done, frame in enumerate(_prefetched(scene, frames, region), start=1):
         k = frame.index
         signals = {}
@@ -605,15 +610,14 @@ class _Group:
     their accumulators stacked (:class:`radiosim.kernels.Members`) so the kernel merges the
     frame into every job itself."""
 
-    def __init__(self, integrator: FootprintIntegrator):
+    def __init__(self, integrator: FootprintIntegrator, engine: Engine):
         self.integrator = integrator
+        self.engine = engine
         self.members: list = []
         self.reference = None
         self.state = None
 
     def start(self):
-        from radiosim.kernels import Members
-
         self.state = Members(len(self.members), self.integrator.shape)
         for b, m in enumerate(self.members):
             m.group, m.slot = self, b
@@ -660,14 +664,12 @@ class _Group:
 
     def _merge_run(self, temperature: np.ndarray, sample: SceneFrame, start: int):
         """:meth:`merge` of consecutive frames that members' windows hold."""
-        from radiosim import kernels
-
         n = 1 if temperature.ndim == 2 else temperature.shape[0]
         weight, passes, _ = self.passes(start, start + n)
         rows, cols = self.integrator.rows, self.integrator.cols
         if self.reference is None:  # [K] per pixel: the first frame's means
             first = temperature if temperature.ndim == 2 else temperature[0]
-            self.reference = kernels.pixel_mean(first, rows, cols, frame_index=start)
+            self.reference = self.engine.pixel_mean(first, rows, cols, frame_index=start)
         moments_done = False
         for response, members in passes:
             table = response.kernel_table(sample)
@@ -678,9 +680,9 @@ class _Group:
                 signal_weight[:, members] = weight[:, members]
                 for b in members:
                     self.members[b].has_signal = True
-            kernels.accumulate_merged(temperature, rows, cols, self.reference, self.state,
-                                      weight, signal_weight, table, moments=not moments_done,
-                                      frame_index=start)
+            self.engine.accumulate_merged(temperature, rows, cols, self.reference,
+                                          self.state, weight, signal_weight, table,
+                                          moments=not moments_done, frame_index=start)
             moments_done = True
 
 
@@ -718,10 +720,10 @@ def _frames_inline_or_prefetched(scene, indices, region):
             return
 
 
-def _integrate_compiled(scene, accumulators, frames, region, progress):
+def _integrate_compiled(scene, accumulators, frames, region, progress, engine):
     """
     The compiled engine. Per frame and footprint group, one kernel pass
-    (:func:`radiosim.kernels.accumulate_merged`; blocks of up to :data:`FRAME_BLOCK` frames
+    (the engine's ``accumulate_merged``; blocks of up to :data:`FRAME_BLOCK` frames
     per call when the scene holds its frames as one array) gives each pixel's frame mean m_k and
     within-frame variance v_k (about the previous frame's means, so the deviations are small)
     and merges them into each job with its time weight w_k by the parallel update of Chan,
@@ -731,7 +733,8 @@ def _integrate_compiled(scene, accumulators, frames, region, progress):
     groups: dict[int, _Group] = {}
     merged = [_Merged(acc) for acc in accumulators]
     for m in merged:
-        groups.setdefault(id(m.job.integrator), _Group(m.job.integrator)).members.append(m)
+        groups.setdefault(id(m.job.integrator),
+                         _Group(m.job.integrator, engine)).members.append(m)
     for group in groups.values():
         group.start()
     active = list(groups.values())
@@ -795,7 +798,7 @@ def integrate(
     integrator: FootprintIntegrator,
     window: Window,
     response: Response,
-    engine: str = "compiled",
+    engine: str | None = None,
     emission_only: bool = False,
 ) -> TensorStatistics:
     """
@@ -816,7 +819,8 @@ def integrate(
     response
         Signal per sample (:class:`~radiosim.response.Response`).
     engine
-        ``"compiled"`` (the numba kernels) or ``"numpy"`` (their reference).
+        ``"compiled"`` (the numba kernels) or ``"numpy"`` (their reference); ``None``: the
+        chosen one (:func:`radiosim.kernels.engines.get_engine`).
     emission_only
         As for :func:`integrate_many`.
 

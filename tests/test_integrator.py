@@ -278,11 +278,12 @@ def test_with_two_responses_the_earliest_bad_frame_is_named():
 def test_user_built_and_integrator_footprints_share_one_compiled_kernel():
     from radiosim import kernels
     from radiosim.integrator import AxisFootprints
+    from radiosim.kernels.rows import accumulate_kernel
 
     rows = axis_footprints(30, 1.0, 3.0, 1.0, 10**6)
     built = AxisFootprints(np.array(rows.source), np.array(rows.weight), np.array(rows.starts))
     frame = np.full((30, 30), 300.0)
     kernels.pixel_mean(frame, rows, rows)
-    before = len(kernels._accumulate_kernel.signatures)
+    before = len(accumulate_kernel.signatures)
     kernels.pixel_mean(frame, built, built)
-    assert len(kernels._accumulate_kernel.signatures) == before
+    assert len(accumulate_kernel.signatures) == before

@@ -11,6 +11,7 @@ import pytest
 from radiosim import kernels
 from radiosim.errors import RadiosimError
 from radiosim.integrator import AxisFootprints, axis_footprints
+from radiosim.kernels import layout, radiance
 from radiosim.kernels import (
     STATUS_BELOW_TABLE,
     STATUS_OK,
@@ -23,13 +24,7 @@ from radiosim.kernels import (
 from radiosim.radiometry import BandRadianceTable, band_radiance
 from radiosim.spectral import spectral_distribution
 
-COMPILED_AT_IMPORT = sum(len(f.signatures) for f in (
-    kernels._accumulate_kernel, kernels._accumulate_rows, kernels._lin, *kernels._LIN_SWEEPS,
-    kernels._signal_row, kernels._signal_rows, kernels._signal_one, kernels._signal_two,
-    kernels._cubic, kernels._cubic1, kernels._locate, kernels._commit_row, kernels._setup_row,
-    kernels._pixel_sums, kernels._pixel_sums_regular, kernels._pixel_done, kernels._row,
-    kernels._rows12,
-    kernels._exp))
+COMPILED_AT_IMPORT = sum(len(f.signatures) for f in kernels.dispatchers())
 
 SCENE = (70, 90)  # scene samples (rows, columns)
 T_SCALE = 1500.0  # [K], the scale of the temperatures below
@@ -212,7 +207,7 @@ def test_float32_frames_are_read_in_place():
     rows, cols = footprints(7.3, 0.8, 0.0)
     region = region_of(frame, rows, cols)
     assert not region.flags.c_contiguous
-    flat, row_length = kernels._rows_of(region)
+    flat, row_length = layout.rows_of(region)
     assert flat.dtype == np.float32 and np.shares_memory(flat, frame)
     assert row_length == SCENE[1]
 
@@ -355,15 +350,15 @@ def test_footprints_of_any_layout_agree_with_the_reference(tables):
     # one weight, on consecutive slots) and reduce to pixels by a short path; footprints built
     # otherwise (uneven weights, a pixel reading a sample twice) take the general one.
     rows, cols = footprints(4.5, 0.8, 2.7)
-    assert kernels._axis(cols, "column").slots[-1] == 2
-    assert kernels._axis(footprints(9.0, 1.0, 0.0)[1], "column").slots[-1] == 3
+    assert layout.kernel_axis(cols, "column").slots[-1] == 2
+    assert layout.kernel_axis(footprints(9.0, 1.0, 0.0)[1], "column").slots[-1] == 3
     rng = np.random.default_rng(8)
     uneven = AxisFootprints(cols.source, rng.uniform(0.05, 0.3, cols.source.size), cols.starts)
     twice = AxisFootprints(np.sort(np.append(cols.source, cols.source[[3, 11]])),
                            rng.uniform(0.05, 0.3, cols.source.size + 2), cols.starts)
     frames = scene_frames(np.float32)
     for broken in (uneven, twice):
-        assert kernels._axis(broken, "column").slots[-1] == 0
+        assert layout.kernel_axis(broken, "column").slots[-1] == 0
         response = responses(tables, region_of(frames[0], rows, broken).shape)["grey map"]
         for signal in (None, response):
             kernel = integrate(frames, rows, broken, signal, pixel_mean, accumulate)
@@ -383,15 +378,25 @@ def test_importing_compiles_nothing():
     ({"GOMP_SPINCOUNT": "10"}, ("10", None)),
 ])
 def test_openmp_threads_spin_briefly_between_frames(environment, expected):
-    # Importing radiosim bounds OpenMP's spin-wait between parallel regions (a frame's gap),
-    # unless the user chose a policy: (GOMP_SPINCOUNT, OMP_WAIT_POLICY) seen by the kernels.
+    # Importing radiosim (and its kernels) leaves os.environ as it was; the first kernel launch
+    # bounds OpenMP's spin-wait between parallel regions (a frame's gap), unless the user chose
+    # a policy: (GOMP_SPINCOUNT, OMP_WAIT_POLICY) seen by the kernels.
     env = {k: v for k, v in os.environ.items()
            if k not in ("OMP_WAIT_POLICY", "GOMP_SPINCOUNT")}
-    out = subprocess.run(
-        [sys.executable, "-c", "import os, radiosim; print(os.environ.get('GOMP_SPINCOUNT'), "
-         "os.environ.get('OMP_WAIT_POLICY'))"],
-        env={**env, **environment}, capture_output=True, text=True, check=True)
-    assert tuple(None if v == "None" else v for v in out.stdout.split()) == expected
+    code = (
+        "import os; before = dict(os.environ); import radiosim, radiosim.kernels\n"
+        "imported = dict(os.environ)\n"
+        "import numpy as np\n"
+        "from radiosim.integrator import axis_footprints\n"
+        "f = axis_footprints(3, 1.0, 3.0, 1.0, 10**6)\n"
+        "radiosim.kernels.pixel_mean(np.full((3, 3), 300.0), f, f)\n"
+        "print(imported == before, os.environ.get('GOMP_SPINCOUNT'), "
+        "os.environ.get('OMP_WAIT_POLICY'))")
+    out = subprocess.run([sys.executable, "-c", code], env={**env, **environment},
+                         capture_output=True, text=True, check=True)
+    unchanged, *seen = out.stdout.split()
+    assert unchanged == "True"
+    assert tuple(None if v == "None" else v for v in seen) == expected
 
 
 def test_cubic_rows_match_numpy_horner():
@@ -405,7 +410,7 @@ def test_cubic_rows_match_numpy_horner():
         interval = rng.integers(0, 50, n).astype(np.uint64)
         position = rng.uniform(0, 1, n)
         out = np.empty(n)
-        kernels._cubic(coef.reshape(-1), interval, position, out, n)
+        radiance.cubic(coef.reshape(-1), interval, position, out, n)
         a, b, c, d = coef[interval.astype(np.intp)].T
         numpy = ((a * position + b) * position + c) * position + d
         scale = (np.abs(a) * position**3 + np.abs(b) * position**2 + np.abs(c) * position
@@ -416,16 +421,17 @@ def test_cubic_rows_match_numpy_horner():
 
 # -- several frames per call -----------------------------------------------------------------
 
-def merge_frames(block, rows, cols, response, weight, signal_weight, per_call):
+def merge_frames(block, rows, cols, response, weight, signal_weight, per_call,
+                 engine=kernels.ENGINES["compiled"]):
     """Merge the frames of ``block`` into two jobs, ``per_call`` frames per call."""
     first = region_of(block[0], rows, cols)
-    reference = pixel_mean(first, rows, cols)
+    reference = engine.pixel_mean(first, rows, cols)
     members = kernels.Members(2, reference.shape)
     statuses = []
     for k in range(0, len(block), per_call):
         part = block[k:k + per_call, rows.span, cols.span]
         one = per_call == 1
-        statuses.append(kernels.accumulate_merged(
+        statuses.append(engine.accumulate_merged(
             part[0] if one else part, rows, cols, reference, members,
             weight[k] if one else weight[k:k + per_call],
             signal_weight[k] if one else signal_weight[k:k + per_call], response,
@@ -486,3 +492,73 @@ def test_block_weights_need_one_row_per_frame():
     with pytest.raises(RadiosimError, match="non-empty 3-D stack"):
         kernels.accumulate_merged(block[:0], rows, cols, reference, members, np.ones((0, 2)),
                                   np.ones((0, 2)))
+
+
+# -- engines ----------------------------------------------------------------------------------
+
+def test_the_numpy_engine_merges_blocks_as_the_compiled_one(tables):
+    # The numpy engine's merge (each frame's sums by accumulate_reference, Chan's update in
+    # numpy) is the compiled merge's oracle: same moments to 1e-12 relative, maximum exactly.
+    rows, cols = footprints(*FOOTPRINTS["4.5 samples, fill 0.8, origin 2.7"])
+    block = scene_frames(np.float32, n=6, seed=9)
+    block[3, 6:9, 9:12] = 150.0  # below the table: the compiled engine's numpy path
+    rng = np.random.default_rng(2)
+    weight = rng.uniform(0.0, 0.2, (6, 2))
+    weight[:2, 1] = 0.0
+    shape = region_of(block[0], rows, cols).shape
+    response = responses(tables, shape)["tables + index + grey map"]
+    compiled = merge_frames(block, rows, cols, response, weight, weight, 6)
+    numpy = merge_frames(block, rows, cols, response, weight, weight, 6,
+                         kernels.ENGINES["numpy"])
+    np.testing.assert_allclose(compiled[0], numpy[0], rtol=1e-12, atol=0)
+    for name in ("mean", "m2", "signal", "count"):
+        np.testing.assert_allclose(getattr(compiled[1], name), getattr(numpy[1], name),
+                                   rtol=1e-12, atol=0)
+    np.testing.assert_array_equal(compiled[1].max, numpy[1].max)
+    assert compiled[2] == numpy[2] == [STATUS_BELOW_TABLE]
+
+
+def test_the_engine_is_chosen_in_one_place(monkeypatch):
+    from radiosim.kernels import engines
+
+    monkeypatch.delenv("RADIOSIM_ENGINE", raising=False)
+    monkeypatch.setattr(engines, "_selected", None)
+    assert engines.get_engine().name == "compiled" and engines.compiled_selected()
+    monkeypatch.setenv("RADIOSIM_ENGINE", "numpy")
+    assert engines.get_engine().name == "numpy" and not engines.compiled_selected()
+    engines.set_engine("compiled")  # the process setting wins over the environment
+    assert engines.get_engine().name == "compiled"
+    assert engines.get_engine("numpy").accumulate is accumulate_reference  # an argument wins
+    engines.set_engine(None)
+    assert engines.get_engine().name == "numpy"
+    monkeypatch.setenv("RADIOSIM_ENGINE", "gpu")
+    with pytest.raises(RadiosimError, match="environment variable RADIOSIM_ENGINE: engine must "
+                                            "be one of compiled, numpy, got 'gpu'"):
+        engines.get_engine()
+    with pytest.raises(RadiosimError, match="set_engine: engine must be one of"):
+        engines.set_engine("cuda")
+
+
+def test_kernel_cache_stamp_covers_every_kernel_source(tmp_path, monkeypatch):
+    # numba stamps a cached function with its own file only; radiosim's locator adds a stamp
+    # over all kernel sources, so a change to an inlined helper's file (here: a new size)
+    # changes every kernel's stamp.
+    from radiosim.kernels import cache, rows
+
+    folder = tmp_path / "kernels"
+    folder.mkdir()
+    (folder / "rows.py").write_text("x = 1\n")
+    (folder / "intrinsics.py").write_text("y = 1\n")
+    monkeypatch.setattr(cache, "KERNEL_SOURCES", (folder,))
+    cache.source_stamp.cache_clear()
+    before = cache.source_stamp()
+    (folder / "intrinsics.py").write_text("y = 12\n")
+    cache.source_stamp.cache_clear()
+    assert cache.source_stamp() != before
+    cache.source_stamp.cache_clear()
+    monkeypatch.undo()
+    cache.source_stamp.cache_clear()
+    # The kernels' own locator is the stamped one, and numba's is inside it.
+    locator = rows.accumulate_kernel._cache._impl.locator
+    assert type(locator).__name__ == "_PackageStampLocator"
+    assert locator.get_source_stamp()[1] == cache.source_stamp()

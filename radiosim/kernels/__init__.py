@@ -1,0 +1,149 @@
+"""
+Compiled one-pass streaming kernels for the integrator's hot loop, with their numpy oracles.
+
+Each frame of an integration window is read once: in one pass over its footprint pieces the
+kernel :func:`accumulate` adds, per pixel, the time-weighted area means of T − c, of (T − c)²
+and (optionally) of the response signal S(T) = ε·L(T), raises the per-pixel maximum of T, and
+checks every sample it reads (finite, > 0 K, inside the radiance table). :func:`pixel_mean`
+gives the per-pixel reference c from the first frame. The layout is the one of
+:mod:`radiosim.integrator`: pieces of each axis (:class:`~radiosim.integrator.AxisFootprints`),
+2-D piece weight = row weight × column weight, the frame region starting at each axis' first
+piece sample (``span.start``).
+
+Every kernel has a plain numpy implementation beside it (:func:`pixel_mean_reference`,
+:func:`accumulate_reference`), written like the integrator's own arithmetic; they are the
+tests' oracle (agreement to 1e-12 relative, the maximum exactly) and the path the kernel falls
+back to for a frame holding samples colder than the radiance table, which get the exact
+quadrature (:func:`~radiosim.radiometry.band_radiance`).
+
+How the kernels are fast (see ``benchmarks/bench_kernels.py``):
+
+-   pixel rows are split in one contiguous block per thread (``numba.prange``); a pixel row
+    writes only its own output row, so there are no races, and the result does not depend on
+    the number of threads. Several frames go in one call (:func:`accumulate_merged` with a
+    3-D block): each thread takes its rows through all of them without waiting for the other
+    (no barrier per frame), and stops at its first frame with a status; those are handled in
+    frame order, and the stopped threads go on;
+-   within a pixel row, the sample rows of its pieces are swept up to 12 at a time (all of a
+    pixel row of up to 12 pieces; generated sweeps ``_lin1`` … ``_lin12``), in chunks of 512
+    slots that stay in the L1 cache, along the
+    columns, in sample space: one accumulator slot per sample (holding the first column piece
+    that reads it), plus a slot per "duplicate" piece (a pixel edge inside a sample: the
+    second piece reading it, filled from a small gathered row). The loops are contiguous and
+    vectorised; float32 frames are read as float32 and widened per sample, never copied; rows
+    are reached by uint64 offsets into the frame, not slices (a slice is a reference count,
+    an atomic operation both threads would share). A pixel row's first sweep writes the
+    accumulators (no clearing pass); the slots are reduced to pixels, and checked, in one pass
+    per pixel row (for the integrator's regular footprints, whose interior pieces are whole
+    samples of one weight, the interior summed unweighted); the accumulators and the Planck
+    scratch sit in one buffer, their starts 576 bytes apart modulo 4 kB (no false
+    store-to-load aliasing between them);
+-   the checks are fused: NaN propagates into the sums, +inf into the maximum, and a running
+    minimum per slot catches T ≤ 0 and T below the table, so a clean frame costs one vector
+    max and one min per sample;
+-   the radiance is the table's (:class:`~radiosim.radiometry.BandRadianceTable`) cubic of L in
+    T on a grid whose nodes are the floats with only their top mantissa bits set: no division,
+    no logarithm, no exponential. Per sample row, two loops: the interval and position
+    (vectorised: a shift, a subtraction, an unsigned minimum and a mask of the bits of T),
+    into a small scratch; then the interval's four coefficients, loaded as one 32-byte row for
+    each of eight samples and transposed into vectors by shuffles (:func:`_cubic8_grey`,
+    :func:`_cubic8_map`: LLVM intrinsics; LLVM would otherwise make four scalar loads per
+    sample, or slow gathers), a vector Horner step and the accumulation, in registers; for a
+    grey scene two sample rows at a time (:func:`_cubic8_pair`: two independent chains, one
+    accumulator update). The table (160 kB for the nist-ir band) is read where the scene's
+    temperatures are, which stays in the L1/L2 cache;
+-   ``fastmath`` is off: no reassociation, no automatic contraction into FMA, IEEE semantics;
+    where the kernels fuse a multiply-add they say so (the moments' squares, the cubic's
+    Horner steps: one rounding instead of two, which also takes a quarter of the Planck pass's
+    time); the radiance takes the Horner steps of
+    :meth:`~radiosim.radiometry.BandRadianceTable.evaluate_reference`, its numpy oracle, in
+    the same order, so the two agree to a few units in the last place inside the table.
+
+Nothing is compiled at import (importing costs numba's own import). The first call with a new
+frame dtype (float32, float64) or index-map dtype (uint8, intp) compiles the one kernel that
+serves linear, Planck and every emissivity form (about 35 s on a 2-core machine, most of it
+the twelve generated sweeps) and caches it on disk
+(``cache=True``, in ``radiosim/__pycache__`` or ``NUMBA_CACHE_DIR``); later processes load it in
+about 0.3 s.
+
+The package, one concept per module (imports flow down this list):
+
+-   :mod:`~radiosim.kernels.codes`: status bits and signal modes;
+-   :mod:`~radiosim.kernels.intrinsics`: LLVM intrinsics (fused multiply-add, the eight-sample
+    cubics by shuffles) and :data:`fast_exp`;
+-   :mod:`~radiosim.kernels.sweeps`: the generated row sweeps;
+-   :mod:`~radiosim.kernels.radiance`: the radiance pass (interval, position, cubic, grey);
+-   :mod:`~radiosim.kernels.rows`: the parallel kernel (pixel rows, reduction to pixels,
+    commit or merge);
+-   :mod:`~radiosim.kernels.layout`: footprint layouts and frame views;
+-   :mod:`~radiosim.kernels.table`: :class:`RadianceKernelTable`;
+-   :mod:`~radiosim.kernels.messages`: the errors of a flagged frame;
+-   :mod:`~radiosim.kernels.reference`: the numpy oracles;
+-   :mod:`~radiosim.kernels.launch`: the entry points, buffers, thread settings;
+-   :mod:`~radiosim.kernels.engines`: the engines (compiled, numpy) and the choice between
+    them. A GPU engine goes there: one new module and one entry in
+    :data:`~radiosim.kernels.engines.ENGINES`.
+
+numba's on-disk cache tracks each compiled function's own file only; :mod:`~radiosim.kernels.cache`
+stamps every kernel with all the kernel sources instead, so editing ``intrinsics.py``,
+``sweeps.py`` or ``radiance.py`` (or the chip's kernels) recompiles what inlined them.
+"""
+
+from radiosim.kernels import cache as _cache
+
+_cache.register()  # before any kernel below is decorated with cache=True
+
+from radiosim.kernels.codes import (SIGNAL_INDEX, SIGNAL_MAP, SIGNAL_NONE, SIGNAL_SCALAR,
+                                    STATUS_ABOVE_TABLE, STATUS_BAD_INDEX, STATUS_BAD_SAMPLE,
+                                    STATUS_BELOW_TABLE, STATUS_OK)
+from radiosim.kernels.engines import ENGINES, Engine, compiled_selected, get_engine, set_engine
+from radiosim.kernels.intrinsics import fast_exp
+from radiosim.kernels.launch import (accumulate, accumulate_merged, apply_thread_settings,
+                                     parallel_launch, pixel_mean)
+from radiosim.kernels.reference import (Members, accumulate_merged_reference,
+                                        accumulate_reference, pixel_mean_reference)
+from radiosim.kernels.table import RadianceKernelTable
+
+__all__ = [
+    "fast_exp",
+    "parallel_launch",
+    "apply_thread_settings",
+    "STATUS_OK",
+    "STATUS_BAD_SAMPLE",
+    "STATUS_BELOW_TABLE",
+    "STATUS_ABOVE_TABLE",
+    "STATUS_BAD_INDEX",
+    "SIGNAL_NONE",
+    "SIGNAL_SCALAR",
+    "SIGNAL_MAP",
+    "SIGNAL_INDEX",
+    "RadianceKernelTable",
+    "pixel_mean",
+    "pixel_mean_reference",
+    "accumulate",
+    "accumulate_reference",
+    "Members",
+    "accumulate_merged",
+    "accumulate_merged_reference",
+    "Engine",
+    "ENGINES",
+    "get_engine",
+    "set_engine",
+    "compiled_selected",
+    "dispatchers",
+]
+
+
+def dispatchers() -> tuple:
+    """Every compiled (numba) function of the package, e.g. to count their compiled
+    signatures."""
+    import numba
+
+    from radiosim.kernels import intrinsics, radiance, rows, sweeps
+
+    found = []
+    for module in (intrinsics, sweeps, radiance, rows):
+        found += [v for v in vars(module).values()
+                  if isinstance(v, numba.core.registry.CPUDispatcher)]
+    found += sweeps._LIN_SWEEPS
+    return tuple(dict.fromkeys(found))

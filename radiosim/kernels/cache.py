@@ -1,0 +1,95 @@
+"""
+One freshness stamp for every compiled kernel of radiosim.
+
+numba's on-disk cache (``cache=True``) keys a compiled function on its own file's modification
+time and size. A kernel in :mod:`~radiosim.kernels.rows` inlines functions of
+:mod:`~radiosim.kernels.intrinsics`, :mod:`~radiosim.kernels.sweeps` and
+:mod:`~radiosim.kernels.radiance` (and the segmented chip's kernels use
+:data:`~radiosim.kernels.fast_exp`): after a change to one of those files alone, numba would load
+the stale machine code of the kernel that inlined it. Here every compiled function of the
+kernel package and of the chip's package is stamped with the modification times and sizes of
+*all* their source files, so a change to any of them recompiles every kernel that could have
+inlined it, once.
+
+The locator wraps numba's own choice (``NUMBA_CACHE_DIR``, the package's ``__pycache__`` or
+the user-wide cache): where the cache lives does not change. It is registered when
+:mod:`radiosim.kernels` is imported, before any kernel is decorated.
+
+References
+----------
+-   numba documentation, "Cache invalidation" (notes on caching): "changes in the functions
+    called by a cached function are not detected".
+"""
+
+from __future__ import annotations
+
+import functools
+import hashlib
+from pathlib import Path
+
+from numba.core import caching
+
+__all__ = ["KERNEL_SOURCES", "source_stamp", "register"]
+
+_PACKAGE = Path(__file__).resolve().parent.parent  # radiosim/
+
+#: The folders whose Python files hold compiled kernels (and what they inline).
+KERNEL_SOURCES = (_PACKAGE / "kernels", _PACKAGE / "scenes" / "segmented_chip")
+
+
+@functools.cache
+def source_stamp() -> str:
+    """A digest of the path, modification time [ns] and size [bytes] of every kernel source
+    file (computed once per process)."""
+    digest = hashlib.sha1()
+    for folder in KERNEL_SOURCES:
+        for path in sorted(folder.glob("*.py")):
+            status = path.stat()
+            digest.update(f"{path.name}:{status.st_mtime_ns}:{status.st_size};".encode())
+    return digest.hexdigest()
+
+
+def _is_kernel_source(py_file) -> bool:
+    try:
+        folder = Path(py_file).resolve().parent
+    except (OSError, TypeError, ValueError):
+        return False
+    return folder in KERNEL_SOURCES
+
+
+class _PackageStampLocator(caching._CacheLocator):
+    """numba's own locator for the function, with the package-wide stamp added."""
+
+    def __init__(self, inner):
+        self._inner = inner
+
+    def ensure_cache_path(self):
+        self._inner.ensure_cache_path()
+
+    def get_cache_path(self):
+        return self._inner.get_cache_path()
+
+    def get_source_stamp(self):
+        return (self._inner.get_source_stamp(), source_stamp())
+
+    def get_disambiguator(self):
+        return self._inner.get_disambiguator()
+
+    @classmethod
+    def from_function(cls, py_func, py_file):
+        if not _is_kernel_source(py_file):
+            return None
+        for other in caching.CacheImpl._locator_classes:
+            if other is cls:
+                continue
+            inner = other.from_function(py_func, py_file)
+            if inner is not None:
+                return cls(inner)
+        return None
+
+
+def register() -> None:
+    """Put the package-stamp locator first in numba's list (once)."""
+    classes = caching.CacheImpl._locator_classes
+    if _PackageStampLocator not in classes:
+        classes.insert(0, _PackageStampLocator)

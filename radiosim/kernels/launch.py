@@ -1,0 +1,430 @@
+"""
+Launching the compiled kernel: the public entry points :func:`pixel_mean`, :func:`accumulate`
+and :func:`accumulate_merged` (argument checks, the table's arrays, per-thread buffers, blocks
+of pixel rows, several frames per call), the handling of a flagged frame (raise with the
+sample's message, or redo the rows below the table in numpy), and the process-wide settings of
+the parallel layer (:func:`apply_thread_settings`, :func:`parallel_launch`).
+"""
+
+from __future__ import annotations
+
+import contextlib
+import os
+import threading
+
+import numba
+import numpy as np
+
+from radiosim.errors import RadiosimError
+from radiosim.kernels.codes import (SIGNAL_MAP, SIGNAL_NONE, SIGNAL_SCALAR, STATUS_ABOVE_TABLE,
+                                    STATUS_BAD_INDEX, STATUS_BAD_SAMPLE, STATUS_BELOW_TABLE,
+                                    STATUS_OK)
+from radiosim.kernels.layout import (KernelAxis, frame_block, frames_of, kernel_axis,
+                                     read_only, rows_of)
+from radiosim.kernels.messages import raise_above_table, raise_bad_index, raise_bad_sample
+from radiosim.kernels.reference import (Members, accumulate_numpy, checked_arguments,
+                                        merge_numpy, per_frame)
+from radiosim.kernels.rows import accumulate_kernel
+from radiosim.kernels.sweeps import MAX_ROWS
+from radiosim.kernels.table import RadianceKernelTable
+
+__all__ = ["apply_thread_settings", "parallel_launch", "pixel_mean", "accumulate", "Members",
+           "accumulate_merged"]
+
+_SETTINGS = threading.Lock()
+_SETTINGS_APPLIED = False
+
+
+def apply_thread_settings() -> None:
+    """
+    Bound OpenMP's spin-wait between parallel regions, once per process, before the first
+    parallel kernel runs (every public launch function calls it first; idempotent).
+
+    The compiled kernels run one short parallel region per frame. OpenMP's default waiting
+    spins idle threads for about 300 000 turns (milliseconds) between regions; on a 2-core
+    machine they then compete with the thread that prepares the next frame, and a region can
+    stall for milliseconds (measured: 8 ms per launch). Sleeping at once
+    (OMP_WAIT_POLICY=PASSIVE) costs a wake-up per region instead (measured: 0.05 ms per launch,
+    10 % of a paper-sized frame). A short spin (GOMP_SPINCOUNT=3000, about 0.05 ms here) covers
+    the gap between two frames' regions and then sleeps: 0.005 ms per launch. It must be set
+    before numba loads its OpenMP layer (at the first compilation or cache load of a parallel
+    function, i.e. the first launch), which is why it is applied here and not at import
+    (``import radiosim`` leaves ``os.environ`` as it is); an explicit OMP_WAIT_POLICY or
+    GOMP_SPINCOUNT in the environment wins.
+    """
+    global _SETTINGS_APPLIED
+    if _SETTINGS_APPLIED:
+        return
+    with _SETTINGS:
+        if not _SETTINGS_APPLIED:
+            if "OMP_WAIT_POLICY" not in os.environ:
+                os.environ.setdefault("GOMP_SPINCOUNT", "3000")
+            _SETTINGS_APPLIED = True
+
+
+_LAUNCH = threading.Lock()
+
+
+@contextlib.contextmanager
+def parallel_launch():
+    """
+    Around every launch of a parallel kernel. numba's OpenMP and TBB threading layers take
+    launches from several threads at once (the integrator on the main thread, the chip scene on
+    the prefetch thread); its fallback layer, workqueue (e.g. on a machine without OpenMP),
+    aborts the process if two launches overlap, so there they are serialised.
+    """
+    apply_thread_settings()
+    try:
+        serialise = numba.threading_layer() == "workqueue"
+    except ValueError:  # no parallel kernel has run yet: the first launch picks the layer
+        serialise = True
+    if serialise:
+        with _LAUNCH:
+            yield
+    else:
+        yield
+
+
+_DUMMY_MAP = read_only(np.zeros(1))
+_DUMMY_INDEX = read_only(np.zeros(1, dtype=np.uint8))
+_DUMMY_SIGNAL = np.zeros((1, 1))
+# Table arguments of the kernel without a response (flat coefficients, k₀, shift, last interval,
+# row offset, T_min, T_max, entry tables, entry grey factors).
+_NO_TABLE = (np.zeros(4), np.zeros(1, dtype=np.int64), np.zeros(1, dtype=np.uint64),
+             np.zeros(1, dtype=np.intp),
+             np.zeros(1, dtype=np.uint64), np.zeros(1), np.full(1, np.inf),
+             np.zeros(1, dtype=np.intp), np.ones(1))
+
+
+_BUFFERS = threading.local()
+
+
+def _buffers(n_blocks: int, size: int, n_slots: int, dtype, index_dtype) -> tuple:
+    """Per-thread buffers for the duplicate slots' samples (frame rows, grey map row, index map
+    row), each as a writeable array and a read-only view of it, and the running maximum and
+    minimum of every slot (frame dtype)."""
+    key = (n_blocks, size, n_slots, np.dtype(dtype), np.dtype(index_dtype))
+    cache = _BUFFERS.__dict__.setdefault("cache", {})  # per calling thread
+    cached = cache.get(key)
+    if cached is None:
+        rows = np.empty((n_blocks, MAX_ROWS, size), dtype=dtype)
+        grey = np.empty((n_blocks, size))
+        index = np.empty((n_blocks, size), dtype=index_dtype)
+        extremes = (np.empty((n_blocks, n_slots), dtype=dtype),
+                    np.empty((n_blocks, n_slots), dtype=dtype))
+        cached = (rows, read_only(rows), grey, read_only(grey), index, read_only(index),
+                  *extremes)
+        if len(cache) > 8:
+            cache.clear()
+        cache[key] = cached
+    return cached
+
+
+def _blocks(n_rows: int, threads: int | None = None) -> int:
+    """Blocks of pixel rows: one per thread."""
+    if threads is None:
+        threads = numba.get_num_threads()
+    elif not 1 <= int(threads) <= numba.config.NUMBA_NUM_THREADS:
+        raise RadiosimError(f"threads must be in 1–{numba.config.NUMBA_NUM_THREADS}, got "
+                            f"{threads!r}")
+    return max(1, min(n_rows, int(threads)))
+
+
+def pixel_mean(frame, rows, cols, *, frame_index: int = 0,
+               threads: int | None = None) -> np.ndarray:
+    """
+    Area-weighted mean of a frame region over each pixel's footprint [K] (the per-pixel
+    reference c of an integration, from its first frame), checking every sample it reads.
+
+    It is :func:`accumulate` with c = 0 and time weight 1 (the same compiled kernel).
+
+    Parameters
+    ----------
+    frame
+        The frame region (float32 or float64, 2-D; read in place), starting at each axis'
+        first piece sample.
+    rows, cols
+        :class:`~radiosim.integrator.AxisFootprints` of the row and column axes.
+    frame_index
+        Frame index k, for error messages.
+    threads
+        As for :func:`accumulate`.
+
+    Returns
+    -------
+    numpy.ndarray
+        (pixel rows, pixel columns), float64.
+    """
+    apply_thread_settings()  # before numba's parallel layer loads
+    rows, cols = kernel_axis(rows, "row"), kernel_axis(cols, "column")
+    shape = (rows.n_pixels, cols.n_pixels)
+    mean, sq, tmax = np.zeros(shape), np.zeros(shape), np.full(shape, -np.inf)
+    accumulate(frame, rows, cols, 1.0, _zeros(shape), mean, sq, tmax, frame_index=frame_index,
+               threads=threads)
+    return mean
+
+
+_ZEROS: dict[tuple[int, int], np.ndarray] = {}
+_ONES: dict[int, np.ndarray] = {}
+
+
+def _ones(n: int) -> np.ndarray:
+    """A read-only row of n ones (the grey map row of a scalar grey factor)."""
+    ones = _ONES.get(n)
+    if ones is None:
+        _ONES.clear()
+        ones = _ONES[n] = read_only(np.ones(n))
+    return ones
+
+
+
+def _zeros(shape: tuple[int, int]) -> np.ndarray:
+    """A read-only per-pixel array of zeros (kept per shape)."""
+    zeros = _ZEROS.get(shape)
+    if zeros is None:
+        _ZEROS.clear()
+        zeros = _ZEROS[shape] = read_only(np.zeros(shape))
+    return zeros
+
+
+def accumulate(frame, rows, cols, time_weight: float, reference: np.ndarray, dev: np.ndarray,
+               sq: np.ndarray, tmax: np.ndarray, signal_acc: np.ndarray | None = None,
+               response: RadianceKernelTable | None = None, *, frame_index: int = 0,
+               threads: int | None = None) -> int:
+    """
+    Accumulate one frame into the per-pixel tensor statistics, in one pass over its pieces.
+
+    Per pixel: ``dev += w_t Σ w (T − c)``, ``sq += w_t Σ w (T − c)²``,
+    ``tmax = max(tmax, max T)`` and, with a ``response``, ``signal_acc += w_t Σ w S(T)``, where
+    w are the pieces' area weights and w_t is ``time_weight``.
+
+    Parameters
+    ----------
+    frame
+        The frame region (float32 or float64, 2-D; read in place, never copied to float64).
+    rows, cols
+        :class:`~radiosim.integrator.AxisFootprints` of the row and column axes.
+    time_weight
+        The frame's weight in the window.
+    reference
+        Per-pixel reference c [K] (:func:`pixel_mean` of the window's first frame).
+    dev, sq, tmax, signal_acc
+        Per-pixel accumulators, float64 C-contiguous (pixel rows, pixel columns), updated in
+        place; ``signal_acc`` only with a ``response``.
+    response
+        :class:`RadianceKernelTable` (with the frame's emissivity maps), or ``None`` for no
+        signal (the linear response: the signal is T).
+    frame_index
+        Frame index k, for error messages.
+    threads
+        Threads (blocks of pixel rows) for this call; ``None``: numba's current number
+        (``numba.get_num_threads()``). On a machine whose cores are busy with other work
+        (e.g. a thread preparing the next frame), one thread can be faster: a descheduled
+        thread stalls the whole parallel region.
+
+    Returns
+    -------
+    int
+        :data:`STATUS_OK`, or :data:`STATUS_BELOW_TABLE` if some pixel rows held samples below
+        the radiance table and were accumulated by the numpy reference instead (exact
+        quadrature for those samples).
+
+    Raises
+    ------
+    RadiosimError
+        A sample is NaN, infinite or ≤ 0 K (message as ``check_frame``: frame, row and column
+        in full-scene coordinates, value, count), above its table, or has an index that is no
+        entry. The accumulators are then partly updated: discard them.
+    """
+    apply_thread_settings()  # before numba's parallel layer loads
+    rows, cols, frame2d = checked_arguments(frame, rows, cols, reference, dev, sq, tmax, signal_acc,
+                                   response)
+    if not reference.flags.writeable:  # the kernel takes one array type (it writes it only
+        reference = reference.copy()  # when merging)
+    def handle(f, launched):
+        return _finish(launched, frame2d, rows, cols, frame_index, response,
+                       float(time_weight), reference, dev, sq, tmax, signal_acc, None)
+
+    return _launch(frame2d[None], rows, cols, float(time_weight), reference, dev, sq, tmax,
+                   signal_acc, response, None, threads, handle)
+
+
+def accumulate_merged(frame, rows, cols, reference: np.ndarray, members: Members,
+                      weight: np.ndarray, signal_weight: np.ndarray,
+                      response: RadianceKernelTable | None = None, *, moments: bool = True,
+                      frame_index: int = 0, threads: int | None = None) -> int:
+    """
+    One frame into the accumulators of several jobs on the same footprints, in one pass: the
+    frame's per-pixel mean m = c + Σ w (T − c) and variance v = Σ w (T − c)² − (Σ w (T − c))²
+    (c = ``reference``, the previous frame's means) are merged into job b with its time weight
+    ``weight[b]`` (0: the frame is not in its window) by the update of Chan, Golub & LeVeque
+    (1979), its maximum raised, and ``signal_weight[b]`` × the frame's mean signal added to its
+    signal. ``reference`` then holds m. With ``moments`` off, only the signals are added (a
+    second response on the same footprints) and ``reference`` is kept. ``members.count`` is
+    updated here. Checks, errors and return value as :func:`accumulate`.
+
+    ``frame`` may also be several consecutive frames (3-D: frames, rows, columns; frame
+    indices ``frame_index``, ``frame_index + 1``, …) with ``weight`` and ``signal_weight`` one
+    row per frame: they are merged one after the other, exactly as frame by frame, in one call
+    (no per-frame Python or thread start-up).
+    """
+    apply_thread_settings()  # before numba's parallel layer loads
+    rows, cols = kernel_axis(rows, "row"), kernel_axis(cols, "column")
+    block = frame_block(frame, rows, cols)
+    n_frames, n_jobs = block.shape[0], members.count.size
+    weight = per_frame(weight, n_frames, n_jobs, "weight")
+    signal_weight = per_frame(signal_weight, n_frames, n_jobs, "signal_weight")
+    if not moments:
+        weight = np.zeros_like(weight)
+    # n_b before each frame, and after the last, added up frame by frame.
+    counts = np.cumsum(np.vstack([members.count[None], weight]), axis=0)
+    merged = (True, bool(moments), weight, counts[:-1], signal_weight, members.mean,
+              members.m2, members.max, members.signal)
+
+    def handle(f, launched):
+        one = (True, bool(moments), weight[f], counts[f], signal_weight[f], members.mean,
+               members.m2, members.max, members.signal)
+        return _finish(launched, block[f], rows, cols, frame_index + f, response, 1.0,
+                       reference, None, None, None, None, (one, members))
+
+    shape = reference.shape
+    status = _launch(block, rows, cols, 1.0, reference, _scratch(shape, 0), _scratch(shape, 1),
+                     _scratch(shape, 2), _scratch(shape, 3), response, merged, threads, handle)
+    if moments:
+        members.count[...] = counts[-1]
+    return status
+
+
+_NO_MEMBERS = (False, False, np.zeros((1, 1)), np.zeros((1, 1)), np.zeros((1, 1)),
+               np.zeros((1, 1, 1)), np.zeros((1, 1, 1)), np.zeros((1, 1, 1)),
+               np.zeros((1, 1, 1)))
+
+
+_SCRATCH: dict = {}
+
+
+def _scratch(shape, which: int) -> np.ndarray:
+    """Per-pixel arrays the merging kernel takes but does not use (kept per shape)."""
+    key = (shape, which)
+    array = _SCRATCH.get(key)
+    if array is None:
+        if len(_SCRATCH) > 16:
+            _SCRATCH.clear()
+        array = _SCRATCH[key] = np.zeros(shape)
+    return array
+
+
+def _launch(block, rows: KernelAxis, cols: KernelAxis, time_weight, reference, dev, sq, tmax,
+            signal_acc, response, merged, threads, handle) -> int:
+    """Run the compiled kernel on the frames of ``block`` (3-D; several only when merging,
+    with ``merged``'s weights one row per frame). A frame with a status stops the blocks of
+    pixel rows that saw it; in frame order, ``handle(f, (OR of its rows' bits, the rows'
+    status array, the table))`` deals with it (raises, or redoes the flagged rows) and returns
+    a status, and those blocks go on from the next frame. Returns the OR of the handled
+    statuses (STATUS_OK if none)."""
+    shape = (rows.n_pixels, cols.n_pixels)
+    base, row_length, frame_stride = frames_of(block)
+    frame_shape = block.shape[1:]
+    if response is None:
+        mode, signal, table = SIGNAL_NONE, _DUMMY_SIGNAL, None
+        grey_map, index_map, map_length, use_map, grey = _DUMMY_MAP, _DUMMY_INDEX, 0, False, 1.0
+        coef, key0, shift, last, offset, t_min, t_max, entry_table, entry_grey = _NO_TABLE
+    else:
+        if not isinstance(response, RadianceKernelTable):
+            raise RadiosimError(f"response must be a RadianceKernelTable or None, got "
+                                f"{type(response).__name__}")
+        signal = signal_acc if signal_acc is not None else _scratch(shape, 3)
+        response._check_maps(frame_shape)
+        mode = response._mode()
+        table = response
+        use_map = response.grey_scalar is None
+        # The kernel's grey factor: S = L · grey (SIGNAL_SCALAR), L · (grey · map) (SIGNAL_MAP),
+        # L · grey_e · grey or L · grey_e · map (SIGNAL_INDEX), as RadianceKernelTable.signal.
+        if mode == SIGNAL_SCALAR:
+            grey = response.entry_grey[0] * response.grey_scalar
+        elif mode == SIGNAL_MAP:
+            grey = response.entry_grey[0]
+        else:
+            grey = 1.0 if use_map else response.grey_scalar
+        grey_map, map_length = (rows_of(response.grey) if use_map
+                                else (_ones(frame_shape[1]), 0))
+        if response.index is not None:
+            index_map, map_length = rows_of(response.index)
+        else:
+            index_map = _DUMMY_INDEX
+        coef, key0, shift, last, offset = (response.coefficients, response.key0,
+                                           response.shift, response.last, response.offset)
+        t_min, t_max = response.t_min, response.t_max
+        entry_table, entry_grey = response.entry_table, response.entry_grey
+    n_frames = block.shape[0]
+    status = np.zeros((n_frames, rows.n_pixels), dtype=np.int64)
+    slot_runs, slot_weight, slot_of_piece, dup_source, col_bounds, layout = cols.slots
+    n_blocks = _blocks(rows.n_pixels, threads)
+    buffers = _buffers(n_blocks, max(1, dup_source.size), slot_weight.size, base.dtype,
+                       index_map.dtype)
+    members = merged if merged is not None else _NO_MEMBERS
+    start = np.zeros(n_blocks, dtype=np.int64)
+    pending = np.full(n_blocks, -1, dtype=np.int64)  # a frame whose status awaits handling
+    handled = STATUS_OK
+    previous = numba.get_num_threads()
+    if n_blocks != previous and n_blocks <= numba.config.NUMBA_NUM_THREADS:
+        numba.set_num_threads(n_blocks)
+    try:
+        while True:
+            run = np.where(pending >= 0, n_frames, start)
+            with parallel_launch():
+                stopped = accumulate_kernel(
+                    n_blocks, run, n_frames, frame_stride, base, row_length, rows.source,
+                    rows.weight, rows.bounds, cols.extent, slot_runs, slot_weight,
+                    slot_of_piece, dup_source, col_bounds, layout, time_weight, reference, dev,
+                    sq, tmax, signal, *members, mode, coef, key0, shift, last, offset, t_min,
+                    t_max, entry_table, entry_grey, float(grey), grey_map, index_map,
+                    map_length, use_map, *buffers, status)
+            ran = run < n_frames
+            pending[ran & (stopped < n_frames)] = stopped[ran & (stopped < n_frames)]
+            start[ran] = np.minimum(stopped[ran] + 1, n_frames)
+            if not np.any(pending >= 0):
+                return handled
+            # The earliest frame with a status: every block has either passed it cleanly or
+            # stopped at or after it, so its flagged rows are handled in frame order.
+            f = int(pending[pending >= 0].min())
+            result = int(np.bitwise_or.reduce(status[f]))
+            handled |= handle(f, (result, status[f], table))
+            pending[pending == f] = -1
+    finally:
+        if numba.get_num_threads() != previous:
+            numba.set_num_threads(previous)
+
+
+def _finish(launched, frame2d, rows: KernelAxis, cols: KernelAxis, frame_index, response,
+            time_weight, reference, dev, sq, tmax, signal_acc, merged):
+    """Raise for a flagged frame, or redo its pixel rows with samples below the table in numpy
+    (exact quadrature for those samples); returns STATUS_BELOW_TABLE."""
+    result, status, table = launched
+    if result & STATUS_BAD_SAMPLE:
+        raise_bad_sample(frame2d, rows, cols, frame_index)
+    if result & STATUS_BAD_INDEX:
+        raise_bad_index(frame2d, rows, cols, frame_index, table)
+    if result & STATUS_ABOVE_TABLE:
+        raise_above_table(frame2d, rows, cols, frame_index, table)
+    # Samples below the table: those pixel rows were left untouched; redo them in numpy.
+    shape = (rows.n_pixels, cols.n_pixels)
+    flagged = np.flatnonzero(status)
+    start, stop = int(flagged[0]), int(flagged[-1]) + 1
+    part = rows.pixels(start, stop)
+    n = stop - start
+    part_dev, part_sq, part_signal = (np.zeros((n, shape[1])) for _ in range(3))
+    part_max = np.full((n, shape[1]), -np.inf)
+    accumulate_numpy(frame2d, part, cols, time_weight, reference[start:stop], part_dev,
+                      part_sq, part_max, part_signal, response)
+    local = flagged - start
+    if merged is None:
+        dev[flagged] += part_dev[local]
+        sq[flagged] += part_sq[local]
+        signal_acc[flagged] += part_signal[local]
+        tmax[flagged] = np.maximum(tmax[flagged], part_max[local])
+        return STATUS_BELOW_TABLE
+    (_, moments, weight, count, signal_weight, mean, m2, peak, signal), _ = merged
+    merge_numpy(flagged, part_dev[local], part_sq[local], part_max[local], part_signal[local],
+                reference, moments, weight, count, signal_weight, mean, m2, peak, signal)
+    return STATUS_BELOW_TABLE

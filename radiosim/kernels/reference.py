@@ -1,0 +1,175 @@
+"""
+The numpy references of the compiled kernels (float64 throughout, the integrator's reduceat
+arithmetic): :func:`pixel_mean_reference`, :func:`accumulate_reference` and
+:func:`accumulate_merged_reference`. They are the tests' oracle and the path the compiled
+kernels take for pixel rows holding samples colder than the radiance table.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from radiosim.kernels.codes import STATUS_BELOW_TABLE, STATUS_OK
+from radiosim.errors import RadiosimError
+from radiosim.kernels.layout import (KernelAxis, frame_block, frame_region, kernel_axis,
+                                     per_pixel)
+from radiosim.kernels.messages import check_samples
+from radiosim.kernels.table import RadianceKernelTable
+
+__all__ = ["pixel_mean_reference", "accumulate_reference", "Members",
+           "accumulate_merged_reference"]
+
+
+def on_pieces(field: np.ndarray, rows: KernelAxis, cols: KernelAxis,
+              dtype=np.float64) -> np.ndarray:
+    """A field on the region grid, on the piece grid (a copy, in ``dtype``)."""
+    return np.asarray(np.asarray(field)[rows.source][:, cols.source], dtype=dtype)
+
+
+def weighted_mean(values: np.ndarray, rows: KernelAxis, cols: KernelAxis) -> np.ndarray:
+    """Area-weighted mean of piece values over each pixel (the integrator's pixel_mean)."""
+    weighted = np.add.reduceat(values * rows.weight[:, None], rows.starts, axis=0)
+    return np.add.reduceat(weighted * cols.weight[None, :], cols.starts, axis=1)
+
+
+def pixel_mean_reference(frame, rows, cols, *, frame_index: int = 0) -> np.ndarray:
+    """:func:`pixel_mean` in plain numpy (float64 throughout): the oracle."""
+    rows, cols = kernel_axis(rows, "row"), kernel_axis(cols, "column")
+    frame2d = frame_region(frame, rows, cols)
+    check_samples(frame2d, rows, cols, frame_index, None)
+    return weighted_mean(on_pieces(frame2d, rows, cols), rows, cols)
+
+
+def accumulate_numpy(frame2d, rows: KernelAxis, cols: KernelAxis, time_weight, reference, dev,
+                     sq, tmax, signal_acc, response):
+    t = on_pieces(frame2d, rows, cols)  # [K], float64, on the piece grid
+    deviation = t - np.repeat(np.repeat(reference, np.diff(rows.bounds), axis=0),
+                              np.diff(cols.bounds), axis=1)
+    dev += time_weight * weighted_mean(deviation, rows, cols)
+    sq += time_weight * weighted_mean(deviation * deviation, rows, cols)
+    peak = np.maximum.reduceat(np.maximum.reduceat(t, rows.starts, axis=0), cols.starts, axis=1)
+    np.maximum(tmax, peak, out=tmax)
+    if response is not None:
+        grey = None if response.grey_scalar is not None else on_pieces(response.grey, rows, cols)
+        index = None if response.index is None else on_pieces(response.index, rows, cols, np.intp)
+        signal_acc += time_weight * weighted_mean(response.signal(t, grey, index), rows, cols)
+
+
+def checked_arguments(frame, rows, cols, reference, dev, sq, tmax, signal_acc, response):
+    """The axes and the 2-D frame of an accumulation, its per-pixel arrays checked."""
+    rows, cols = kernel_axis(rows, "row"), kernel_axis(cols, "column")
+    frame2d = frame_region(frame, rows, cols)
+    shape = (rows.n_pixels, cols.n_pixels)
+    for name, array in (("reference", reference), ("dev", dev), ("sq", sq), ("tmax", tmax)):
+        per_pixel(array, shape, name)
+    if response is not None:
+        per_pixel(signal_acc, shape, "signal_acc")
+    return rows, cols, frame2d
+
+
+def accumulate_reference(frame, rows, cols, time_weight: float, reference: np.ndarray,
+                         dev: np.ndarray, sq: np.ndarray, tmax: np.ndarray,
+                         signal_acc: np.ndarray | None = None,
+                         response: RadianceKernelTable | None = None, *,
+                         frame_index: int = 0) -> int:
+    """:func:`accumulate` in plain numpy (float64, the integrator's reduceat arithmetic): the
+    oracle, and the path for frames with samples below the radiance table. Same arguments,
+    checks, errors and return value."""
+    rows, cols, frame2d = checked_arguments(frame, rows, cols, reference, dev, sq, tmax, signal_acc,
+                                   response)
+    if response is not None:
+        response._check_maps(frame2d.shape)
+    below = check_samples(frame2d, rows, cols, frame_index, response)
+    accumulate_numpy(frame2d, rows, cols, float(time_weight), reference, dev, sq, tmax,
+                      signal_acc, response)
+    return STATUS_BELOW_TABLE if below else STATUS_OK
+
+
+class Members:
+    """
+    The accumulators of the jobs that share a footprint group in the integrator's compiled
+    engine (:func:`accumulate_merged`): per job b, the merged mean [K], M2 [K²] (sum of the
+    weights × squared deviations), maximum [K] and time-weighted signal of each pixel, stacked
+    as (jobs, pixel rows, pixel columns), and the total weight n_b merged so far.
+    """
+
+    def __init__(self, n_jobs: int, shape: tuple[int, int]):
+        self.mean = np.zeros((n_jobs, *shape))
+        self.m2 = np.zeros((n_jobs, *shape))
+        self.max = np.full((n_jobs, *shape), -np.inf)
+        self.signal = np.zeros((n_jobs, *shape))
+        self.count = np.zeros(n_jobs)
+
+
+def per_frame(values, n_frames: int, n_jobs: int, name: str) -> np.ndarray:
+    """Per-frame, per-job weights as a C-contiguous (frames, jobs) float64 array."""
+    try:
+        a = np.asarray(values, dtype=np.float64)
+        got = f"shape {a.shape}"
+    except (TypeError, ValueError):
+        a, got = np.zeros(0), "ragged or non-numeric values"
+    if a.ndim == 1:
+        a = a[None]
+    if a.shape != (n_frames, n_jobs):
+        raise RadiosimError(f"{name} must have shape ({n_jobs},) for one frame or "
+                            f"({n_frames}, {n_jobs}) for {n_frames} frames (one weight per "
+                            f"frame and job), got {got}")
+    return np.ascontiguousarray(a)
+
+
+def merge_numpy(rows, d, v1, t_max, s, reference, moments, weight, count, signal_weight, mean,
+                m2, peak, signal):
+    """Merge a frame's sums over pixel ``rows`` (d = Σ w (T − c), v1 = Σ w (T − c)², the
+    maximum, s = Σ w S) into the jobs' moments as the compiled kernel does (Chan, Golub &
+    LeVeque 1979; per job b of time weight ``weight[b]`` and count ``count[b]`` before the
+    frame), add ``signal_weight[b]`` × s to their signals, and set the reference rows to the
+    frame's means (with ``moments``)."""
+    for b in range(weight.size):
+        if signal_weight[b] > 0:
+            signal[b, rows] += signal_weight[b] * s
+    if moments:
+        frame_mean = reference[rows] + d
+        frame_var = np.maximum(v1 - d * d, 0.0)
+        for b in range(weight.size):
+            w = weight[b]
+            if w > 0:
+                n_b = count[b]
+                total = n_b + w
+                delta = frame_mean - mean[b, rows]
+                m2[b, rows] += w * frame_var + delta * delta * (n_b * w / total)
+                mean[b, rows] += delta * (w / total)
+                peak[b, rows] = np.maximum(peak[b, rows], t_max)
+        reference[rows] = frame_mean
+
+
+def accumulate_merged_reference(frame, rows, cols, reference: np.ndarray, members: Members,
+                                weight: np.ndarray, signal_weight: np.ndarray,
+                                response: RadianceKernelTable | None = None, *,
+                                moments: bool = True, frame_index: int = 0,
+                                threads: int | None = None) -> int:
+    """:func:`~radiosim.kernels.launch.accumulate_merged` in plain numpy: each frame's sums by
+    :func:`accumulate_reference`, merged by :func:`merge_numpy`. Same arguments (``threads``
+    is accepted and unused), checks, errors and return value."""
+    rows, cols = kernel_axis(rows, "row"), kernel_axis(cols, "column")
+    block = frame_block(frame, rows, cols)
+    n_frames, n_jobs = block.shape[0], members.count.size
+    weight = per_frame(weight, n_frames, n_jobs, "weight")
+    signal_weight = per_frame(signal_weight, n_frames, n_jobs, "signal_weight")
+    if not moments:
+        weight = np.zeros_like(weight)
+    counts = np.cumsum(np.vstack([members.count[None], weight]), axis=0)
+    shape = reference.shape
+    every = np.arange(shape[0])
+    status = STATUS_OK
+    for f in range(n_frames):
+        dev, sq, signal = np.zeros(shape), np.zeros(shape), np.zeros(shape)
+        peak = np.full(shape, -np.inf)
+        status |= accumulate_reference(block[f], rows, cols, 1.0, reference, dev, sq, peak,
+                                       None if response is None else signal, response,
+                                       frame_index=frame_index + f)
+        merge_numpy(every, dev, sq, peak, signal, reference, bool(moments), weight[f],
+                    counts[f], signal_weight[f], members.mean, members.m2, members.max,
+                    members.signal)
+    if moments:
+        members.count[...] = counts[-1]
+    return status

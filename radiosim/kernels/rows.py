@@ -1,0 +1,389 @@
+"""
+The parallel kernel: pixel rows in one block per thread (``numba.prange``), each row's sample
+rows swept (:mod:`radiosim.kernels.sweeps`) with their radiance
+(:mod:`radiosim.kernels.radiance`), the slots reduced to pixels and checked, and the pixels
+committed to the accumulators, or merged into several jobs' moments (Chan et al.).
+:func:`accumulate_kernel` takes several frames per call. Launched by
+:mod:`radiosim.kernels.launch`.
+"""
+
+from __future__ import annotations
+
+import numba
+import numpy as np
+from numba import prange
+
+from radiosim.kernels.codes import SIGNAL_INDEX, SIGNAL_MAP, SIGNAL_NONE, SIGNAL_SCALAR
+from radiosim.kernels.intrinsics import INF, JIT
+from radiosim.kernels.radiance import _signal_row, _signal_rows
+from radiosim.kernels.sweeps import CHUNK, MAX_ROWS, _gather, _lin
+
+__all__ = ["accumulate_kernel"]
+
+
+@numba.njit(**JIT)
+def _setup_row(reference, i, slot_runs, with_signal, ce, a3):
+    """Start pixel row i: ce = the reference c of each slot's pixel (run by run: slots
+    ``slot_runs[r, 0]`` to ``slot_runs[r, 1] − 1`` belong to pixel ``slot_runs[r, 2]``), the
+    signal cleared (the row's first sweep writes the other accumulators)."""
+    for r in range(slot_runs.shape[0]):
+        c = reference[i, slot_runs[r, 2]]
+        for k in range(slot_runs[r, 0], slot_runs[r, 1]):
+            ce[k] = c
+    if with_signal:
+        for k in range(ce.size):
+            a3[k] = 0.0
+
+
+@numba.njit(**JIT)
+def _pixel_done(j, v1, v2, v3, m, n, t_low, t_high, s1, s2, s3, sm):
+    """Store pixel j's sums and maximum (m, n: its extremes in the frame's dtype, widened
+    here) and return its status bits: 1 a bad sample (NaN in Σ w (T − c), +inf, ≤ 0 K), 2 one
+    below ``t_low``, 4 one above ``t_high``."""
+    s1[j], s2[j], s3[j], sm[j] = v1, v2, v3, np.float64(m)
+    bad = np.int64(n <= 0.0) | np.int64(np.float64(m) == INF) | np.int64(v1 != v1)
+    return bad | (np.int64(np.float64(n) < t_low) << 1) | (np.int64(np.float64(m) > t_high) << 2)
+
+
+@numba.njit(**JIT)
+def _pixel_sums(a1, a2, a3, am, an, slot_weight, slot_of_piece, col_bounds, identity,
+                with_signal, t_low, t_high, s1, s2, s3, sm):
+    """Per pixel j: s1, s2, s3 = Σ w a1, Σ w a2, Σ w a3 and sm = max am over the slots of its
+    pieces (``identity``: slot q is piece q), in one pass; returns the OR of the pixels'
+    status bits (:func:`_pixel_done`). The slot update is written out here and in
+    :func:`_pixel_sums_regular`: as a shared function returning a tuple it made the
+    reductions a third slower."""
+    n_pixels = col_bounds.size - 1
+    status = 0
+    for j in range(n_pixels):  # one pass over the slots the pixels' pieces read
+        v1 = 0.0
+        v2 = 0.0
+        v3 = 0.0
+        first = col_bounds[j]
+        k = first if identity else slot_of_piece[first]
+        m = am[k]  # extremes in the frame's dtype (exact), widened once
+        n = an[k]
+        for q in range(first, col_bounds[j + 1]):
+            k = q if identity else slot_of_piece[q]
+            w = slot_weight[k]
+            v1 += a1[k] * w
+            v2 += a2[k] * w
+            if with_signal:
+                v3 += a3[k] * w
+            a = am[k]
+            m = a if a > m else m
+            a = an[k]
+            n = a if a < n else n
+        status |= _pixel_done(j, v1, v2, v3, m, n, t_low, t_high, s1, s2, s3, sm)
+    return status
+
+
+@numba.njit(**JIT)
+def _pixel_sums_regular(a1, a2, a3, am, an, slot_weight, slot_of_piece, col_bounds, identity,
+                        with_signal, t_low, t_high, s1, s2, s3, sm):
+    """:func:`_pixel_sums` for a layout whose pixels' interior pieces (all but the first and
+    the last) lie on consecutive slots with one weight (whole samples): the interior is summed
+    unweighted and weighted once, in a short loop without indirection."""
+    n_pixels = col_bounds.size - 1
+    status = 0
+    one = np.uint64(1)
+    for j in range(n_pixels):  # one pass over the slots the pixels' pieces read
+        first = col_bounds[j]
+        stop = col_bounds[j + 1]
+        # A pixel's first and last pieces have their own weights (edges inside samples); its
+        # interior pieces are whole samples of one weight, on consecutive slots.
+        k = first if identity else slot_of_piece[first]
+        w = slot_weight[k]
+        v1 = a1[k] * w
+        v2 = a2[k] * w
+        v3 = a3[k] * w if with_signal else 0.0
+        m = am[k]  # extremes in the frame's dtype (exact), widened once
+        n = an[k]
+        if stop - first > one:
+            k = stop - one if identity else slot_of_piece[stop - one]
+            w = slot_weight[k]
+            v1 += a1[k] * w
+            v2 += a2[k] * w
+            if with_signal:
+                v3 += a3[k] * w
+            a = am[k]
+            m = a if a > m else m
+            a = an[k]
+            n = a if a < n else n
+        if stop - first > np.uint64(2):
+            lo = first + one if identity else slot_of_piece[first + one]
+            hi = lo + (stop - first - np.uint64(2))
+            t1 = 0.0
+            t2 = 0.0
+            t3 = 0.0
+            for q in range(lo, hi):  # (LLVM takes the test on with_signal out of the loop)
+                t1 += a1[q]
+                t2 += a2[q]
+                if with_signal:
+                    t3 += a3[q]
+                a = am[q]
+                m = a if a > m else m
+                a = an[q]
+                n = a if a < n else n
+            w = slot_weight[lo]
+            v1 += t1 * w
+            v2 += t2 * w
+            v3 += t3 * w
+        status |= _pixel_done(j, v1, v2, v3, m, n, t_low, t_high, s1, s2, s3, sm)
+    return status
+
+
+@numba.njit(**JIT)
+def _commit_row(i, a1, a2, a3, am, an, slot_weight, slot_of_piece, col_bounds, layout,
+                time_weight, with_signal, t_low, t_high, reference, dev, sq, tmax, signal,
+                merge, moments, member_weight, member_count, signal_weight, m_mean, m_m2,
+                m_max, m_signal, s1, s2, s3, sm, status):
+    """Add the pieces to the row's pixels (pixel row ``i``) and check the slots they read (NaN
+    propagates into a1, +inf into am, T ≤ 0 and T below the table show in an), in one pass;
+    commit them unless the row has a status (``status``: bits found so far). Returns the row's
+    status.
+    ``layout``: bit 0, slot q is piece q (the pieces are the samples); bit 1, each pixel's
+    interior pieces (all but its first and last) lie on consecutive slots with one weight
+    (:attr:`KernelAxis.slots`); s1, s2, s3, sm: per-pixel scratch.
+
+    Without ``merge``: dev, sq, signal += time_weight × the frame's Σ w (T − c), Σ w (T − c)²,
+    Σ w S, and tmax = max(tmax, max T) (row i of the per-pixel accumulators). With ``merge``:
+    the frame's mean m = c + Σ w (T − c) and variance v = max(Σ w (T − c)² − (Σ w (T − c))², 0)
+    are merged into every member job b of weight w_b = member_weight[b] > 0 (Chan et al.:
+    δ = m − mean, M2 += w_b v + δ² n_b w_b / n', mean += δ w_b / n', n' = n_b + w_b; the
+    maximum), unless ``moments`` is off; signals add signal_weight[b] × Σ w S; and the reference
+    row becomes m (the next frame's c)."""
+    n_pixels = col_bounds.size - 1
+    identity = (layout & 1) != 0
+    if (layout & 2) != 0:
+        status |= _pixel_sums_regular(a1, a2, a3, am, an, slot_weight, slot_of_piece,
+                                      col_bounds, identity, with_signal, t_low, t_high, s1, s2,
+                                      s3, sm)
+    else:
+        status |= _pixel_sums(a1, a2, a3, am, an, slot_weight, slot_of_piece, col_bounds,
+                              identity, with_signal, t_low, t_high, s1, s2, s3, sm)
+    if status:
+        return status
+    if not merge:  # the accumulators indexed [i, j], [b, i, j]: no row views (a view of an
+        # array is a reference count, an atomic operation the threads would share)
+        for j in range(n_pixels):
+            dev[i, j] += time_weight * s1[j]
+            sq[i, j] += time_weight * s2[j]
+            m = tmax[i, j]
+            tmax[i, j] = sm[j] if sm[j] > m else m
+        if with_signal:
+            for j in range(n_pixels):
+                signal[i, j] += time_weight * s3[j]
+        return 0
+    for b in range(member_weight.size):
+        w = signal_weight[b]
+        if with_signal and w > 0.0:
+            for j in range(n_pixels):
+                m_signal[b, i, j] += w * s3[j]
+    if moments:
+        for j in range(n_pixels):  # the frame's mean and variance over each footprint
+            v = s2[j] - s1[j] * s1[j]
+            s2[j] = v if v > 0.0 else 0.0
+            s1[j] = reference[i, j] + s1[j]
+        for b in range(member_weight.size):
+            w = member_weight[b]
+            if w > 0.0:
+                n = member_count[b]
+                total = n + w
+                share = w / total
+                spread = n * w / total
+                for j in range(n_pixels):
+                    delta = s1[j] - m_mean[b, i, j]
+                    m_m2[b, i, j] += w * s2[j] + delta * delta * spread
+                    m_mean[b, i, j] += delta * share
+                    m = m_max[b, i, j]
+                    m_max[b, i, j] = sm[j] if sm[j] > m else m
+        for j in range(n_pixels):
+            reference[i, j] = s1[j]
+    return 0
+
+
+@numba.njit(**JIT)
+def _rows12(row_source, p, n, length):
+    """The uint64 offsets, in a flat array of rows of ``length`` elements, of sample rows
+    ``row_source[p + h]`` for h < 12 (rows past n − 1 repeat the last)."""
+    return (_row(row_source, p, 0, n, length), _row(row_source, p, 1, n, length),
+            _row(row_source, p, 2, n, length), _row(row_source, p, 3, n, length),
+            _row(row_source, p, 4, n, length), _row(row_source, p, 5, n, length),
+            _row(row_source, p, 6, n, length), _row(row_source, p, 7, n, length),
+            _row(row_source, p, 8, n, length), _row(row_source, p, 9, n, length),
+            _row(row_source, p, 10, n, length), _row(row_source, p, 11, n, length))
+
+
+@numba.njit(**JIT)
+def _row(row_source, p, h, n, length):
+    """The uint64 offset of sample row ``row_source[p + min(h, n − 1)]`` in a flat array of
+    rows of ``length`` elements."""
+    return np.uint64(row_source[p + min(h, n - 1)] * length)
+
+
+@numba.njit(**JIT)
+def _accumulate_rows(i_start, i_stop, base, row_length, row_source, row_weight, row_bounds,
+                     n_samples, slot_runs, slot_weight, slot_of_piece, dup_source, col_bounds,
+                     layout, time_weight, reference, dev, sq, tmax, signal, merge, moments,
+                     member_weight, member_count, signal_weight, m_mean, m_m2, m_max, m_signal,
+                     mode, coef, key0, shift, last, offset, t_min, t_max, entry_table, entry_grey,
+                     grey,
+                     grey_map, index_map, map_length, use_map, rows_w, rows_r, grey_w, grey_r,
+                     index_w, index_r, am, an, status):
+    """Pixel rows i_start to i_stop − 1 of :func:`accumulate_kernel` (one thread's block).
+    rows_w/rows_r, grey_w/grey_r, index_w/index_r: this thread's buffers for the duplicate
+    slots' samples, each written through the first array and read through the second (a
+    read-only view of the same memory, so that the gathered rows have the type of the frame's
+    rows: one compilation serves both); am, an: this thread's running maximum and minimum per
+    slot, in the frame's dtype.
+
+    Each pixel row is swept along the columns in chunks of CHUNK slots, up to MAX_ROWS sample
+    rows per sweep (all of them, for pixels of up to MAX_ROWS pieces), so the accumulators are
+    read and written once per chunk while the frame's rows stream through."""
+    n_slots = slot_weight.size
+    ns = n_samples
+    n_dups = dup_source.size
+    n_pixels = col_bounds.size - 1
+    with_signal = mode != SIGNAL_NONE
+    # The slot accumulators in one buffer, their starts 576 bytes apart modulo 4096: loads of
+    # one and stores to another never alias in the address bits the CPU compares first.
+    # The Planck pass's scratch (interval, position: per chunk) likewise, 4 kB each.
+    stride = (max(n_slots, 2 * CHUNK) + 511) // 512 * 512 + 72
+    slots = np.empty(6 * stride)
+    a1 = slots[:n_slots]
+    a2 = slots[stride:stride + n_slots]
+    a3 = slots[2 * stride:2 * stride + n_slots]
+    ce = slots[3 * stride:3 * stride + n_slots]
+    u = slots[4 * stride:4 * stride + 2 * CHUNK]
+    interval = slots[5 * stride:5 * stride + 2 * CHUNK].view(np.uint64)
+    value = np.empty(CHUNK)
+    factor = np.empty(CHUNK)
+    s1 = np.empty(n_pixels)
+    s2 = np.empty(n_pixels)
+    s3 = np.empty(n_pixels)
+    sm = np.empty(n_pixels)
+    table = entry_table[0]
+    t_low = t_min[table] if (mode == SIGNAL_SCALAR or mode == SIGNAL_MAP) else -INF
+    t_high = t_max[table] if (mode == SIGNAL_SCALAR or mode == SIGNAL_MAP) else INF
+    # Modes 1 and 2: the one table's rows and grid.
+    table_rows = coef[np.uint64(offset[table]) * np.uint64(4):]
+    table_key0 = key0[table]
+    table_shift = np.uint64(shift[table])
+    table_last = np.uint64(last[table])
+    # Slot bounds and offsets as uint64 (the sweeps index with them).
+    zero = np.uint64(0)
+    samples_u = np.uint64(ns)
+    slots_u = np.uint64(n_slots)
+    chunk = np.uint64(CHUNK)
+    dup_rows = rows_r.reshape(-1)
+    size = np.uint64(rows_r.shape[1])
+    dup_offsets = (zero - samples_u, size - samples_u, np.uint64(2) * size - samples_u,
+                   np.uint64(3) * size - samples_u, np.uint64(4) * size - samples_u,
+                   np.uint64(5) * size - samples_u, np.uint64(6) * size - samples_u,
+                   np.uint64(7) * size - samples_u, np.uint64(8) * size - samples_u,
+                   np.uint64(9) * size - samples_u, np.uint64(10) * size - samples_u,
+                   np.uint64(11) * size - samples_u)
+    for i in range(i_start, i_stop):
+        _setup_row(reference, i, slot_runs, with_signal, ce, a3)
+        row_status = np.int64(0)  # not a literal: one compilation of _commit_row
+        p = row_bounds[i]
+        start = p
+        stop = row_bounds[i + 1]
+        while p < stop:
+            n = min(MAX_ROWS, stop - p)
+            # Rows past n repeat the last one (never read by _lin{n}); offsets as uint64.
+            o = _rows12(row_source, p, n, row_length)
+            ws = (row_weight[p], row_weight[p + min(1, n - 1)], row_weight[p + min(2, n - 1)],
+                  row_weight[p + min(3, n - 1)], row_weight[p + min(4, n - 1)],
+                  row_weight[p + min(5, n - 1)], row_weight[p + min(6, n - 1)],
+                  row_weight[p + min(7, n - 1)], row_weight[p + min(8, n - 1)],
+                  row_weight[p + min(9, n - 1)], row_weight[p + min(10, n - 1)],
+                  row_weight[p + min(11, n - 1)])
+            # The grey map's rows (SIGNAL_SCALAR and SIGNAL_MAP).
+            mo = _rows12(row_source, p, n, map_length)
+            # Part 0: the sample slots, along the frame's rows; part 1: the duplicate slots,
+            # along rows gathered into the buffers (row h at h · size − n_samples, so that
+            # slot q reads sample q − n_samples of it).
+            for part in range(2 if n_dups else 1):
+                if part == 1:
+                    for h in range(n):
+                        _gather(base[o[h]:], dup_source, rows_w[h])
+                first, end = (zero, samples_u) if part == 0 else (samples_u, slots_u)
+                src = base if part == 0 else dup_rows
+                offsets = o if part == 0 else dup_offsets
+                for lo in range(first, end, chunk):
+                    hi = min(end, lo + chunk)
+                    _lin(n, p == start, lo, hi, src, offsets, ws, ce, a1, a2, am, an)
+                    if with_signal and part == 0 and mode != SIGNAL_INDEX:
+                        _signal_rows(n, lo, hi, src, offsets, ws, grey_map, mo, use_map, grey,
+                                     table_rows, table_key0, table_shift, table_last,
+                                     interval, u, a3)
+                    elif with_signal:
+                        lo_i, hi_i = np.int64(lo), np.int64(hi)
+                        for h in range(n):
+                            m_off = row_source[p + h] * map_length
+                            if part == 0:
+                                x = base[o[h] + lo:]
+                                g = grey_map[m_off + lo_i:]
+                                e = index_map[m_off + lo_i:]
+                            else:
+                                x = rows_r[h][lo_i - ns:]
+                                if use_map or mode != SIGNAL_INDEX:  # scalar: the ones
+                                    _gather(grey_map[m_off:], dup_source[lo_i - ns:hi_i - ns],
+                                            grey_w[:hi_i - lo_i])
+                                if mode == SIGNAL_INDEX:
+                                    _gather(index_map[m_off:], dup_source[lo_i - ns:hi_i - ns],
+                                            index_w[:hi_i - lo_i])
+                                g = grey_r
+                                e = index_r
+                            row_status |= _signal_row(
+                                x, g, e, slot_weight[lo_i:hi_i], ws[h], mode, grey, use_map,
+                                coef, key0, shift, last, offset, t_min, t_max, entry_table,
+                                entry_grey, interval, u, value, factor, a3[lo_i:hi_i])
+            p += n
+        status[i] = _commit_row(i, a1, a2, a3, am, an, slot_weight, slot_of_piece, col_bounds,
+                                layout, time_weight, with_signal, t_low, t_high, reference,
+                                dev, sq, tmax, signal,
+                                merge, moments, member_weight, member_count, signal_weight,
+                                m_mean, m_m2, m_max, m_signal, s1, s2, s3, sm, row_status)
+
+
+@numba.njit(parallel=True, **JIT)
+def accumulate_kernel(n_blocks, start, n_frames, frame_stride, base, row_length, row_source,
+                       row_weight, row_bounds, n_samples, slot_runs, slot_weight, slot_of_piece,
+                       dup_source, col_bounds, layout, time_weight, reference, dev, sq, tmax,
+                       signal, merge, moments, member_weight, member_count, signal_weight,
+                       m_mean, m_m2, m_max, m_signal, mode, coef, key0, shift, last, offset,
+                       t_min, t_max, entry_table, entry_grey, grey, grey_map, index_map,
+                       map_length, use_map, rows_w, rows_r, grey_w, grey_r, index_w, index_r, am,
+                       an, status):
+    """The frames' pixel rows in ``n_blocks`` contiguous blocks, one per thread (block b uses
+    buffers [b]); frame f starts at ``base[f * frame_stride]``, and member_weight,
+    member_count, signal_weight and status have one row per frame. Block b takes frames
+    start[b] … n_frames − 1 of its rows, one after the other, without waiting for the other
+    blocks (no barrier per frame), and stops after its first frame with a status. Returns,
+    per block, that frame, or n_frames."""
+    n_rows = row_bounds.size - 1
+    stopped = np.full(n_blocks, n_frames, dtype=np.int64)
+    for b in prange(n_blocks):
+        first_row = b * n_rows // n_blocks
+        stop_row = (b + 1) * n_rows // n_blocks
+        for f in range(start[b], n_frames):
+            row_status = status[f]
+            _accumulate_rows(first_row, stop_row, base[f * frame_stride:], row_length,
+                             row_source, row_weight, row_bounds, n_samples, slot_runs,
+                             slot_weight, slot_of_piece, dup_source, col_bounds, layout,
+                             time_weight, reference, dev, sq, tmax, signal, merge, moments,
+                             member_weight[f], member_count[f], signal_weight[f], m_mean, m_m2,
+                             m_max, m_signal, mode, coef, key0, shift, last, offset, t_min,
+                             t_max, entry_table, entry_grey, grey, grey_map, index_map,
+                             map_length, use_map, rows_w[b], rows_r[b], grey_w[b], grey_r[b],
+                             index_w[b], index_r[b], am[b], an[b], row_status)
+            bad = 0
+            for i in range(first_row, stop_row):
+                bad |= row_status[i]
+            if bad != 0:
+                stopped[b] = f
+                break
+    return stopped
