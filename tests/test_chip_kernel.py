@@ -1,9 +1,10 @@
 """The segmented-chip scene's compiled moving terms against their numpy reference.
 
-The kernel (``segmented_chip._moving_terms_kernel``) and the reference
-(``SegmentedChip._evaluate_reference``) must agree to 1e-12 relative in temperature and exactly
-in the region map: at full and coarse resolution, across a period (forming band absent, during
-the slip, growing, at the event time), for whole frames, ``region`` arguments and crops.
+The kernel (``segmented_chip.kernel.moving_terms_kernel``) and the reference
+(``segmented_chip.reference.evaluate_reference``) must agree to 1e-12 relative in temperature
+and exactly in the region map: at full and coarse resolution, across a period (forming band
+absent, during the slip, growing, at the event time), for whole frames, ``region`` arguments
+and crops.
 """
 
 import subprocess
@@ -13,10 +14,20 @@ import numba
 import numpy as np
 import pytest
 
+from radiosim.kernels import compiled_selected, set_engine
 from radiosim.scenes import ChipParameters, SegmentedChip
 from radiosim.scenes import segmented_chip as sc
+from radiosim.scenes.segmented_chip import kernel as chip_kernel
 
 RTOL = 1e-12
+
+
+@pytest.fixture(autouse=True)
+def _engine_setting_restored():
+    # Tests select the numpy or the compiled engine; every test starts and ends on the default.
+    set_engine(None)
+    yield
+    set_engine(None)
 
 
 @pytest.fixture(scope="module")
@@ -109,10 +120,10 @@ def test_crops_agree(scenes, monkeypatch):
     scene = scenes[2e-6]
     crop = scene.crop((40, 250), (100, 390))
     ks = [int(round(t / scene.dt)) for t in times(scene).values()]
-    monkeypatch.setattr(sc, "USE_COMPILED_KERNEL", False)
+    set_engine("numpy")
     reference = [crop.frame(k) for k in ks]
     reference_sample = crop.sample(ks[0])
-    monkeypatch.setattr(sc, "USE_COMPILED_KERNEL", True)
+    set_engine("compiled")
     for k, expected in zip(ks, reference):
         np.testing.assert_allclose(crop.frame(k), expected, rtol=RTOL, atol=0)
     np.testing.assert_allclose(crop.sample(ks[0]).temperature, reference_sample.temperature,
@@ -122,9 +133,9 @@ def test_crops_agree(scenes, monkeypatch):
 def test_per_region_emissivity_frames_carry_the_same_region_map(monkeypatch):
     scene = SegmentedChip(dx=4e-6, dt=1e-6, emissivity={"chip": 0.3, "tool": 0.5})
     k = int(scene.event_time / scene.dt) - 20
-    monkeypatch.setattr(sc, "USE_COMPILED_KERNEL", False)
+    set_engine("numpy")
     reference = scene.sample(k)
-    monkeypatch.setattr(sc, "USE_COMPILED_KERNEL", True)
+    set_engine("compiled")
     compiled = scene.sample(k)
     np.testing.assert_array_equal(compiled.regions, reference.regions)
     np.testing.assert_allclose(compiled.temperature, reference.temperature, rtol=RTOL, atol=0)
@@ -133,11 +144,11 @@ def test_per_region_emissivity_frames_carry_the_same_region_map(monkeypatch):
 def test_the_compiled_kernel_is_the_default(scenes, monkeypatch):
     scene = scenes[4e-6]
     t = scene.event_time - 33e-6
-    assert sc.USE_COMPILED_KERNEL is True
+    assert compiled_selected() is True
     compiled = scene._evaluate(t, scene._full(), compiled=True)
     reference = scene._evaluate(t, scene._full(), compiled=False)
     np.testing.assert_array_equal(scene.temperature(t), compiled)
-    monkeypatch.setattr(sc, "USE_COMPILED_KERNEL", False)
+    set_engine("numpy")
     np.testing.assert_array_equal(scene.temperature(t), reference)
     np.testing.assert_array_equal(scene.regions(t),
                                   scene._evaluate(t, scene._full(), True, compiled=False)[1])
@@ -148,7 +159,7 @@ def test_the_kernel_recomputes_the_geometry_bitwise(scenes):
     g = scene.geometry
     r = scene._prepared(scene._full())
     scene._evaluate(0.0, scene._full(), compiled=True)
-    n, zeta = sc._kernel_coordinates(r.x, r.y, r.kernel.constants)
+    n, zeta = chip_kernel.kernel_coordinates(r.x, r.y, r.kernel.constants)
     np.testing.assert_array_equal(n, g.n)
     np.testing.assert_array_equal(zeta, g.zeta)
 
@@ -170,13 +181,14 @@ def test_results_do_not_depend_on_the_number_of_threads(scenes):
 def test_exp_matches_numpy():
     x = np.concatenate([np.linspace(-700, 700, 20001), -np.logspace(-12, 2.5, 2001),
                         np.logspace(-12, 2.5, 2001), [0.0, -0.0]])
-    got = np.array([sc._exp(v) for v in x[::37]])
+    got = np.array([chip_kernel._exp(v) for v in x[::37]])
     np.testing.assert_allclose(got, np.exp(x[::37]), rtol=1e-15, atol=0)
 
 
 def test_importing_compiles_nothing():
     code = ("from numba.core.dispatcher import Dispatcher; "
-            "import radiosim.scenes.segmented_chip as m; "
+            "import radiosim.scenes.segmented_chip; "
+            "import radiosim.scenes.segmented_chip.kernel as m; "
             "jitted = [f for f in vars(m).values() if isinstance(f, Dispatcher)]; "
             "print(len(jitted), sum(len(f.signatures) for f in jitted))")
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
