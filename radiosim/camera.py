@@ -238,7 +238,13 @@ class Camera:
     def replace(self, **changes) -> Camera:
         """A copy with some fields changed (``dataclasses.replace``); it keeps this camera's
         response model (and its radiance tables) when the response, band and spectral curves
-        are the same."""
+        are the same. An unknown field is refused, naming the likely one."""
+        fields = [f.name for f in dataclasses.fields(self) if f.init]
+        unknown = [k for k in changes if k not in fields]
+        if unknown:
+            from radiosim.config import reject_unknown
+
+            reject_unknown(unknown, fields, "Camera.replace")
         out = dataclasses.replace(self, **changes)
         built = self.__dict__.get("response_model")
         if built is not None and out._response_key() == self._response_key():

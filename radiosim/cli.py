@@ -19,6 +19,7 @@ import argparse
 import logging
 import math
 import os
+import re
 import signal
 import sys
 import warnings
@@ -147,6 +148,10 @@ def _measure(args) -> int:
     if suffix != ".csv":  # only an FEA CSV has columns in units of their own
         given = [f"--{flag.replace('_', '-')} {getattr(args, flag)}"
                  for flag in ("time_unit", "length_unit") if getattr(args, flag)]
+        if args.fill is not None:
+            raise RadiosimError(f"--fill {_typed(args.fill, 'K')}: {path} is not an FEA nodal "
+                                ".csv; a stack or EXR frames cover the whole field (expected "
+                                "--fill only with a .csv, for the points outside the mesh)")
         if given:
             raise RadiosimError(f"{' and '.join(given)}: {path} is not an FEA nodal .csv; "
                                 "the units of its frames are --dt, --dx and --units (expected "
@@ -163,7 +168,8 @@ def _measure(args) -> int:
         units = {k: v for k, v in (("time", args.time_unit), ("length", args.length_unit),
                                    ("temperature", args.units)) if v} or None
         try:
-            scene = read_fea_nodes(path, dx=args.dx, dt=args.dt, units=units, fill=args.fill)
+            scene = read_fea_nodes(path, dx=args.dx, dt=args.dt, units=units,
+                                   fill=293.15 if args.fill is None else args.fill)
         except RadiosimError as exc:
             if "stated nowhere" not in str(exc):
                 raise
@@ -183,6 +189,8 @@ def _measure(args) -> int:
     except RadiosimError as exc:  # the library states SI values: add the user's own
         if "--integration-time" in str(exc):
             raise
+        if _BAD_SAMPLE.match(str(exc)):  # the file's fault, not the window's
+            raise type(exc)(f"{path}: {_sample_as_typed(str(exc), args.units)}") from None
         given = f"--integration-time {_typed(args.integration_time)}" + (
             f", --start {_typed(args.start)}" if args.start is not None else "")
         raise type(exc)(f"{exc} ({given})") from None
@@ -197,6 +205,24 @@ def _measure(args) -> int:
     if args.out:
         print(f"wrote {write_exr(args.out, m)}")
     return 0
+
+
+#: The reader's message for a bad temperature sample (radiosim.checks.bad_sample_message).
+_BAD_SAMPLE = re.compile(
+    r"frame \d+: temperature at row \d+, column \d+ is (?P<value>\S+) K; temperatures must "
+    r"be > 0 K \(°C passed as kelvin\?\)|frame \d+: temperature at row")
+
+
+def _sample_as_typed(message: str, units: str | None) -> str:
+    """A bad-sample message in the unit of the file (--units C: the value in °C)."""
+    match = _BAD_SAMPLE.match(message)
+    if units != "C" or match is None or match.group("value") is None:
+        return message
+    kelvin = float(match.group("value"))
+    return message.replace(
+        f"is {match.group('value')} K; temperatures must be > 0 K (°C passed as kelvin?)",
+        f"is {to_celsius(kelvin):g} °C ({kelvin:g} K); temperatures must be above absolute "
+        "zero (-273.15 °C)")
 
 
 def _check_scale(args, scene, camera: Camera):
@@ -232,6 +258,9 @@ def _check_out_file(args, suffix: str, what: str):
         return
     if Path(args.out).suffix.lower() != suffix:
         raise RadiosimError(f"--out {args.out}: {what}; give a path ending in {suffix}")
+    from radiosim.files import check_output_file
+
+    check_output_file(args.out)  # its folder, and a name the file system takes
     if Path(args.out).exists() and not args.overwrite:
         raise RadiosimError(f"--out {args.out} exists; choose a new name or pass --overwrite")
 
@@ -645,7 +674,7 @@ def build_parser() -> argparse.ArgumentParser:
     measure.add_argument("--time-unit", choices=["s", "ms", "us", "ns"],
                          help="FEA CSV time unit")
     measure.add_argument("--length-unit", choices=["m", "mm", "um"], help="FEA CSV length unit")
-    measure.add_argument("--fill", type=parse_temperature, default=293.15,
+    measure.add_argument("--fill", type=parse_temperature, default=None,
                          help="FEA: temperature outside the mesh, e.g. 20C (default 20C)")
     measure.add_argument("--seed", type=parse_seed, default=0,
                          help="noise seed ≥ 0 (default 0)")

@@ -30,7 +30,7 @@ from radiosim.errors import RadiosimError, RadiosimIOError
 
 __all__ = ["atomic_write", "atomic_path", "write_text", "OutputFolder", "MANIFEST",
            "native_output_silenced", "check_output_folder", "check_not_an_input", "safe_name",
-           "is_staging", "RUN_MARKER", "check_name"]
+           "is_staging", "RUN_MARKER", "check_name", "check_output_file"]
 
 _NATIVE = threading.Lock()
 
@@ -110,9 +110,34 @@ def atomic_write(path, mode: str = "w", **kwargs):
 def _check_destination(path: Path) -> None:
     """A file can be written at ``path``: its folder exists and it is not a folder."""
     if not path.parent.is_dir():
+        for parent in [path.parent, *path.parent.parents]:  # a file where a folder should be
+            if parent.exists() and not parent.is_dir():
+                raise RadiosimError(f"cannot write {path}: {parent} is a file, not a folder")
         raise RadiosimError(f"cannot write {path}: folder {path.parent} does not exist")
     if path.is_dir():
         raise RadiosimError(f"cannot write {path}: it is a folder")
+
+
+def check_output_file(path, option: str = "--out") -> Path:
+    """
+    The destination of a command's one output file, checked before any work: its folder
+    exists (and is a folder), the path is not a folder, and its name is not longer than the
+    file system allows.
+    """
+    path = Path(path)
+    try:
+        longest = os.pathconf(path.parent if path.parent.is_dir() else ".", "PC_NAME_MAX")
+    except (OSError, ValueError, AttributeError):
+        longest = 255
+    if len(os.fsencode(path.name)) > longest:
+        raise RadiosimError(f"{option} {path.name[:40]}…: the file name is "
+                            f"{len(os.fsencode(path.name))} bytes long; expected at most "
+                            f"{longest} bytes on this file system")
+    try:
+        _check_destination(path)
+    except RadiosimError as exc:
+        raise RadiosimError(f"{option} {path}: {str(exc).split(': ', 1)[1]}") from None
+    return path
 
 
 def _io_error(path: Path, exc: BaseException) -> RadiosimIOError:

@@ -206,13 +206,18 @@ class Sweep:
             if key in data and not isinstance(data[key], list):
                 raise RadiosimError(f"sweep {name!r}: {key} must be a list, e.g. {key} = "
                                     f"[{data[key]!r}], got {data[key]!r}")
+        for key in ("response", "alignment"):
+            if key in data and not data[key]:
+                raise RadiosimError(f"sweep {name!r}: {key} = [] measures nothing; list at "
+                                    f"least one (or leave {key} out)")
         names = tuple(data.pop("cameras", ()))
         unknown = [c for c in names if c not in cameras]
         if not names or unknown:
             raise RadiosimError(f"sweep {name!r}: cameras must name [cameras.*] tables "
                                 f"({', '.join(cameras)}); got {list(names)}")
+        _no_repeats(name, "cameras", names)
 
-        def numbers(key, exponent=0):
+        def numbers(key, exponent=0, whole=False):
             values = data.pop(key, None)
             if values is None:
                 return ()
@@ -224,29 +229,49 @@ class Sweep:
                         else "")
                 raise RadiosimError(f"sweep {name!r}: {key} must be a list of positive numbers, "
                                     f"got {values!r}{hint}")
+            if whole and any(v != int(v) for v in values):  # never rounded behind the user
+                raise RadiosimError(f"sweep {name!r}: {key} must be whole numbers, got "
+                                    f"{next(v for v in values if v != int(v))!r} in {values!r}")
+            _no_repeats(name, key, values)
             return tuple(shift(v, exponent) for v in values)
 
-        times, frames = numbers("integration_time_us", -6), numbers("integration_time_frames")
+        times = numbers("integration_time_us", -6)
+        frames = numbers("integration_time_frames", whole=True)
         if bool(times) == bool(frames):
             raise RadiosimError(f"sweep {name!r}: give integration_time_us or "
                                 "integration_time_frames (one of them)")
-        pitches, samples = numbers("pixel_pitch_um", -6), numbers("pixel_samples")
+        pitches, samples = numbers("pixel_pitch_um", -6), numbers("pixel_samples", whole=True)
         if pitches and samples:
             raise RadiosimError(f"sweep {name!r}: give pixel_pitch_um or pixel_samples, not both")
         responses = tuple(data.pop("response", [None]))
-        if any(r not in (None, "linear", "planck") for r in responses):
-            raise RadiosimError(f"sweep {name!r}: response must be 'linear' or 'planck'")
+        for r in responses:
+            if r not in (None, "linear", "planck"):
+                raise RadiosimError(f"sweep {name!r}: response must be 'linear' or "
+                                    f"'planck', got {r!r}")
+        _no_repeats(name, "response", responses)
         alignments = tuple(data.pop("alignment", ["centred"]))
-        if any(a not in ALIGNMENTS for a in alignments):
-            raise RadiosimError(f"sweep {name!r}: alignment must be one of "
-                                f"{', '.join(ALIGNMENTS)}")
+        for a in alignments:
+            if a not in ALIGNMENTS:
+                raise RadiosimError(f"sweep {name!r}: alignment must be one of "
+                                    f"{', '.join(ALIGNMENTS)}, got {a!r}")
+        _no_repeats(name, "alignment", alignments)
         kind = data.pop("kind", "field")
         if kind not in ("field", "pixel"):
-            raise RadiosimError(f"sweep {name!r}: kind must be 'field' or 'pixel'")
+            raise RadiosimError(f"sweep {name!r}: kind must be 'field' or 'pixel', got {kind!r}")
         return cls(name=name, cameras=names, responses=responses,
                    pixel_pitches=pitches or (None,), pixel_samples=tuple(int(s) for s in samples),
                    integration_times=times, integration_frames=tuple(int(f) for f in frames),
                    alignments=alignments, kind=kind)
+
+
+def _no_repeats(sweep: str, key: str, values) -> None:
+    """Refuse a value listed twice in a sweep: its rows would repeat and their files clash."""
+    seen = set()
+    for value in values:
+        if value in seen:
+            raise RadiosimError(f"sweep {sweep!r}: {key} lists {value!r} twice; list each "
+                                "value once")
+        seen.add(value)
 
 
 @dataclass
@@ -309,6 +334,8 @@ class Study:
         self.scene_spec, self.cameras, self.sweeps = dict(scene), cameras, sweeps
         self.base = base or Path.cwd()
         self.hooks = dict(hooks or {})
+        #: The study file (:meth:`from_toml`), named in errors found after loading it.
+        self.path: Path | None = None
         #: The study's uncertainty budget (:class:`UncertaintySpec`), if it has one.
         self.uncertainty: UncertaintySpec | None = None
         #: The camera files the study reads (never written over by its run).
@@ -335,7 +362,10 @@ class Study:
     @classmethod
     def from_toml(cls, path) -> Study:
         """A study from a TOML file (relative paths in it are relative to the file)."""
-        return build_from_toml(path, "study", lambda data, base: cls.from_dict(data, base=base))
+        study = build_from_toml(path, "study",
+                                lambda data, base: cls.from_dict(data, base=base))
+        study.path = Path(path)
+        return study
 
     @classmethod
     def from_dict(cls, data: dict, base: Path | None = None) -> Study:
@@ -358,6 +388,13 @@ class Study:
             raise RadiosimError("sweeps must be an array of tables: write each as [[sweeps]] "
                                 "(two brackets), not [sweeps]")
         sweeps = [Sweep.from_dict(s, cameras) for s in sweep_tables]
+        names = [safe_name(s.name, "sweep name") for s in sweeps]
+        for i, sweep_name in enumerate(names):  # the names label rows and EXR files
+            if sweep_name in names[:i]:
+                first = sweeps[names.index(sweep_name)].name
+                raise RadiosimError(f"two sweeps are named {first!r}" + (
+                    f" and {sweeps[i].name!r} (the same in file names)"
+                    if first != sweeps[i].name else "") + "; give each sweep its own name")
         uncertainty = data.pop("uncertainty", None)
         uncertainty = None if uncertainty is None else UncertaintySpec.from_dict(uncertainty,
                                                                                  cameras)
@@ -381,8 +418,18 @@ class Study:
     def scene(self) -> Scene:
         """The study's scene (built on first use)."""
         if self._scene is None:
-            self._scene = _scene_from(self.scene_spec, self.base)
+            try:
+                self._scene = _scene_from(self.scene_spec, self.base)
+            except RadiosimError as exc:
+                raise self._named(exc, "[scene]") from None
         return self._scene
+
+    def _named(self, exc: RadiosimError, where: str) -> RadiosimError:
+        """``exc`` with the study file and ``where`` in it (a table, a sweep) in front."""
+        text = str(exc)
+        prefix = "" if self.path is None or str(self.path) in text else f"{self.path}: "
+        where = "" if text.startswith(where) else f"{where}: "
+        return type(exc)(f"{prefix}{where}{text}")
 
     # -- the measurements ---------------------------------------------------------------------
 
@@ -560,6 +607,7 @@ class Study:
         pass over its frames where the camera module offers it; the warnings each case raises
         go to its row and are raised again here, in the plan's order.
         """
+        from radiosim.integrator import frame_weights
         from radiosim.io.exr import write_exr as write
 
         pixels = {}
@@ -568,13 +616,34 @@ class Study:
             scene = self.scene
             if sweep.kind == "pixel":
                 if pick_pixel is None:
-                    raise RadiosimError(f"sweep {sweep.name!r} is of kind 'pixel': the study "
-                                        "needs a pixel hook ([hooks] pixel = 'module:function')")
+                    raise self._named(RadiosimError(
+                        f"sweep {sweep.name!r} is of kind 'pixel': the study needs a pixel "
+                        "hook ([hooks] pixel = 'module:function')"), "sweeps")
                 pitch = camera.fpa.pixel_pitch
                 if pitch not in pixels:  # one crop per pixel size: its cases share a pass
                     pixels[pitch] = pick_pixel(scene, pitch)
                 scene = pixels[pitch]
             cases.append((sweep, name, camera, t_int, alignment, scene))
+        files = {}
+        for sweep, name, camera, t_int, alignment, scene in cases:  # before any work
+            what = (f"sweep {sweep.name!r}, camera {name!r}, integration time "
+                    f"{t_int * 1e6:.10g} µs, pixel pitch {camera.fpa.pixel_pitch * 1e6:.10g} µm")
+            try:
+                window = camera.window(scene, t_int, self._window_start(t_int, alignment))
+                frame_weights(window.start, window.duration, scene.dt, scene.n_frames)
+                camera.check_measurable(window.duration)
+                camera.integrator(scene)
+            except RadiosimError as exc:
+                raise self._named(exc, what) from None
+            if exr_dir is not None and sweep.kind != "pixel":
+                filename = _exr_name(sweep, name, camera, t_int, alignment)
+                if filename in files:
+                    raise self._named(RadiosimError(
+                        f"{files[filename]} and {what} would both be written to "
+                        f"exr/{filename}; give values that differ in their first 6 "
+                        "digits (times) or 4 (pitches)"),
+                        "sweeps")
+                files[filename] = what
         groups = [list(g) for _, g in itertools.groupby(cases, key=lambda c: id(c[5]))]
         done = 0
         for group in groups:
@@ -626,10 +695,7 @@ class Study:
             if summary is not None:
                 row.update(summary(m, scene))
             if exr_dir is not None:
-                filename = (f"{safe_name(sweep.name, 'sweep name')}_"
-                            f"{safe_name(name, 'camera name')}_{camera.response}_"
-                            f"{t_int * 1e6:g}us_{camera.fpa.pixel_pitch * 1e6:.4g}um_"
-                            f"{alignment}.exr")
+                filename = _exr_name(sweep, name, camera, t_int, alignment)
                 write(exr_dir / filename, m)
                 row["exr"] = f"exr/{filename}"
         return {k: row.get(k, "") for k in result_columns(self, summary)}
@@ -686,6 +752,13 @@ def format_table(rows: list[dict]) -> list[str]:
 def result_columns(study: Study, summary) -> list[str]:
     """:data:`RESULT_COLUMNS` and the columns of a summary hook."""
     return list(RESULT_COLUMNS) + list(getattr(summary, "columns", []))
+
+
+def _exr_name(sweep: Sweep, name: str, camera: Camera, t_int: float, alignment: str) -> str:
+    """The EXR file of one field measurement of a study."""
+    return (f"{safe_name(sweep.name, 'sweep name')}_{safe_name(name, 'camera name')}_"
+            f"{camera.response}_{t_int * 1e6:g}us_{camera.fpa.pixel_pitch * 1e6:.4g}um_"
+            f"{alignment}.exr")
 
 
 def _write_csv(path: Path, columns: list[str], rows: list[dict]):
@@ -837,10 +910,14 @@ def _scene_from(spec: dict, base: Path) -> Scene:
 
     def take_length(key, default=None):
         value = _number(spec, key, "[scene]")
+        if value is not None and not (value > 0 or (key == "event_time_us" and value == 0)):
+            raise RadiosimError(f"[scene] {key} = {value!r}: expected a positive number "
+                                f"({'µm' if key.endswith('_um') else 'µs'})")
         value = default if value is None else value
         return None if value is None else shift(value, -6)
 
     emissivity = spec.pop("emissivity", 1.0)
+    spec_event = spec.get("event_time_us")
     if kind == "segmented-chip":
         params = spec.pop("params", None)
         params = ChipParameters.from_toml(base / params) if params else None
@@ -853,9 +930,15 @@ def _scene_from(spec: dict, base: Path) -> Scene:
             raise RadiosimError(f"[scene] of type 'frames' with a NumPy stack needs "
                                 f"{', '.join(missing)} (the file carries no grid nor unit)")
         event = take_length("event_time_us")
-        scene = read_frames(base / _path(spec, kind), dt=take_length("dt_us"),
-                            dx=take_length("dx_um"), units=spec.pop("units", None),
-                            emissivity=emissivity, event_time=event)
+        path = _path(spec, kind)
+        try:
+            scene = read_frames(base / path, dt=take_length("dt_us"),
+                                dx=take_length("dx_um"), units=spec.pop("units", None),
+                                emissivity=emissivity, event_time=event)
+        except RadiosimError as exc:  # the reader states seconds: add what the file says
+            if event is None or "event_time" not in str(exc):
+                raise
+            raise RadiosimError(f"event_time_us = {spec_event!r}: {exc}") from None
     elif kind == "fea":
         scene = read_fea_nodes(base / _path(spec, kind), dx=take_length("dx_um"),
                                dt=take_length("dt_us"), units=spec.pop("units", None),

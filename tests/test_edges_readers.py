@@ -306,9 +306,11 @@ def test_fea_a_window_before_the_first_time_stamp_is_refused(tmp_path):
     with pytest.raises(RadiosimError) as info:
         Camera.linear_ideal(2e-6).measure(scene, 1e-6, t_start=4e-6)
     one_line(info, "nodes.csv", "first time stamp 5e-06 s", "frame 4")
-    with pytest.raises(RadiosimError) as info:
-        Camera.linear_ideal(2e-6).measure(scene, 1e-6)  # no start: from t = 0
-    one_line(info, "t_start ≥ 5e-06 s")
+    # No start given: the window starts at the data's first time stamp (the file's own time),
+    # not at t = 0 before it, and reads the first snapshot.
+    m = Camera.linear_ideal(2e-6).measure(scene, 1e-6)
+    assert m.t_start == pytest.approx(5e-6, rel=1e-12)
+    np.testing.assert_allclose(m.apparent_temperature, ramp(5.0), rtol=1e-12)
 
 
 def test_fea_hold_reproduces_the_previous_snapshot(tmp_path):

@@ -173,7 +173,8 @@ def read_exr(path) -> Measurement:
 
     path = Path(path)
     if not path.is_file():
-        raise RadiosimError(f"{path} does not exist")
+        raise RadiosimError(f"{path} is a folder, not an EXR file" if path.is_dir()
+                            else f"{path} does not exist")
     try:
         with native_output_silenced(), OpenEXR.File(str(path)) as exr:
             header = dict(exr.header())

@@ -154,7 +154,8 @@ def read_frames(path, dt=None, dx=None, units=None, key=None, channel=None, emis
                                 f"{instead.split()[0]} with its unit (e.g. {instead})")
     if path.suffix.lower() in (".npy", ".npz"):
         if not path.is_file():
-            raise RadiosimError(f"{path} does not exist")
+            raise RadiosimError(f"{path} is a folder, not a {path.suffix} file" if path.is_dir()
+                                else f"{path} does not exist")
         if units is None:
             raise RadiosimError(f"{path}: NumPy files carry no unit; give --units K or C "
                                 "(units='K' or 'C' in Python)")

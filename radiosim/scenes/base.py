@@ -86,7 +86,11 @@ def check_emissivity(emissivity, shape: tuple[int, int]):
             )
         values = np.asarray(emissivity, dtype=float)
         if not np.all((values >= 0) & (values <= 1)):
-            raise RadiosimError("emissivity map values must lie in [0, 1] (and not be NaN)")
+            bad = ~((values >= 0) & (values <= 1))
+            i, j = (int(v) for v in np.argwhere(bad)[0])
+            raise RadiosimError(f"emissivity map values must lie in [0, 1] (and not be NaN); "
+                                f"got {values[i, j]:g} at row {i}, column {j} "
+                                f"({int(bad.sum())} value(s) outside)")
         return values
     return as_spectrum(emissivity, "emissivity")
 
@@ -96,7 +100,7 @@ def _check_temperature_field(value, what: str) -> np.ndarray:
     bad = ~(np.isfinite(values) & (values > 0))
     if bad.any():
         raise RadiosimError(f"{what} must be finite temperatures > 0 K, got "
-                            f"{values[bad].flat[0]!r}")
+                            f"{float(values[bad].flat[0]):g} K")
     return values
 
 
