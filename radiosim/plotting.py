@@ -9,21 +9,34 @@ The paper's figures are in :mod:`radiosim.paper.figures`.
 from __future__ import annotations
 
 import math
+from contextlib import contextmanager
 from pathlib import Path
 
 import numpy as np
 
 from radiosim.errors import RadiosimError, RadiosimIOError
 
-__all__ = ["figure", "markdown_table", "load_results", "select", "plot_versus", "save_figure"]
+__all__ = ["DPI", "figure", "markdown_table", "load_results", "select", "plot_versus", "save_figure"]
 
 
-def figure(width, height):
-    """A figure of ``width`` × ``height`` inches, independent of pyplot and of the active
-    backend (it saves with Agg and displays inline in notebooks)."""
+#: Resolution of the PNG files [dots per inch]. Figures are created at it, so the layout computed
+#: once is the one drawn.
+DPI = 110
+
+
+def figure(width, height, dpi: float = DPI):
+    """
+    A figure of ``width`` × ``height`` inches at ``dpi``, with constrained layout, drawn by Agg.
+
+    It does not import pyplot and does not depend on the active backend: the canvas is Agg's
+    (which also displays inline in notebooks), created with the figure.
+    """
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
     from matplotlib.figure import Figure
 
-    return Figure(figsize=(width, height), layout="constrained")
+    fig = Figure(figsize=(width, height), dpi=dpi, layout="constrained")
+    FigureCanvasAgg(fig)
+    return fig
 
 
 def markdown_table(rows: list[dict], formats: dict | None = None) -> str:
@@ -119,14 +132,52 @@ def plot_versus(fig, rows, x_key, y_key, err_key, scene_key, xlabel, title, ylab
     return ax
 
 
-def save_figure(fig, path, dpi: int = 110) -> Path:
-    """Write ``fig`` as a PNG at ``path`` atomically (a temporary file renamed into place)."""
+@contextmanager
+def _laid_out(fig, dpi):
+    """
+    ``fig`` at ``dpi`` on an Agg canvas, its layout engine run once and then held off, so that a
+    ``savefig`` inside draws it once. (``savefig`` with a layout engine draws the figure twice:
+    a draw with rendering off, to lay it out, then the real one.) The figure's dpi, canvas and
+    layout engine are restored on exit.
+    """
+    import matplotlib
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+
+    canvas, engine, old_dpi = fig.canvas, fig.get_layout_engine(), fig.dpi
+    if not isinstance(canvas, FigureCanvasAgg):
+        FigureCanvasAgg(fig)
+    if dpi != old_dpi:
+        fig.set_dpi(dpi)
+    try:
+        if engine is not None:
+            engine.execute(fig)  # with the canvas's renderer, the one the draw reuses
+            with matplotlib.rc_context({"figure.autolayout": False,
+                                        "figure.constrained_layout.use": False}):
+                fig.set_layout_engine(None)
+        yield fig
+    finally:
+        if engine is not None:
+            fig.set_layout_engine(engine)
+        if dpi != old_dpi:
+            fig.set_dpi(old_dpi)
+        if fig.canvas is not canvas:
+            fig.set_canvas(canvas)
+
+
+def save_figure(fig, path, dpi: float = DPI) -> Path:
+    """
+    Write ``fig`` as a PNG at ``path`` atomically (a temporary file renamed into place).
+
+    The figure is laid out once and drawn once, at ``dpi`` [dots per inch]; the PNG is
+    compressed lightly (zlib level 1: the encoding costs a fraction of the default's, the file
+    is somewhat larger).
+    """
     from radiosim.files import atomic_write
 
     path = Path(path)
     try:
-        with atomic_write(path, "wb") as stream:
-            fig.savefig(stream, dpi=dpi, format="png")
+        with atomic_write(path, "wb") as stream, _laid_out(fig, dpi):
+            fig.savefig(stream, dpi=dpi, format="png", pil_kwargs={"compress_level": 1})
     except OSError as exc:
         raise RadiosimIOError(f"cannot write {path}: {exc.strerror or exc}") from None
     return path

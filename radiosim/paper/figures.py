@@ -72,7 +72,7 @@ def preview_scene(scene, t=None, path=None, columns=True, pixel_pitch=6e-6):
     fig = figure(8.0, 8.0 * height / width + 0.6)
     ax = fig.add_subplot()
     image = ax.imshow(frame - CELSIUS_OFFSET, extent=(0, width * 1e6, 0, height * 1e6), cmap="inferno",
-                      origin="upper", interpolation="nearest")
+                      origin="upper", interpolation="nearest", rasterized=True)
     fig.colorbar(image, ax=ax, label="temperature [°C]", shrink=0.85)
     ax.set_xlabel("x [µm]")
     ax.set_ylabel("y [µm]")
@@ -104,8 +104,7 @@ def preview_scene(scene, t=None, path=None, columns=True, pixel_pitch=6e-6):
 
 def _two_panels(rows, sweeps, y_key, err_key, scene_key, subject):
     fig = figure(11, 4.6)
-    fig.suptitle(f"{subject}: reading of each camera against the scene; {ERROR_BARS}",
-                 fontsize=9)
+    _suptitle(fig, f"{subject}: reading of each camera against the scene; {ERROR_BARS}")
     left, right = fig.subfigures(1, 2)
     plot_versus(left, select(rows, sweeps[0]), "integration_time_us", y_key, err_key,
                 scene_key, "integration time [µs]",
@@ -127,22 +126,20 @@ def plot_column_i(rows, sweeps=("integration-time", "size-of-source")):
                        "Figure 7, shear band peak in Column I")
 
 
-def plot_column_profiles(rows, folder, scene, sweep="integration-time", camera="linear"):
+def plot_column_profiles(rows, folder, scene, sweep="integration-time", camera="linear",
+                         cache=None):
     """Figure 6: vertical temperature profiles along Columns I, II and III, one line per
-    integration time, with the scene's event frame."""
-    from radiosim.io.exr import read_exr
-
+    integration time, with the scene's event frame. ``cache`` as in :func:`plot_maps`."""
     mine = sorted(select(rows, sweep, camera=camera), key=lambda r: r["integration_time_us"])
     fig = figure(12, 4.8)
-    fig.suptitle(f"Figure 6: vertical profiles of the camera {camera!r} "
-                 f"({mine[0]['response'] if mine else ''} response) along Columns I–III, one line "
-                 "per integration time, centred on the shear band; black: the scene's event frame",
-                 fontsize=9)
+    _suptitle(fig, f"Figure 6: vertical profiles of the camera {camera!r} "
+              f"({mine[0]['response'] if mine else ''} response) along Columns I–III, one line "
+              "per integration time, centred on the shear band; black: the scene's event frame")
     axes = fig.subplots(1, 3, sharey=True)
     event = scene.temperature(scene.event_time) if hasattr(scene, "temperature") else None
     for ax, name in zip(axes, ("I", "II", "III")):
         for r in mine:
-            m = read_exr(Path(folder) / r["exr"])
+            m = _read(folder, r["exr"], cache)
             pitch = m.camera.fpa.pixel_pitch
             j = column_index(scene, pitch, name, m.camera.fpa.origin[1])
             y = (scene.shape[0] * scene.dx - (np.arange(m.shape[0]) + 0.5) * pitch) * 1e6
@@ -169,8 +166,8 @@ def plot_long_integration(rows, history, sweep="long-integration"):
     top, bottom = fig.subplots(2, 1, sharex=True)
     mine = sorted(select(rows, sweep), key=lambda r: r["integration_time_us"])
     camera = mine[0]["camera"] if mine else ""
-    fig.suptitle(f"Figure 8: the Column I pixel where the shear band peaks, camera {camera!r}; "
-                 "windows start at the event frame", fontsize=9)
+    _suptitle(fig, f"Figure 8: the Column I pixel where the shear band peaks, camera {camera!r}; "
+              "windows start at the event frame")
     if history:
         top.plot([h["time_us"] for h in history], [h["mean_C"] for h in history], lw=0.8,
                  color="tab:blue", label="pixel footprint mean, instantaneous (x = time)")
@@ -187,34 +184,73 @@ def plot_long_integration(rows, history, sweep="long-integration"):
     return fig
 
 
-def plot_maps(folder, rows, cases):
-    """Figures 9-11: maps of apparent temperature, peak error and uncertainty, one column per
-    case (rows of the results table)."""
-    from radiosim.io.exr import read_exr
+def plot_maps(folder, rows, cases, cache=None):
+    """
+    Figures 9-11: maps of apparent temperature, peak error and uncertainty, one column per
+    case (rows of the results table).
 
+    Each row of maps shares one colour scale and one colorbar, so a colour means the same
+    value in every case of the row. ``cache`` (optional) maps EXR names to measurements
+    already read, and is filled with the ones read here.
+    """
     fig = figure(3.2 * len(cases) + 1.5, 8.8)
-    fig.suptitle("Figures 9–11: maps of each case (columns); rows: the reading, the paper's "
-                 "peak error (tensor max − reading, > 0 when the camera reads low) and its "
-                 "uncertainty (tensor standard deviation)", fontsize=9)
+    _suptitle(fig, "Figures 9–11: maps of each case (columns); rows: the reading, the paper's "
+              "peak error (tensor max − reading, > 0 when the camera reads low) and its "
+              "uncertainty (tensor standard deviation); one colour scale per row")
     axes = fig.subplots(3, len(cases), squeeze=False)
     titles = ("apparent temperature [°C]", "peak error [K]", "uncertainty [K]")
     row_names = ("Fig. 9: reading", "Fig. 10: peak error", "Fig. 11: uncertainty")
+    maps = [[] for _ in titles]
     for c, row in enumerate(cases):
-        m = read_exr(Path(folder) / row["exr"])
+        m = _read(folder, row["exr"], cache)
         pitch = m.camera.fpa.pixel_pitch * 1e6
         extent = (0, m.shape[1] * pitch, 0, m.shape[0] * pitch)
         fields = (m.apparent_temperature - CELSIUS_OFFSET, m.tensor_max - m.apparent_temperature,
                   m.tensor_std)
-        for r, (values, title) in enumerate(zip(fields, titles)):
-            image = axes[r, c].imshow(values, extent=extent, cmap="inferno", origin="upper")
-            fig.colorbar(image, ax=axes[r, c], shrink=0.8, label=title)
-            axes[r, c].set_xlabel("x [µm]")
-            axes[r, c].set_ylabel(f"{row_names[r]}\ny [µm]" if c == 0 else "y [µm]")
+        for r, values in enumerate(fields):
+            maps[r].append((values, extent))
         p = round(row["pixel_samples"], 3)
         label = (f"{p:g}×{p:g}×{row['n_frames']:g} "
                  f"({row['integration_time_us']:g} µs, {row['camera']})")
         axes[0, c].set_title(label, fontsize=9)
+    for r, (title, name) in enumerate(zip(titles, row_names)):
+        vmin, vmax = _limits([values for values, _ in maps[r]])
+        for c, (values, extent) in enumerate(maps[r]):
+            image = axes[r, c].imshow(values, extent=extent, cmap="inferno", origin="upper",
+                                      vmin=vmin, vmax=vmax, rasterized=True)
+            axes[r, c].set_xlabel("x [µm]")
+            axes[r, c].set_ylabel(f"{name}\ny [µm]" if c == 0 else "y [µm]")
+        fig.colorbar(image, ax=axes[r, :], shrink=0.9, label=title, pad=0.01, aspect=12)
     return fig
+
+
+def _limits(arrays):
+    """The colour scale (vmin, vmax) common to ``arrays``: their finite minimum and maximum."""
+    finite = [(float(np.nanmin(a)), float(np.nanmax(a))) for a in arrays
+              if np.isfinite(a).any()]
+    if not finite:
+        return None, None
+    return min(lo for lo, _ in finite), max(hi for _, hi in finite)
+
+
+def _read(folder, name, cache=None):
+    """The measurement in EXR file ``name`` of ``folder``, read once per ``cache``."""
+    from radiosim.io.exr import read_exr
+
+    if cache is None:
+        return read_exr(Path(folder) / name)
+    if name not in cache:
+        cache[name] = read_exr(Path(folder) / name)
+    return cache[name]
+
+
+def _suptitle(fig, text, fontsize=9):
+    """A figure title, wrapped to the figure's width so that no end is cut off."""
+    import textwrap
+
+    # Characters per line: DejaVu Sans averages about 0.6 em per character; 8 % margin.
+    width = 0.92 * fig.get_figwidth() * 72 / (0.6 * fontsize)
+    fig.suptitle(textwrap.fill(text, int(width)), fontsize=fontsize)
 
 
 def make_figures(folder, scene=None, camera="linear") -> list[Path]:
@@ -230,6 +266,7 @@ def make_figures(folder, scene=None, camera="linear") -> list[Path]:
     out = folder / "figures"
     out.mkdir(exist_ok=True)
     written = []
+    cache = {}  # the EXR files Figures 6 and 9-11 share, read once
 
     def save(fig, name):
         written.append(save_figure(fig, out / name))
@@ -241,7 +278,8 @@ def make_figures(folder, scene=None, camera="linear") -> list[Path]:
             save(plot_column_i(rows), "fig07_column_I.png")
     timed = [r for r in rows if r["sweep"] == "integration-time" and r["camera"] == camera]
     if scene is not None and has_columns(scene) and timed and all(r.get("exr") for r in timed):
-        save(plot_column_profiles(rows, folder, scene, camera=camera), "fig06_profiles.png")
+        save(plot_column_profiles(rows, folder, scene, camera=camera, cache=cache),
+             "fig06_profiles.png")
     if "long-integration" in sweeps:
         save(plot_long_integration(rows, history), "fig08_long_integration.png")
     cases = [r for r in rows if r["sweep"] == "size-of-source" and r["camera"] == camera
@@ -250,5 +288,5 @@ def make_figures(folder, scene=None, camera="linear") -> list[Path]:
               and r["integration_time_us"] in (10, 45, 90)]
     cases = [c for c in cases if c.get("exr")]
     if cases:
-        save(plot_maps(folder, rows, cases), "fig09-11_maps.png")
+        save(plot_maps(folder, rows, cases, cache=cache), "fig09-11_maps.png")
     return written

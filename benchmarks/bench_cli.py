@@ -1,0 +1,137 @@
+"""
+Benchmark: radiosim in a new user's hands (issue 22), from one run, as a table of seconds and
+ratios next to the issue's targets.
+
+- start-up, each the best of ``--repeat`` fresh processes: ``python -c "import numpy"`` (the
+  reference), ``radiosim --help``, ``radiosim --version``, an argument error (``radiosim
+  measure`` without its scene file: exit 2) and ``python -c "import radiosim"``;
+- compile: ``radiosim run --out TMP -q`` (the paper's study, EXR files and figures) with
+  ``NUMBA_CACHE_DIR`` set to a new, empty folder, minus the same run warm: every kernel the
+  default study uses, compiled (the paths the study does not take, such as a float32 memory map
+  or a PSF, are not in it);
+- the warm run: the same command again, end to end, and its parts timed inside one process as
+  the CLI runs them: import of ``radiosim.cli`` and the study's load (scene built), the
+  measurements (``study.run``) and the ``figures`` hook.
+
+Everything is written in a temporary folder, removed at the end; numba's cache for the runs is
+in it too (the user's cache is neither read nor written; matplotlib's font cache is read
+where it is, as every run reads it). The machine's load shows in the
+numbers: run it on a quiet host for the README's times. Run on demand:
+
+    python benchmarks/bench_cli.py [--repeat 5]
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import resource
+import shutil
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+# Run in a fresh process: the warm run's parts, timed as radiosim.cli._run does them.
+_PARTS = """
+import json, pathlib, sys, time
+pathlib.Path(sys.argv[1]).mkdir()
+t0 = time.perf_counter()
+import radiosim.cli as cli
+study = cli._study("msec2009")
+draw = study.hook("figures")
+study.scene
+t1 = time.perf_counter()
+study.run(sys.argv[1], write_exr=True, progress=None)
+t2 = time.perf_counter()
+draw(sys.argv[1], study.scene)
+t3 = time.perf_counter()
+print(json.dumps({"import": t1 - t0, "measurements": t2 - t1, "figures": t3 - t2}))
+"""
+
+
+def _cpu():
+    """CPU time [s], user and system, of this process's finished children."""
+    usage = resource.getrusage(resource.RUSAGE_CHILDREN)
+    return usage.ru_utime + usage.ru_stime
+
+
+def _seconds(command, env, check=True, expect=0, cpu=None):
+    """Wall time [s] of ``command`` in a fresh process; its exit status must be ``expect``.
+    Its CPU time [s] is appended to the list ``cpu`` if given."""
+    t0, c0 = time.perf_counter(), _cpu()
+    done = subprocess.run(command, env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+                          text=True)
+    elapsed = time.perf_counter() - t0
+    if cpu is not None:
+        cpu.append(_cpu() - c0)
+    if check and done.returncode != expect:
+        raise SystemExit(f"{' '.join(map(str, command))} exited {done.returncode}, expected "
+                         f"{expect}:\n{done.stderr[-2000:]}")
+    return elapsed, done
+
+
+def _best(command, env, repeat, expect=0):
+    return min(_seconds(command, env, expect=expect)[0] for _ in range(repeat))
+
+
+def main(argv=None):
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("--repeat", type=int, default=5,
+                        help="fresh processes per start-up measurement; the best is kept")
+    args = parser.parse_args(argv)
+
+    python = sys.executable
+    radiosim = [str(Path(python).with_name("radiosim"))]
+    if not Path(radiosim[0]).is_file():
+        radiosim = [python, "-c", "import sys; from radiosim.cli import main; sys.exit(main())"]
+    tmp = Path(tempfile.mkdtemp(prefix="bench_cli_"))
+    env = dict(os.environ, NUMBA_CACHE_DIR=str(tmp / "numba-cache"))
+    rows = []  # (what, seconds, ratio to numpy's import or None, target text, met)
+    try:
+        numpy = _best([python, "-c", "import numpy"], env, args.repeat)
+        rows.append(("python -c 'import numpy' (reference)", numpy, 1.0, "", None))
+        for what, command, expect in (
+                ("radiosim --help", radiosim + ["--help"], 0),
+                ("radiosim --version", radiosim + ["--version"], 0),
+                ("argument error (radiosim measure, no file)", radiosim + ["measure"], 2)):
+            t = _best(command, env, args.repeat, expect=expect)
+            rows.append((what, t, t / numpy, "<= 3x numpy", t <= 3 * numpy))
+        t = _best([python, "-c", "import radiosim"], env, args.repeat)
+        rows.append(("python -c 'import radiosim'", t, t / numpy, "<= 6x numpy", t <= 6 * numpy))
+
+        run = radiosim + ["run", "-q", "--overwrite", "--out"]
+        cpu = []  # on a loaded host the CPU times tell the compile better than wall times
+        cold, _ = _seconds(run + [str(tmp / "cold")], env, cpu=cpu)  # empty numba cache
+        warm, _ = _seconds(run + [str(tmp / "warm")], env, cpu=cpu)
+        compile_ = cold - warm
+        rows.append(("radiosim run, empty numba cache", cold, None, "", None))
+        rows.append(("  compile (cold run - warm run)", compile_, None, "<= 15 s",
+                     compile_ <= 15))
+        rows.append(("  compile, CPU time (cold - warm, user+sys)", cpu[0] - cpu[1], None,
+                     "", None))
+        rows.append(("radiosim run, warm, end to end", warm, None, "<= 8 s", warm <= 8))
+        _, done = _seconds([python, "-c", _PARTS, str(tmp / "parts")], env)
+        parts = json.loads(done.stdout.strip().splitlines()[-1])
+        rows.append(("  import radiosim.cli + study load", parts["import"], None, "", None))
+        rows.append(("  measurements (study.run)", parts["measurements"], None, "", None))
+        rows.append(("  figures (the figures hook)", parts["figures"], None, "<= 1.5 s",
+                     parts["figures"] <= 1.5))
+    finally:
+        shutil.rmtree(tmp, ignore_errors=True)
+
+    print(f"radiosim start-up and runs, {os.cpu_count()} cores, load average "
+          f"{', '.join(f'{x:.1f}' for x in os.getloadavg())} (best of {args.repeat} for "
+          "start-up; one run each otherwise)")
+    print(f"| {'what':<45} | {'seconds':>7} | {'x numpy':>7} | {'target':<11} | met |")
+    print(f"| {'-' * 45} | {'-' * 7} | {'-' * 7} | {'-' * 11} | --- |")
+    for what, seconds, ratio, target, met in rows:
+        ratio = "" if ratio is None else f"{ratio:.1f}"
+        met = "" if met is None else ("yes" if met else "no")
+        print(f"| {what:<45} | {seconds:>7.2f} | {ratio:>7} | {target:<11} | {met:<3} |")
+
+
+if __name__ == "__main__":
+    main()
