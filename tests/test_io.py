@@ -95,7 +95,8 @@ def test_exr_errors_name_the_file_and_frame(tmp_path, stack):
 def fea_csv(path, steps, header="# units: time=us, length=um, temperature=C"):
     lines = [header, "x,y,time,temperature"]
     for t, (xy, temp) in steps.items():
-        lines += [f"{x!r},{y!r},{t!r},{v!r}" for (x, y), v in zip(xy, temp)]
+        lines += [f"{float(x)!r},{float(y)!r},{float(t)!r},{float(v)!r}"
+                  for (x, y), v in zip(xy, temp)]
     path.write_text("\n".join(lines) + "\n")
 
 
