@@ -61,7 +61,8 @@ def __dir__():
 CHAIN = (
     "_version", "errors", "units", "checks", "config", "files", "spectral", "radiometry", "kernels", "scenes",
     "response", "fpa", "integrator", "psf", "optics", "imaging", "electronics", "calibration", "measurement", "presets",
-    "camera", "characterization", "uncertainty", "io", "study", "plotting", "paper", "cli",
+    "camera", "characterization", "scheduling", "moments", "uncertainty", "io", "study_spec", "study",
+    "plotting", "paper", "cli",
 )
 
 __all__ = [

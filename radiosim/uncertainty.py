@@ -10,16 +10,16 @@ interval and the error against the scene truth, and the budget: each input's con
 the GUM law of propagation (sensitivity coefficients from the chain, by central differences of
 one standard uncertainty) and by one-input-at-a-time Monte Carlo.
 
-Every draw is a Dask task. Its seed is spawned from one :class:`numpy.random.SeedSequence`
-(the draw's index picks its child), so a budget gives identical bits on any scheduler and any
-number of workers; draws are accumulated in index order. Tasks carry the scene as a recipe
-(scenes pickle as their parameters, or as the path of a memory-mapped stack), never its
-frames.
+Every draw is a Dask task (the engine is :mod:`radiosim.scheduling`). Its seed is spawned
+from one :class:`numpy.random.SeedSequence` (the draw's index picks its child), so a budget
+gives identical bits on any scheduler and any number of workers; draws are accumulated in index
+order. Tasks carry the scene as a recipe (scenes pickle as their parameters, or as the path of
+a memory-mapped stack), never its frames.
 
-Memory is bounded in the number of draws: moments are streamed (Welford's update), and the
-coverage interval's quantiles come from a per-pixel histogram of :data:`HISTOGRAM_BINS` bins
-spanning ±8 standard deviations of the first 20 draws around their mean, interpolated linearly
-within a bin (a quantile is resolved to 16/400 = 0.04 standard deviations; draws outside the
+Memory is bounded in the number of draws (:mod:`radiosim.moments`): moments are streamed
+(Welford's update), and the coverage interval's quantiles come from a per-pixel histogram of
+:data:`HISTOGRAM_BINS` bins spanning ±8 standard deviations of the first 20 draws around their
+mean, interpolated linearly within a bin (a quantile is resolved to 16/400 = 0.04 standard deviations; draws outside the
 span are counted, and a pixel with more than 0.5 % of them there has no interval, NaN).
 
 References
@@ -35,15 +35,11 @@ References
 
 from __future__ import annotations
 
-import contextlib
 import dataclasses
-import logging
 import math
-import os
-import signal
-import threading
 import warnings
 from abc import ABC, abstractmethod
+from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
@@ -51,18 +47,18 @@ import numpy as np
 from radiosim.checks import check_positive
 from radiosim.config import si_value
 from radiosim.errors import RadiosimError, RadiosimWarning
+from radiosim.moments import HISTOGRAM_BINS, PixelMoments
 from radiosim.psf import GaussianBlur, ScatterHalo
+# connect, SCHEDULER_TIMEOUT and recorded_warnings are also importable from here, as before.
+from radiosim.scheduling import (SCHEDULER_TIMEOUT, connect, recorded_warnings, recording_run,
+                                 seed_sequence, with_eta)
 
 __all__ = ["Distribution", "Normal", "Uniform", "Triangular", "TruncatedNormal", "Samples",
-           "INPUTS", "distribution_from_table", "propagate", "UncertaintyResult",
+           "INPUTS", "UncertainInput", "distribution_from_table", "propagate", "UncertaintyResult",
            "connect", "HISTOGRAM_BINS", "MAX_DRAWS", "SCHEDULER_TIMEOUT",
            "recorded_warnings"]
 
-#: Bins of each pixel's histogram (the quantile method, module docstring).
-HISTOGRAM_BINS = 400
-_SPAN_SIGMAS = 8.0
-_SPAN_DRAWS = 20  # draws that set each pixel's histogram span
-_MAX_OUTSIDE = 0.005
+_SPAN_DRAWS = 20  # draws that set each pixel's histogram span (radiosim.moments)
 
 
 # -- distributions ---------------------------------------------------------------------------
@@ -265,7 +261,7 @@ def distribution_from_table(table: dict, name: str) -> Distribution:
         raise RadiosimError(f"[uncertainty.inputs] {name} ({table['distribution']}) needs "
                             f"{', '.join(keys)}" + (f"; unknown {sorted(unknown)}" if unknown
                                                     else ""))
-    scale = INPUTS[name][2] if name in INPUTS else 1.0  # the edge unit (µm, µs) → SI
+    scale = INPUTS[name].scale if name in INPUTS else 1.0  # the edge unit (µm, µs) → SI
     if table["distribution"] == "samples":
         return cls(np.asarray(table["values"], dtype=float) * scale)
     for k in keys:
@@ -333,52 +329,83 @@ def _registration(axis):
     return apply
 
 
-#: The uncertain inputs by name: (what the value is, its unit, the TOML edge scale to SI, how it
-#: is applied to (camera, scene, settings)).
-INPUTS = {
-    "emissivity": ("the scene's grey emissivity (metal regions of the chip)", "1", 1.0,
-                   _emissivity),
-    "assumed_emissivity": ("the camera's emissivity setting", "1", 1.0,
-                           _camera_field("assumed_emissivity")),
-    "reflected_temperature": ("the temperature the scene reflects", "K", 1.0, _reflected),
-    "assumed_reflected_temperature": ("the camera's reflected-temperature setting", "K", 1.0,
-                                      _camera_field("assumed_reflected_temperature")),
-    "psf_sigma": ("a Gaussian blur added to the optics' PSF", "m", 1e-6, _psf_sigma),
-    "halo_fraction": ("the scatter halo's fraction (a 50 µm halo if the optics have none)",
-                      "1", 1.0, _halo_fraction),
-    "calibration_scale": ("the calibration's radiometric scale", "1", 1.0,
-                          _camera_field("calibration_scale")),
-    "t_start": ("the integration window's start, added to the nominal", "s", 1e-6,
-                _window("t_start")),
-    "integration_time": ("the integration time, added to the nominal", "s", 1e-6,
-                         _window("integration_time")),
-    "registration_x": ("the array's registration along x, added to its origin", "m", 1e-6,
-                       _registration(1)),
-    "registration_y": ("the array's registration along y, added to its origin", "m", 1e-6,
-                       _registration(0)),
-}
+@dataclass(frozen=True)
+class UncertainInput:
+    """
+    One uncertain input of :func:`propagate`: what it perturbs, in which unit, which values it
+    accepts and how a value is applied to the chain.
 
+    Attributes
+    ----------
+    name : str
+        The input's name (a key of :data:`INPUTS`, and of ``[uncertainty.inputs]``).
+    description : str
+        What the value is.
+    unit : str
+        Its SI unit (``"1"``: dimensionless).
+    domain : callable
+        ``domain(model) → (low, high, low is open)``: the values the chain accepts [unit], for
+        the nominal camera, scene and window (a shift may not move them below zero).
+    apply : callable
+        ``apply(camera, scene, settings, value) → (camera, scene, settings)``, ``settings`` the
+        window's ``t_start`` and ``integration_time`` [s].
+    scale : float
+        The TOML edge unit in SI (1e-6: the table states µm or µs) [unit].
+    """
 
-def _domain(name: str, model) -> tuple[float, float, bool]:
-    """(low, high, low is open) of the values input ``name`` accepts, for the nominal model."""
-    if name in ("emissivity",):
-        return 0.0, 1.0, False
-    if name in ("assumed_emissivity", "halo_fraction"):
-        return 0.0, 1.0, True
-    if name in ("calibration_scale", "reflected_temperature", "assumed_reflected_temperature"):
-        return 0.0, math.inf, True
-    if name == "t_start":
-        return -model.t_start, math.inf, False
-    if name == "integration_time":
-        return -model.integration_time, math.inf, True
-    if name in ("registration_x", "registration_y"):
-        return -model.camera.fpa.origin[1 if name == "registration_x" else 0], math.inf, False
-    if name == "psf_sigma":  # a blur's width: 0 (none) or more
-        return 0.0, math.inf, False
-    return -math.inf, math.inf, False
+    name: str
+    description: str
+    unit: str
+    domain: Callable
+    apply: Callable
+    scale: float = 1.0
+
+    @property
+    def edge_unit(self) -> str:
+        """The unit the study file and the error messages state values in."""
+        unit = _EDGE_UNITS.get(self.unit, self.unit)
+        if self.scale != 1.0:
+            unit = {1e-6: {"m": "µm", "s": "µs"}}.get(self.scale, {}).get(self.unit, unit)
+        return unit
 
 
 _EDGE_UNITS = {"1": "(dimensionless)"}
+
+
+def _within(low: float, high: float, open_low: bool = False) -> Callable:
+    """A domain that does not depend on the nominal model."""
+    return lambda model: (low, high, open_low)
+
+
+#: The uncertain inputs by name (:class:`UncertainInput`).
+INPUTS = {i.name: i for i in (
+    UncertainInput("emissivity", "the scene's grey emissivity (metal regions of the chip)", "1",
+                   _within(0.0, 1.0), _emissivity),
+    UncertainInput("assumed_emissivity", "the camera's emissivity setting", "1",
+                   _within(0.0, 1.0, True), _camera_field("assumed_emissivity")),
+    UncertainInput("reflected_temperature", "the temperature the scene reflects", "K",
+                   _within(0.0, math.inf, True), _reflected),
+    UncertainInput("assumed_reflected_temperature", "the camera's reflected-temperature "
+                   "setting", "K", _within(0.0, math.inf, True),
+                   _camera_field("assumed_reflected_temperature")),
+    UncertainInput("psf_sigma", "a Gaussian blur added to the optics' PSF", "m",
+                   _within(0.0, math.inf), _psf_sigma, 1e-6),  # 0 (no blur) or more
+    UncertainInput("halo_fraction", "the scatter halo's fraction (a 50 µm halo if the optics "
+                   "have none)", "1", _within(0.0, 1.0, True), _halo_fraction),
+    UncertainInput("calibration_scale", "the calibration's radiometric scale", "1",
+                   _within(0.0, math.inf, True), _camera_field("calibration_scale")),
+    UncertainInput("t_start", "the integration window's start, added to the nominal", "s",
+                   lambda model: (-model.t_start, math.inf, False), _window("t_start"), 1e-6),
+    UncertainInput("integration_time", "the integration time, added to the nominal", "s",
+                   lambda model: (-model.integration_time, math.inf, True),
+                   _window("integration_time"), 1e-6),
+    UncertainInput("registration_x", "the array's registration along x, added to its origin",
+                   "m", lambda model: (-model.camera.fpa.origin[1], math.inf, False),
+                   _registration(1), 1e-6),
+    UncertainInput("registration_y", "the array's registration along y, added to its origin",
+                   "m", lambda model: (-model.camera.fpa.origin[0], math.inf, False),
+                   _registration(0), 1e-6),
+)}
 
 #: An input's distribution may put at most this probability outside the values it accepts.
 _OUTSIDE_DOMAIN = 1e-9
@@ -389,17 +416,16 @@ def _check_domains(model) -> None:
     support, less 1e-9 of probability at either end (a normal's ±6σ), is checked once before
     any draw, not found out by a failing task."""
     for name, dist in model.inputs.items():
-        low, high, open_low = _domain(name, model)
+        record = INPUTS[name]
+        low, high, open_low = record.domain(model)
         lo, hi = (float(v) for v in dist.ppf(np.array([_OUTSIDE_DOMAIN, 1 - _OUTSIDE_DOMAIN])))
         if lo < low or (open_low and lo <= low) or hi > high:
-            scale, unit = INPUTS[name][2], _EDGE_UNITS.get(INPUTS[name][1], INPUTS[name][1])
-            if scale != 1.0:
-                unit = {1e-6: {"m": "µm", "s": "µs"}}.get(scale, {}).get(INPUTS[name][1], unit)
-            lo, hi, low, high = (v / scale for v in (lo, hi, low, high))
+            unit = record.edge_unit
+            lo, hi, low, high = (v / record.scale for v in (lo, hi, low, high))
             raise RadiosimError(
                 f"input {name!r}: {type(dist).__name__} draws values in [{lo:.6g}, {hi:.6g}] "
                 f"{unit}, outside its domain {'(' if open_low else '['}{low:.6g}, {high:.6g}] "
-                f"{unit} ({INPUTS[name][0]}); narrow it or use a bounded distribution "
+                f"{unit} ({record.description}); narrow it or use a bounded distribution "
                 "(Uniform, Triangular, TruncatedNormal)")
 
 
@@ -439,7 +465,7 @@ class _Model:
         camera, scene = self.camera, self.scene
         settings = {"t_start": self.t_start, "integration_time": self.integration_time}
         for name, value in values.items():
-            camera, scene, settings = INPUTS[name][3](camera, scene, settings, value)
+            camera, scene, settings = INPUTS[name].apply(camera, scene, settings, value)
         m = camera.measure(scene, settings["integration_time"], settings["t_start"],
                            np.random.default_rng(noise_seed))
         return m.apparent_temperature.astype(np.float64)
@@ -455,248 +481,6 @@ def _draw(model: _Model, seed: np.random.SeedSequence, vary, fixed_noise) -> np.
         value = dist.sample(rng)
         values[name] = value if name in vary else dist.mean
     return model.evaluate(values, noise_seed if fixed_noise is None else fixed_noise)
-
-
-# -- the engine ------------------------------------------------------------------------------
-
-
-class _quiet:
-    """Loggers raised to CRITICAL for a block (a cluster's shutdown chatter)."""
-
-    def __init__(self, *names):
-        self.loggers = [logging.getLogger(n) for n in names]
-
-    def __enter__(self):
-        self.levels = [log.level for log in self.loggers]
-        for log in self.loggers:
-            log.setLevel(logging.CRITICAL)
-
-    def __exit__(self, *exc):
-        for log, level in zip(self.loggers, self.levels):
-            log.setLevel(level)
-        return False
-
-
-#: Seconds a scheduler address has to answer (connect and handshake) before it is given up.
-SCHEDULER_TIMEOUT = 10.0
-
-
-def _check_address(address: str) -> None:
-    """A scheduler address as ``tcp://HOST:PORT`` (or tls://…), or a RadiosimError naming it."""
-    from distributed.comm.addressing import parse_address, parse_host_port
-
-    expected = "expected tcp://HOST:PORT, e.g. tcp://127.0.0.1:8786"
-    try:
-        protocol, location = parse_address(address)
-        host, port = parse_host_port(location)
-    except (ValueError, TypeError) as exc:
-        raise RadiosimError(f"scheduler address {address!r} is malformed ({exc}); "
-                            f"{expected}") from None
-    if protocol not in ("tcp", "tls", "ucx", "inproc") or not host:
-        raise RadiosimError(f"scheduler address {address!r}: no host or an unknown protocol "
-                            f"{protocol!r}; {expected}")
-    if not isinstance(port, int) or not 0 < port < 65536:
-        raise RadiosimError(f"scheduler address {address!r}: port {port!r} is not in "
-                            f"1–65535; {expected}")
-
-
-def _probe(address: str, timeout: float) -> None:
-    """Connect to ``address`` and complete distributed's handshake within ``timeout`` [s]
-    (distributed's own connect waits for the handshake without a bound), or raise a
-    RadiosimError naming it."""
-    import asyncio
-    import threading
-
-    from distributed.comm import connect as open_comm
-
-    outcome = []
-
-    async def handshake():
-        comm = await asyncio.wait_for(open_comm(address, timeout=timeout), timeout)
-        await comm.close()
-
-    def attempt():  # its own thread and loop: works under a caller's running loop too
-        try:
-            asyncio.run(handshake())
-            outcome.append(None)
-        except BaseException as exc:  # reported below, in one line
-            outcome.append(exc)
-
-    thread = threading.Thread(target=attempt, daemon=True, name="radiosim-scheduler-probe")
-    thread.start()
-    thread.join(timeout + 2.0)
-    error = outcome[0] if outcome else TimeoutError()
-    if error is None:
-        return
-    if isinstance(error, (TimeoutError, asyncio.TimeoutError)) or "Timed out" in str(error):
-        raise RadiosimError(f"the Dask scheduler at {address} did not answer within "
-                            f"{timeout:g} s (is a Dask scheduler listening there?)")
-    raise RadiosimError(f"cannot reach the Dask scheduler at {address}: "
-                        f"{getattr(error, 'strerror', None) or error}")
-
-
-def connect(scheduler=None, workers: int | None = None, timeout: float | None = None):
-    """
-    The Dask engine: ``(run, close)`` where ``run(function, argument_lists)`` returns the
-    results in order.
-
-    ``scheduler``: ``None`` or ``"synchronous"`` (in this process, in order), ``"threads"``
-    (a local thread pool sized to the machine), a ``distributed.Client``, or an address
-    ``"tcp://HOST:PORT"``; ``workers``: start a local ``distributed`` cluster of that many
-    single-threaded worker processes. ``RADIOSIM_SCHEDULER`` gives the address when neither
-    is given. A malformed address is refused naming it; one that does not complete the
-    handshake within ``timeout`` seconds (default :data:`SCHEDULER_TIMEOUT`) is given up with
-    one error line.
-    """
-    import dask
-
-    if workers is not None and (isinstance(workers, bool) or int(workers) != workers
-                                or workers < 1):
-        raise RadiosimError(f"workers must be a whole number ≥ 1, got {workers!r}")
-    scheduler = scheduler if scheduler is not None or workers else os.environ.get(
-        "RADIOSIM_SCHEDULER")
-    client, cluster = None, None
-    if workers:
-        from distributed import Client, LocalCluster
-
-        for name in ("distributed", "distributed.scheduler", "distributed.http.proxy"):
-            # A local cluster is an engine here, not a service: its start-up chatter stays out.
-            logger = logging.getLogger(name)
-            logger.setLevel(max(logger.getEffectiveLevel(), logging.WARNING))
-
-        # Each worker's compiled kernels get their share of the cores (not all of them each:
-        # N workers × all cores would oversubscribe the machine).
-        threads = str(max(1, (os.cpu_count() or 1) // int(workers)))
-        # SIGINT blocked while the cluster starts: the threads Dask starts (and the worker
-        # processes they spawn) inherit the mask, so a Ctrl-C reaches this process alone, which
-        # shuts the workers down, instead of printing one traceback per worker.
-        blocked = threading.current_thread() is threading.main_thread()
-        if blocked:
-            mask = signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT})
-        try:
-            cluster = LocalCluster(
-                n_workers=int(workers), threads_per_worker=1, processes=True,
-                dashboard_address=":0",  # any free port
-                silence_logs=logging.ERROR,
-                env={"NUMBA_NUM_THREADS": threads, "OMP_WAIT_POLICY": "PASSIVE"})
-        finally:
-            if blocked:
-                signal.pthread_sigmask(signal.SIG_SETMASK, mask)
-        client = Client(cluster)
-    elif isinstance(scheduler, str) and "://" in scheduler:
-        from distributed import Client
-
-        wait = SCHEDULER_TIMEOUT if timeout is None else check_positive(timeout, "timeout",
-                                                                          "s")
-        _check_address(scheduler)
-        _probe(scheduler, wait)
-        try:
-            client = Client(scheduler, timeout=wait)
-        except (OSError, ValueError, TypeError) as exc:
-            raise RadiosimError(f"cannot reach the Dask scheduler at {scheduler}: {exc}") \
-                from None
-    elif scheduler is not None and not isinstance(scheduler, str):
-        client = scheduler  # a distributed.Client
-    elif scheduler not in (None, "synchronous", "sync", "threads"):
-        raise RadiosimError(f"scheduler must be 'synchronous', 'threads', a distributed Client "
-                            f"or a tcp:// address, got {scheduler!r}")
-
-    if client is not None:
-        def run(function, argument_lists, shared=()):
-            scattered = (client.scatter(list(shared), broadcast=True, hash=False) if shared
-                         else [])
-            futures = [client.submit(function, *scattered, *args, pure=False)
-                       for args in argument_lists]
-            return client.gather(futures)
-    else:
-        name = "threads" if scheduler == "threads" else "synchronous"
-
-        def run(function, argument_lists, shared=()):
-            tasks = [dask.delayed(function, pure=False)(*shared, *args)
-                     for args in argument_lists]
-            return list(dask.compute(*tasks, scheduler=name))
-
-    def close():
-        if workers:
-            # The workers close before the scheduler; their goodbye is not an error to show.
-            with _quiet("distributed", "tornado", "asyncio"):
-                client.close()
-                cluster.close()
-        elif client is not None and isinstance(scheduler, str):
-            client.close()
-
-    return run, close
-
-
-# -- streaming statistics --------------------------------------------------------------------
-
-
-class _Moments:
-    """Per-pixel streaming mean and variance over valid draws (Welford), and the histogram of
-    the quantile method."""
-
-    def __init__(self, shape):
-        self.n = np.zeros(shape)
-        self.mean = np.zeros(shape)
-        self.m2 = np.zeros(shape)
-        self.draws = 0
-        self.edges = None
-        self.counts = None
-        self.below = np.zeros(shape)
-        self.above = np.zeros(shape)
-
-    def add(self, values: np.ndarray):
-        self.draws += 1
-        valid = np.isfinite(values)
-        self.n += valid
-        delta = np.where(valid, values - self.mean, 0.0)
-        self.mean += np.where(valid, delta / np.maximum(self.n, 1), 0.0)
-        self.m2 += np.where(valid, delta * (values - self.mean), 0.0)
-        if self.edges is not None:
-            self._bin(values)
-
-    def start_histogram(self, first: list[np.ndarray]):
-        """Fix each pixel's histogram span from the first draws, and bin them."""
-        std = np.sqrt(self.variance)
-        half = _SPAN_SIGMAS * np.where(std > 0, std, 1e-9 * np.abs(self.mean) + 1e-12)
-        self.edges = (self.mean - half, self.mean + half)
-        self.counts = np.zeros((*self.mean.shape, HISTOGRAM_BINS), dtype=np.int32)
-        for values in first:
-            self._bin(values)
-
-    def _bin(self, values):
-        low, high = self.edges
-        valid = np.isfinite(values)
-        position = (values - low) / (high - low) * HISTOGRAM_BINS
-        inside = valid & (position >= 0) & (position < HISTOGRAM_BINS)
-        self.below += valid & (position < 0)
-        self.above += valid & (position >= HISTOGRAM_BINS)
-        flat = np.flatnonzero(inside)
-        index = flat * HISTOGRAM_BINS + position.ravel()[flat].astype(np.int64)
-        np.add.at(self.counts.reshape(-1), index, 1)
-
-    @property
-    def variance(self):
-        return np.where(self.n > 1, self.m2 / np.maximum(self.n - 1, 1), np.nan)
-
-    def quantile(self, q: float) -> np.ndarray:
-        """Per-pixel quantile by linear interpolation of the histogram's CDF (NaN where too
-        many draws fell outside its span)."""
-        low, high = self.edges
-        counts = self.counts
-        outside = self.below + self.above
-        total = counts.sum(axis=-1) + outside
-        cdf = np.cumsum(counts, axis=-1)
-        target = q * total - self.below  # the rank among all draws, within the span
-        k = np.sum(cdf < target[..., None], axis=-1).clip(0, HISTOGRAM_BINS - 1)
-        before = np.take_along_axis(cdf, np.maximum(k - 1, 0)[..., None], -1)[..., 0]
-        before = np.where(k > 0, before, 0)
-        inbin = np.take_along_axis(counts, k[..., None], -1)[..., 0]
-        fraction = np.where(inbin > 0, (target - before) / np.maximum(inbin, 1), 0.5)
-        value = low + (k + fraction) / HISTOGRAM_BINS * (high - low)
-        bad = (total == 0) | (outside > _MAX_OUTSIDE * np.maximum(total, 1)) | (
-            target < 0) | (target > counts.sum(axis=-1))
-        return np.where(bad, np.nan, value)
 
 
 # -- the result ------------------------------------------------------------------------------
@@ -802,7 +586,7 @@ def propagate(camera, scene, integration_time: float, inputs: dict, draws: int |
     rng
         Seed (an int or :class:`numpy.random.SeedSequence`) of the whole evaluation.
     scheduler, workers
-        The Dask engine (:func:`connect`).
+        The Dask engine (:func:`radiosim.scheduling.connect`).
     t_start
         Nominal window start [s] (``None``: as the camera chooses).
     budget_draws
@@ -832,32 +616,16 @@ def propagate(camera, scene, integration_time: float, inputs: dict, draws: int |
                                 "Monte Carlo draws (each draw is a whole measurement; GUM S1 "
                                 "asks 10⁶ only for a 95 % interval to two digits): give at "
                                 f"most {MAX_DRAWS}, or draws unset for the adaptive procedure")
-    if isinstance(rng, np.random.SeedSequence):  # a copy: the caller's sequence is not spent
-        seed = np.random.SeedSequence(entropy=rng.entropy, spawn_key=rng.spawn_key)
-    elif rng is None or (isinstance(rng, (int, np.integer)) and not isinstance(rng, bool)
-                         and rng >= 0):
-        seed = np.random.SeedSequence(None if rng is None else int(rng))
-    else:
-        raise RadiosimError(f"rng must be a seed ≥ 0 or a numpy SeedSequence (each draw spawns "
-                            f"its own generator from it), got {rng!r}")
-    main_seed, budget_seed, noise_seed = seed.spawn(3)
+    main_seed, budget_seed, noise_seed = seed_sequence(rng).spawn(3)
     start = camera.window(scene, t_int, t_start).start
     model = _Model(camera, scene, t_int, start, inputs)
     _check_domains(model)
     nominal = camera.measure(scene, t_int, start, np.random.default_rng(noise_seed))
     engine, close = connect(scheduler, workers)
+    # The draws are many: each distinct warning is raised once, below, with its count.
     caught: dict[str, int] = {}
-
-    def run(function, argument_lists, shared=()):
-        """The engine's run, each task's warnings recorded (the draws are many: each distinct
-        warning is raised once, below, with how many evaluations raised it)."""
-        outcomes = engine(_Recording(function), argument_lists, shared=shared)
-        for _, texts in outcomes:
-            for text in texts:
-                caught[text] = caught.get(text, 0) + 1
-        return [value for value, _ in outcomes]
-
-    progress = _Timed(progress) if progress is not None else None
+    run = recording_run(engine, caught)
+    progress = with_eta(progress)
     try:
         moments, done = _monte_carlo(run, model, main_seed, draws, batch, digits, max_draws,
                                      nominal.shape, progress)
@@ -879,96 +647,9 @@ def propagate(camera, scene, integration_time: float, inputs: dict, draws: int |
 MAX_DRAWS = 1_000_000
 
 
-_RECORDER = threading.Lock()
-_RECORDING = {"depth": 0, "saved": None}
-_THREAD = threading.local()
-
-
-def _dispatch(message, category, filename, lineno, file=None, line=None):
-    """warnings.showwarning while recording: a RadiosimWarning goes to the list of the thread
-    that raised it (if it records), anything else on as before."""
-    texts = getattr(_THREAD, "texts", None)
-    if texts is not None and issubclass(category, RadiosimWarning):
-        texts.append(str(message))
-        return
-    _RECORDING["saved"][0](message, category, filename, lineno, file, line)
-
-
-@contextlib.contextmanager
-def recorded_warnings():
-    """
-    Record the :class:`~radiosim.errors.RadiosimWarning`\\ s raised in this thread during the
-    block into the list it yields, instead of showing them (the caller raises them again or
-    files them). Unlike :class:`warnings.catch_warnings`, threads that record at the same time
-    (Dask's threads scheduler) each get their own warnings.
-    """
-    texts: list[str] = []
-    with _RECORDER:
-        if _RECORDING["depth"] == 0:
-            _RECORDING["saved"] = (warnings.showwarning, list(warnings.filters))
-            warnings.simplefilter("always", RadiosimWarning)  # every one, not once per place
-            warnings.showwarning = _dispatch
-        _RECORDING["depth"] += 1
-    previous = getattr(_THREAD, "texts", None)
-    _THREAD.texts = texts
-    try:
-        yield texts
-    finally:
-        _THREAD.texts = previous
-        with _RECORDER:
-            _RECORDING["depth"] -= 1
-            if _RECORDING["depth"] == 0:
-                shown, filters = _RECORDING["saved"]
-                warnings.showwarning = shown
-                warnings.filters[:] = filters
-                for name in ("_filters_mutated", "_filters_mutated_lock_held"):
-                    if callable(getattr(warnings, name, None)):
-                        getattr(warnings, name)()  # the warnings' caches see the change
-                        break
-
-
-class _Recording:
-    """A task function whose RadiosimWarnings are recorded, not shown: returns (value, the
-    warnings' texts), so that they travel back from any worker."""
-
-    def __init__(self, function):
-        self.function = function
-
-    def __call__(self, *args):
-        with recorded_warnings() as texts:
-            value = self.function(*args)
-        return value, texts
-
-
-class _Timed:
-    """A progress callback given the estimated seconds left, if it takes a third argument."""
-
-    def __init__(self, callback):
-        import inspect
-        import time
-
-        self.callback, self.clock = callback, time.monotonic
-        self.start = self.clock()
-        try:
-            parameters = inspect.signature(callback).parameters.values()
-            positional = [p for p in parameters if p.kind in (p.POSITIONAL_ONLY,
-                                                               p.POSITIONAL_OR_KEYWORD)]
-            self.eta = len(positional) >= 3 or any(p.kind == p.VAR_POSITIONAL
-                                                   for p in parameters)
-        except (TypeError, ValueError):
-            self.eta = False
-
-    def __call__(self, done, total):
-        if not self.eta:
-            return self.callback(done, total)
-        elapsed = self.clock() - self.start
-        left = elapsed / done * (total - done) if total and done else None
-        return self.callback(done, total, left)
-
-
 def _monte_carlo(run, model, seed, draws, batch, digits, max_draws, shape, progress):
     """The main Monte Carlo: batches of draws, accumulated in index order."""
-    moments = _Moments(shape)
+    moments = PixelMoments(shape)
     total = draws if draws is not None else max_draws
     children = seed.spawn(total)
     vary = tuple(model.inputs)
@@ -1041,7 +722,7 @@ def _budget(run, model, seed, noise_seed, draws, shape):
             c = (reduce(plus) - reduce(minus)) / (2 * dist.std)
             summary_rows.append({
                 "quantity": summary, "input": name, "distribution": type(dist).__name__,
-                "unit": INPUTS[name][1], "estimate": dist.mean, "std_uncertainty": dist.std,
+                "unit": INPUTS[name].unit, "estimate": dist.mean, "std_uncertainty": dist.std,
                 "sensitivity": c, "gum_contribution_K": abs(c) * dist.std,
                 "mc_contribution_K": float(np.std([reduce(a) for a in oat], ddof=1))})
         noise_u = float(np.std([reduce(a) for a in noise], ddof=1))

@@ -1,0 +1,364 @@
+"""
+The Dask engine that studies and uncertainty budgets run on, and what travels with its tasks.
+
+:func:`connect` gives ``(run, close)``: ``run(function, argument_lists, shared=())`` returns
+the tasks' results in order, on the synchronous or threads scheduler in this process, a local
+``distributed`` cluster of worker processes, or a scheduler by address (checked, and its
+handshake bounded by :data:`SCHEDULER_TIMEOUT`). Seeds are spawned per task from one
+:class:`numpy.random.SeedSequence`, so any scheduler gives identical bits; a task's
+:class:`~radiosim.errors.RadiosimWarning`\\ s are recorded (:func:`recorded_warnings`) and
+travel back with its value, for the caller to raise again, never silenced.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import logging
+import os
+import signal
+import threading
+import warnings
+
+import numpy as np
+
+from radiosim.checks import check_positive, check_rng
+from radiosim.errors import RadiosimError, RadiosimWarning
+
+__all__ = ["connect", "SCHEDULER_TIMEOUT", "recorded_warnings", "recording_run",
+           "seed_sequence", "spawn_seeds", "recorded_call", "with_eta"]
+
+
+class _quiet:
+    """Loggers raised to CRITICAL for a block (a cluster's shutdown chatter)."""
+
+    def __init__(self, *names):
+        self.loggers = [logging.getLogger(n) for n in names]
+
+    def __enter__(self):
+        self.levels = [log.level for log in self.loggers]
+        for log in self.loggers:
+            log.setLevel(logging.CRITICAL)
+
+    def __exit__(self, *exc):
+        for log, level in zip(self.loggers, self.levels):
+            log.setLevel(level)
+        return False
+
+
+#: Seconds a scheduler address has to answer (connect and handshake) before it is given up.
+SCHEDULER_TIMEOUT = 10.0
+
+
+def _check_address(address: str) -> None:
+    """A scheduler address as ``tcp://HOST:PORT`` (or tls://…), or a RadiosimError naming it."""
+    from distributed.comm.addressing import parse_address, parse_host_port
+
+    expected = "expected tcp://HOST:PORT, e.g. tcp://127.0.0.1:8786"
+    try:
+        protocol, location = parse_address(address)
+        host, port = parse_host_port(location)
+    except (ValueError, TypeError) as exc:
+        raise RadiosimError(f"scheduler address {address!r} is malformed ({exc}); "
+                            f"{expected}") from None
+    if protocol not in ("tcp", "tls", "ucx", "inproc") or not host:
+        raise RadiosimError(f"scheduler address {address!r}: no host or an unknown protocol "
+                            f"{protocol!r}; {expected}")
+    if not isinstance(port, int) or not 0 < port < 65536:
+        raise RadiosimError(f"scheduler address {address!r}: port {port!r} is not in "
+                            f"1–65535; {expected}")
+
+
+def _probe(address: str, timeout: float) -> None:
+    """Connect to ``address`` and complete distributed's handshake within ``timeout`` [s]
+    (distributed's own connect waits for the handshake without a bound), or raise a
+    RadiosimError naming it."""
+    import asyncio
+    import threading
+
+    from distributed.comm import connect as open_comm
+
+    outcome = []
+
+    async def handshake():
+        comm = await asyncio.wait_for(open_comm(address, timeout=timeout), timeout)
+        await comm.close()
+
+    def attempt():  # its own thread and loop: works under a caller's running loop too
+        try:
+            asyncio.run(handshake())
+            outcome.append(None)
+        except BaseException as exc:  # reported below, in one line
+            outcome.append(exc)
+
+    thread = threading.Thread(target=attempt, daemon=True, name="radiosim-scheduler-probe")
+    thread.start()
+    thread.join(timeout + 2.0)
+    error = outcome[0] if outcome else TimeoutError()
+    if error is None:
+        return
+    if isinstance(error, (TimeoutError, asyncio.TimeoutError)) or "Timed out" in str(error):
+        raise RadiosimError(f"the Dask scheduler at {address} did not answer within "
+                            f"{timeout:g} s (is a Dask scheduler listening there?)")
+    raise RadiosimError(f"cannot reach the Dask scheduler at {address}: "
+                        f"{getattr(error, 'strerror', None) or error}")
+
+
+def connect(scheduler=None, workers: int | None = None, timeout: float | None = None):
+    """
+    The Dask engine: ``(run, close)`` where ``run(function, argument_lists)`` returns the
+    results in order.
+
+    ``scheduler``: ``None`` or ``"synchronous"`` (in this process, in order), ``"threads"``
+    (a local thread pool sized to the machine), a ``distributed.Client``, or an address
+    ``"tcp://HOST:PORT"``; ``workers``: start a local ``distributed`` cluster of that many
+    single-threaded worker processes. ``RADIOSIM_SCHEDULER`` gives the address when neither
+    is given. A malformed address is refused naming it; one that does not complete the
+    handshake within ``timeout`` seconds (default :data:`SCHEDULER_TIMEOUT`) is given up with
+    one error line.
+    """
+    import dask
+
+    if workers is not None and (isinstance(workers, bool) or int(workers) != workers
+                                or workers < 1):
+        raise RadiosimError(f"workers must be a whole number ≥ 1, got {workers!r}")
+    scheduler = scheduler if scheduler is not None or workers else os.environ.get(
+        "RADIOSIM_SCHEDULER")
+    client, cluster = None, None
+    if workers:
+        from distributed import Client, LocalCluster
+
+        for name in ("distributed", "distributed.scheduler", "distributed.http.proxy"):
+            # A local cluster is an engine here, not a service: its start-up chatter stays out.
+            logger = logging.getLogger(name)
+            logger.setLevel(max(logger.getEffectiveLevel(), logging.WARNING))
+
+        # Each worker's compiled kernels get their share of the cores (not all of them each:
+        # N workers × all cores would oversubscribe the machine).
+        threads = str(max(1, (os.cpu_count() or 1) // int(workers)))
+        # SIGINT blocked while the cluster starts: the threads Dask starts (and the worker
+        # processes they spawn) inherit the mask, so a Ctrl-C reaches this process alone, which
+        # shuts the workers down, instead of printing one traceback per worker.
+        blocked = threading.current_thread() is threading.main_thread()
+        if blocked:
+            mask = signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT})
+        try:
+            cluster = LocalCluster(
+                n_workers=int(workers), threads_per_worker=1, processes=True,
+                dashboard_address=":0",  # any free port
+                silence_logs=logging.ERROR,
+                env={"NUMBA_NUM_THREADS": threads, "OMP_WAIT_POLICY": "PASSIVE"})
+        finally:
+            if blocked:
+                signal.pthread_sigmask(signal.SIG_SETMASK, mask)
+        client = Client(cluster)
+    elif isinstance(scheduler, str) and "://" in scheduler:
+        from distributed import Client
+
+        wait = SCHEDULER_TIMEOUT if timeout is None else check_positive(timeout, "timeout",
+                                                                          "s")
+        _check_address(scheduler)
+        _probe(scheduler, wait)
+        try:
+            client = Client(scheduler, timeout=wait)
+        except (OSError, ValueError, TypeError) as exc:
+            raise RadiosimError(f"cannot reach the Dask scheduler at {scheduler}: {exc}") \
+                from None
+    elif scheduler is not None and not isinstance(scheduler, str):
+        client = scheduler  # a distributed.Client
+    elif scheduler not in (None, "synchronous", "sync", "threads"):
+        raise RadiosimError(f"scheduler must be 'synchronous', 'threads', a distributed Client "
+                            f"or a tcp:// address, got {scheduler!r}")
+
+    if client is not None:
+        def run(function, argument_lists, shared=()):
+            scattered = (client.scatter(list(shared), broadcast=True, hash=False) if shared
+                         else [])
+            futures = [client.submit(function, *scattered, *args, pure=False)
+                       for args in argument_lists]
+            return client.gather(futures)
+    else:
+        name = "threads" if scheduler == "threads" else "synchronous"
+
+        def run(function, argument_lists, shared=()):
+            tasks = [dask.delayed(function, pure=False)(*shared, *args)
+                     for args in argument_lists]
+            return list(dask.compute(*tasks, scheduler=name))
+
+    def close():
+        if workers:
+            # The workers close before the scheduler; their goodbye is not an error to show.
+            with _quiet("distributed", "tornado", "asyncio"):
+                client.close()
+                cluster.close()
+        elif client is not None and isinstance(scheduler, str):
+            client.close()
+
+    return run, close
+
+
+
+_RECORDER = threading.Lock()
+_RECORDING = {"depth": 0, "saved": None}
+_THREAD = threading.local()
+
+
+def _dispatch(message, category, filename, lineno, file=None, line=None):
+    """warnings.showwarning while recording: a RadiosimWarning goes to the list of the thread
+    that raised it (if it records), anything else on as before."""
+    texts = getattr(_THREAD, "texts", None)
+    if texts is not None and issubclass(category, RadiosimWarning):
+        texts.append(str(message))
+        return
+    _RECORDING["saved"][0](message, category, filename, lineno, file, line)
+
+
+@contextlib.contextmanager
+def recorded_warnings():
+    """
+    Record the :class:`~radiosim.errors.RadiosimWarning`\\ s raised in this thread during the
+    block into the list it yields, instead of showing them (the caller raises them again or
+    files them). Unlike :class:`warnings.catch_warnings`, threads that record at the same time
+    (Dask's threads scheduler) each get their own warnings.
+    """
+    texts: list[str] = []
+    with _RECORDER:
+        if _RECORDING["depth"] == 0:
+            _RECORDING["saved"] = (warnings.showwarning, list(warnings.filters))
+            warnings.simplefilter("always", RadiosimWarning)  # every one, not once per place
+            warnings.showwarning = _dispatch
+        _RECORDING["depth"] += 1
+    previous = getattr(_THREAD, "texts", None)
+    _THREAD.texts = texts
+    try:
+        yield texts
+    finally:
+        _THREAD.texts = previous
+        with _RECORDER:
+            _RECORDING["depth"] -= 1
+            if _RECORDING["depth"] == 0:
+                shown, filters = _RECORDING["saved"]
+                warnings.showwarning = shown
+                warnings.filters[:] = filters
+                for name in ("_filters_mutated", "_filters_mutated_lock_held"):
+                    if callable(getattr(warnings, name, None)):
+                        getattr(warnings, name)()  # the warnings' caches see the change
+                        break
+
+
+class _Recording:
+    """A task function whose RadiosimWarnings are recorded, not shown: returns (value, the
+    warnings' texts), so that they travel back from any worker."""
+
+    def __init__(self, function):
+        self.function = function
+
+    def __call__(self, *args):
+        with recorded_warnings() as texts:
+            value = self.function(*args)
+        return value, texts
+
+
+class _Timed:
+    """A progress callback given the estimated seconds left, if it takes a third argument."""
+
+    def __init__(self, callback):
+        import inspect
+        import time
+
+        self.callback, self.clock = callback, time.monotonic
+        self.start = self.clock()
+        try:
+            parameters = inspect.signature(callback).parameters.values()
+            positional = [p for p in parameters if p.kind in (p.POSITIONAL_ONLY,
+                                                               p.POSITIONAL_OR_KEYWORD)]
+            self.eta = len(positional) >= 3 or any(p.kind == p.VAR_POSITIONAL
+                                                   for p in parameters)
+        except (TypeError, ValueError):
+            self.eta = False
+
+    def __call__(self, done, total):
+        if not self.eta:
+            return self.callback(done, total)
+        elapsed = self.clock() - self.start
+        left = elapsed / done * (total - done) if total and done else None
+        return self.callback(done, total, left)
+
+
+def with_eta(progress):
+    """``progress(done, total)``, or ``progress(done, total, seconds_left)`` if it takes a
+    third argument (the time to ``total`` estimated from the tasks so far [s]); ``None``
+    stays ``None``."""
+    return None if progress is None else _Timed(progress)
+
+
+def recording_run(run, caught: dict):
+    """
+    ``run`` (an engine's, :func:`connect`) with each task's RadiosimWarnings recorded, not
+    shown: their texts are counted into ``caught`` (text → evaluations that raised it), for the
+    caller to raise each distinct one once, with its count (never silenced).
+    """
+    def recorded(function, argument_lists, shared=()):
+        outcomes = run(_Recording(function), argument_lists, shared=shared)
+        for _, texts in outcomes:
+            for text in texts:
+                caught[text] = caught.get(text, 0) + 1
+        return [value for value, _ in outcomes]
+
+    return recorded
+
+
+def seed_sequence(rng) -> np.random.SeedSequence:
+    """The root :class:`numpy.random.SeedSequence` of an evaluation whose tasks spawn their
+    own generators: from a seed ≥ 0, ``None`` (fresh entropy) or a sequence (copied: the
+    caller's is not spent)."""
+    if isinstance(rng, np.random.SeedSequence):
+        return np.random.SeedSequence(entropy=rng.entropy, spawn_key=rng.spawn_key)
+    if rng is None or (isinstance(rng, (int, np.integer)) and not isinstance(rng, bool)
+                       and rng >= 0):
+        return np.random.SeedSequence(None if rng is None else int(rng))
+    raise RadiosimError(f"rng must be a seed ≥ 0 or a numpy SeedSequence (each draw spawns "
+                        f"its own generator from it), got {rng!r}")
+
+
+def spawn_seeds(rng, distributed: bool) -> list:
+    """A sequence whose item ``i`` seeds measurement ``i`` of a plan (spawned lazily)."""
+    if isinstance(rng, np.random.SeedSequence):
+        root = rng
+    elif isinstance(rng, np.random.Generator) and not distributed:
+        # a root drawn from the generator: its state moves on, as when it draws noise itself
+        return _Spawned(np.random.SeedSequence([int(v) for v in rng.integers(2**63, size=4)]))
+    elif rng is None and not distributed:
+        root = np.random.SeedSequence()
+    elif isinstance(rng, (int, np.integer)) and not isinstance(rng, bool) and rng >= 0:
+        root = np.random.SeedSequence(int(rng))
+    elif distributed:
+        raise RadiosimError(f"a study on a Dask scheduler needs an integer seed ≥ 0 (or a "
+                            f"SeedSequence), got {rng!r}")
+    else:
+        check_rng(rng)  # raises, naming what it accepts
+        raise RadiosimError(f"rng must be a seed ≥ 0, a SeedSequence or a Generator, got "
+                            f"{rng!r}")
+    return _Spawned(root)
+
+
+class _Spawned:
+    """``root.spawn(n)``'s children, item ``i`` the same whatever slice is asked first."""
+
+    def __init__(self, root: np.random.SeedSequence):
+        self.root = np.random.SeedSequence(entropy=root.entropy, spawn_key=root.spawn_key)
+        self.children: list = []
+
+    def __getitem__(self, index):
+        stop = index.stop if isinstance(index, slice) else index + 1
+        if stop > len(self.children):
+            self.children += self.root.spawn(stop - len(self.children))
+        return self.children[index]
+
+
+def recorded_call(function, *args):
+    """``function(*args)`` and the texts of the RadiosimWarnings it raised (recorded, not
+    shown: the caller raises them again, and a study files them in the row)."""
+    with recorded_warnings() as texts:
+        value = function(*args)
+    return value, texts
+
