@@ -49,7 +49,8 @@ from radiosim.scenes.framestack import FrameStack
 from radiosim.units import to_celsius, to_kelvin
 
 __all__ = ["PhotonTransfer", "photon_transfer", "EmvaResult", "fit_emva1288",
-           "SizeOfSource", "size_of_source", "HaloFit", "fit_scatter_halo",
+           "SizeOfSource", "size_of_source", "HaloFit", "fit_scatter_halo", "SSE_DIAMETERS",
+           "sse_diameters", "fit_curve_halo", "DatasheetPlan", "datasheet_plan",
            "SpatialNonuniformity", "spatial_nonuniformity", "linearity_error",
            "residual_nonuniformity", "Datasheet", "datasheet", "CalibrationTable",
            "read_calibration_table", "calibrate_from_table"]
@@ -80,12 +81,13 @@ class PhotonTransfer:
 
 
 def photon_transfer(camera, integration_time: float, temperatures, pixels=(64, 64),
-                    rng=None) -> PhotonTransfer:
+                    rng=None, progress=None) -> PhotonTransfer:
     """
     Record flat-field pairs of a camera at blackbody ``temperatures`` [K].
 
     The dark level is a pair taken with no light (photo-electrons set to zero through the
     electronics alone). Frames go through the full chain (:meth:`Camera.measure`).
+    ``progress``, if given, is called as ``progress(level)`` after each level's pair.
     """
     rng = np.random.default_rng(rng)
     temperatures = np.asarray(temperatures, dtype=float)
@@ -103,6 +105,8 @@ def photon_transfer(camera, integration_time: float, temperatures, pixels=(64, 6
                     for _ in range(2)]
         means.append(0.5 * (pair[0].mean() + pair[1].mean()))
         variances.append(np.var(pair[0] - pair[1]) / 2)
+        if progress is not None:
+            progress(f"flat-field pair at {t:.1f} K")
     return PhotonTransfer(temperatures, np.array(means), np.array(variances),
                           float(0.5 * (dark_pair[0].mean() + dark_pair[1].mean())),
                           float(np.var(dark_pair[0] - dark_pair[1]) / 2))
@@ -201,8 +205,8 @@ def _disc_signal(camera, diameter: float, temperature: float, background: float,
 
 
 def size_of_source(camera, diameters, temperature: float = 1273.15,
-                   background: float = 293.15, integration_time: float = 10e-6
-                   ) -> SizeOfSource:
+                   background: float = 293.15, integration_time: float = 10e-6,
+                   progress=None) -> SizeOfSource:
     """
     The camera's size-of-source curve: the reading of uniform blackbody discs against their
     diameter (MSL Technical Guide 26), through the optics' PSF and the pixel's footprint.
@@ -217,6 +221,8 @@ def size_of_source(camera, diameters, temperature: float = 1273.15,
         Disc and background (and surroundings) temperatures [K].
     integration_time
         Integration time [s] of the readings.
+    progress
+        Called as ``progress(done, total, label)`` after each disc (the background first).
 
     Returns
     -------
@@ -242,9 +248,16 @@ def size_of_source(camera, diameters, temperature: float = 1273.15,
     t_int = check_positive(integration_time, "integration_time", "s")
     if temperature == background:
         raise RadiosimError("the disc and the background must differ in temperature")
-    base = _disc_signal(camera, 0.0, temperature, background, t_int)
-    signal = np.array([_disc_signal(camera, d, temperature, background, t_int)
-                       for d in diameters])
+    total = diameters.size + 1
+
+    def disc(k, d):
+        value = _disc_signal(camera, d, temperature, background, t_int)
+        if progress is not None:
+            progress(k + 1, total, f"disc {d * 1e6:g} µm" if d else "background")
+        return value
+
+    base = disc(0, 0.0)
+    signal = np.array([disc(k + 1, d) for k, d in enumerate(diameters)])
     calibration = camera.calibration(t_int)
     photo = collect(signal + camera.instrument_signal(), camera.rate_per_signal, t_int)
     apparent = calibration.temperature(camera.electronics.mean_counts(photo, t_int))
@@ -314,6 +327,37 @@ def fit_scatter_halo(diameters, sse) -> HaloFit:
                         x_scale=(0.1, start[1], start[2]), xtol=1e-15, ftol=1e-15, gtol=1e-15)
     fraction, width, scale = fit.x
     return HaloFit(ScatterHalo(float(fraction), float(width)), float(scale), -fit.fun)
+
+
+#: Default disc diameters of a size-of-source curve [pixel pitches]: 13 from 2 to 200,
+#: evenly spaced in log (from discs the PSF's core blurs to discs its wings barely reach).
+SSE_DIAMETERS = np.geomspace(2, 200, 13)
+#: The halo is fitted to discs at least this many pixel pitches across [1] (the model holds
+#: for discs much larger than the PSF's core and the pixel) ...
+HALO_FIT_SMALLEST = 10.0
+#: ... when at least this many discs qualify and their SSE varies by more than
+#: :data:`HALO_FIT_FLAT` [1] (a flat curve has no halo to fit).
+HALO_FIT_DISCS = 4
+HALO_FIT_FLAT = 1e-9
+
+
+def sse_diameters(pixel_pitch: float) -> np.ndarray:
+    """The default disc diameters [m] of a size-of-source curve for a pixel pitch [m]
+    (:data:`SSE_DIAMETERS` pitches)."""
+    return check_positive(pixel_pitch, "pixel pitch", "m") * SSE_DIAMETERS
+
+
+def fit_curve_halo(curve: SizeOfSource, pixel_pitch: float) -> HaloFit | None:
+    """
+    The scatter halo (:func:`fit_scatter_halo`) fitted to the discs of ``curve`` at least
+    :data:`HALO_FIT_SMALLEST` pixel pitches [m] across; ``None`` when fewer than
+    :data:`HALO_FIT_DISCS` qualify or their SSE is flat (within :data:`HALO_FIT_FLAT`). The
+    effective halo includes diffraction's own r⁻³ wings.
+    """
+    large = curve.diameter >= HALO_FIT_SMALLEST * pixel_pitch
+    if large.sum() < HALO_FIT_DISCS or np.ptp(curve.sse[large]) <= HALO_FIT_FLAT:
+        return None
+    return fit_scatter_halo(curve.diameter[large], curve.sse[large])
 
 
 # -- the spatial model (EMVA 1288 §8), linearity and the NUC's residual ----------------------
@@ -470,22 +514,65 @@ class Datasheet:
     netd: tuple
     range: tuple
 
+    def csv_text(self) -> str:
+        """The rows as CSV text (quantity, condition, value to 6 significant digits, unit)."""
+        import csv
+        import io
+
+        text = io.StringIO()
+        writer = csv.DictWriter(text, ["quantity", "condition", "value", "unit"],
+                                lineterminator="\n")
+        writer.writeheader()
+        writer.writerows({**r, "value": f"{r['value']:.6g}"} for r in self.rows)
+        return text.getvalue()
+
+    def draw(self, axes, name: str, integration_time: float, highest: float = np.inf):
+        """Draw the photon-transfer curve, the NETD curve and the measurable range on three
+        matplotlib axes; ``name``: the camera's; ``integration_time`` [s]; saturation is drawn
+        up to ``highest`` [K] (the calibration's top: +∞ means not within the range)."""
+        ptc, (t_range, lowest, top), at = self.ptc, self.range, f"{integration_time * 1e6:g} µs"
+        axes[0].plot(ptc.mean - ptc.dark_mean, ptc.variance - ptc.dark_variance, "o")
+        axes[0].set(xlabel="μ_y − μ_y,dark [DN]", ylabel="σ²_y − σ²_y,dark [DN²]",
+                    title=f"{name}: photon transfer at {at}")
+        axes[1].semilogy(*self.netd, "o-")
+        axes[1].set(xlabel="blackbody temperature [K]", ylabel="NETD [K]",
+                    title=f"{name}: NETD at {at}")
+        top = np.minimum(top, highest)
+        axes[2].fill_between(t_range * 1e6, lowest, top, alpha=0.3)
+        axes[2].semilogx(t_range * 1e6, lowest, label="lowest measurable (blank + 3σ)")
+        axes[2].semilogx(t_range * 1e6, top, label="saturation")
+        axes[2].set(xlabel="integration time [µs]", ylabel="temperature [K]",
+                    title=f"{name}: measurable range")
+        axes[2].legend()
+
 
 def datasheet(camera, integration_time: float, ptc_temperatures, netd_temperatures,
-              range_times, frames: int = 16, rng=None) -> Datasheet:
+              range_times, frames: int = 16, rng=None, progress=None) -> Datasheet:
     """
     The camera characterised as an EMVA 1288 report would: gain K, dark noise σ_d and
     saturation capacity from the photon-transfer curve; DSNU and PRNU from the spatial model;
     the linearity error from an exposure sweep; the NETD curve at ``integration_time`` [s]
     over ``netd_temperatures`` [K]; the measurable range over ``range_times`` [s].
+    ``progress``, if given, is called as ``progress(done, total, label)`` after each step
+    (each photon-transfer level, the flat fields, the NETD curve, each range time).
     """
     rng = np.random.default_rng(rng)
-    ptc = photon_transfer(camera, integration_time, ptc_temperatures, rng=rng)
+    total = len(ptc_temperatures) + 2 + len(range_times)
+    done = 0
+
+    def step(label):
+        nonlocal done
+        done += 1
+        if progress is not None:
+            progress(done, total, label)
+
+    ptc = photon_transfer(camera, integration_time, ptc_temperatures, rng=rng, progress=step)
     fit = fit_emva1288(ptc)
     # Half saturation for the PRNU: the PTC level nearest it.
     half = ptc.dark_mean + 0.5 * (ptc.mean.max() - ptc.dark_mean)
     level = float(ptc.temperature[np.argmin(np.abs(ptc.mean - half))])
     spatial = spatial_nonuniformity(camera, level, integration_time, fit.gain, frames, rng)
+    step(f"{frames} dark and bright flat fields")
     # Linearity: the PTC's levels below saturation, exposure ∝ the noise-free photo-charge.
     calibration = camera.calibration(integration_time)
     exposure = calibration.photoelectrons(ptc.temperature)
@@ -493,8 +580,13 @@ def datasheet(camera, integration_time: float, ptc_temperatures, netd_temperatur
     le = linearity_error(exposure[below], ptc.mean[below], ptc.dark_mean)
     t_netd = np.asarray(netd_temperatures, dtype=float)
     netd = camera.netd(t_netd, integration_time)
+    step("NETD curve")
     times = np.asarray(range_times, dtype=float)
-    limits = np.array([camera.measurable_range(t) for t in times])
+    limits = []
+    for t in times:
+        limits.append(camera.measurable_range(t))
+        step(f"measurable range at {t * 1e6:.3g} µs")
+    limits = np.array(limits)
     condition = f"t_int = {integration_time * 1e6:g} us"
     rows = [
         {"quantity": "system gain K", "condition": condition, "value": fit.gain,
@@ -515,6 +607,48 @@ def datasheet(camera, integration_time: float, ptc_temperatures, netd_temperatur
         rows.append({"quantity": "saturation temperature",
                      "condition": f"t_int = {t * 1e6:g} us", "value": float(sat), "unit": "K"})
     return Datasheet(rows, ptc, (t_netd, netd), (times, limits[:, 0], limits[:, 1]))
+
+
+@dataclass(frozen=True)
+class DatasheetPlan:
+    """The levels a datasheet measures (:func:`datasheet_plan`): photon-transfer levels [K]
+    (25, from the noise floor to 1.2 × saturation, so the variance peaks inside), NETD levels
+    [K] (12, from the noise floor up to saturation) and range integration times [s] (13, 1 µs
+    to one frame period or 10 ms, evenly in log)."""
+
+    ptc_temperatures: np.ndarray
+    netd_temperatures: np.ndarray
+    range_times: np.ndarray
+
+
+#: Datasheet grids (counts), the range's times [s] and the PTC's reach past saturation [1].
+PTC_LEVELS, NETD_LEVELS, RANGE_TIMES, RANGE_SHORTEST, RANGE_LONGEST = 25, 12, 13, 1e-6, 10e-3
+PTC_PAST_SATURATION = 1.2
+
+
+def datasheet_plan(camera, integration_time: float) -> DatasheetPlan:
+    """
+    The levels ``radiosim report`` measures at ``integration_time`` [s] (:class:`DatasheetPlan`),
+    between the calibration's lowest measurable temperature (blank + 3σ) and its saturation
+    temperature [K], both within the camera's calibration range. Refuses a camera without an
+    array shape, or one with no measurable range at that time.
+    """
+    if camera.fpa.shape is None:
+        raise RadiosimError(f"{camera.name} has no array shape ([fpa] shape): a datasheet "
+                            "measures its whole array")
+    calibration = camera.calibration(integration_time)
+    low = calibration.lowest_measurable_temperature()
+    saturation = calibration.saturation_temperature
+    if not (np.isfinite(low) and saturation > low):
+        raise RadiosimError(f"at {integration_time * 1e6:g} µs {camera.name} has no measurable "
+                            f"range within its calibration (floor {low:g} K, saturation "
+                            f"{saturation:g} K): choose another --integration-time")
+    top = min(saturation * PTC_PAST_SATURATION, camera.calibration_range[1])
+    saturation = min(saturation, camera.calibration_range[1])
+    longest = 1.0 / camera.frame_rate if camera.frame_rate else RANGE_LONGEST
+    return DatasheetPlan(np.linspace(low, top, PTC_LEVELS),
+                         np.linspace(low, saturation, NETD_LEVELS, endpoint=False),
+                         np.geomspace(RANGE_SHORTEST, longest, RANGE_TIMES))
 
 
 # -- calibrating from a measured table ----------------------------------------------------------
@@ -538,8 +672,6 @@ class CalibrationTable:
     temperature: np.ndarray
     counts: np.ndarray
     instrument_temperature: np.ndarray | None = None
-
-
 
 
 def _column(path, rows, name, line_of) -> np.ndarray:
@@ -669,7 +801,6 @@ def read_calibration_table(path) -> CalibrationTable:
                 f"{path}: column counts is not monotonic in temperature: {ys[j]:g} DN at "
                 f"{ts[j]:g} K (line {a}) but {ys[j + 1]:g} DN at {ts[j + 1]:g} K (line {b})")
     return CalibrationTable(temperature, counts, instrument)
-
 
 
 def calibrate_from_table(camera, path, integration_time: float, frames: int = 1,

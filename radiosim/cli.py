@@ -63,26 +63,35 @@ MAX_DRAWS = 1_000_000
 
 
 class _Progress:
-    """Progress on stderr: a tqdm bar on a terminal, one plain line per step in a log file
-    (no carriage returns)."""
+    """Progress on stderr, created before the work it measures: a tqdm bar on a terminal, one
+    plain line per step otherwise (no carriage returns: logs stay readable), nothing when
+    ``quiet``; nothing for the first ``delay`` [s]. Called as ``progress(done, total, label)``
+    (``total`` may be ``None``: unknown)."""
 
-    def __init__(self, stream=None):
+    def __init__(self, unit="measurement", quiet=False, delay=0.0, stream=None):
+        import time
+
         self.stream = stream or sys.stderr  # looked up now, not at import: redirections hold
-        self.bar = None
+        self.quiet, self.bar, self.clock = quiet, None, time.monotonic
+        self.shown_after = self.clock() + delay
+        if not quiet and self.stream.isatty():
+            from tqdm import tqdm
 
-    def __call__(self, done, total, label):
-        if self.stream.isatty():
-            if self.bar is None:
-                from tqdm import tqdm
+            self.bar = tqdm(file=self.stream, unit=unit, dynamic_ncols=True, delay=delay)
 
-                self.bar = tqdm(total=total, file=self.stream, unit="measurement",
-                                dynamic_ncols=True)
-            self.bar.set_postfix_str(label[:50])
-            self.bar.update(1)
-            if done == total:
+    def __call__(self, done, total=None, label=""):
+        if self.bar is not None:
+            self.bar.total = total
+            self.bar.set_postfix_str(str(label)[:50], refresh=False)
+            self.bar.update(done - self.bar.n)
+            if total and done >= total:
                 self.bar.close()
-        else:
-            print(f"[{done}/{total}] {label}", file=self.stream, flush=True)
+        elif not self.quiet and self.clock() >= self.shown_after:
+            print(f"[{done}/{total or '?'}] {label}".rstrip(), file=self.stream, flush=True)
+
+    def close(self):
+        if self.bar is not None:
+            self.bar.close()
 
 
 def _run(args) -> int:
@@ -99,9 +108,14 @@ def _run(args) -> int:
         print(f"radiosim {__version__}: study {study.name} → {out.path}/")
         if study.description:
             print(f"  {study.description}")
+        progress = _Progress("measurement", args.quiet)
+        _announce_compile(args, chip=True)
         result = study.run(out.staging, rng=args.seed, write_exr=not args.no_exr,
-                           progress=None if args.quiet else _Progress(),
+                           progress=None if args.quiet else progress,
                            scheduler=args.scheduler, workers=args.workers)
+        progress.close()
+        if draw is not None and not args.quiet:
+            print("drawing the figures", file=sys.stderr, flush=True)
         figures = [] if draw is None else draw(out.staging, study.scene)
         if args.format == "netcdf":  # the results as one labelled dataset, next to the CSV
             from radiosim.io.netcdf import write_netcdf
@@ -115,7 +129,9 @@ def _run(args) -> int:
             if kept is not None:
                 print(f"radiosim: the run did not complete; its finished measurements are in "
                       f"{kept}/", file=sys.stderr)
-    _print_table(result.rows)
+    from radiosim.study import format_table
+
+    print("\n".join(format_table(result.rows)))
     exr = sum(1 for r in result.rows if r.get("exr"))
     print(f"wrote {out.path / 'results.csv'}, {len(result.rows)} rows"
           + (f"; {exr} EXR files in {out.path / 'exr'}" if exr else ""))
@@ -125,13 +141,8 @@ def _run(args) -> int:
     return 0
 
 
-def _print_table(rows):
-    from radiosim.study import format_table
-
-    print("\n".join(format_table(rows)))
-
-
 def _measure(args) -> int:
+    from radiosim.camera import measure_many
     from radiosim.io import read_fea_nodes, read_frames, write_exr
     from radiosim.study import summarise
 
@@ -184,8 +195,11 @@ def _measure(args) -> int:
 
         check_not_an_input(args.out, [*getattr(scene, "paths", ()), path])
     _check_scale(args, scene, camera)
-    try:
-        m = camera.measure(scene, args.integration_time, t_start=args.start, rng=args.seed)
+    progress = _Progress("frame", args.quiet, delay=2.0)  # a long measurement: per block
+    _announce_compile(args, _frame_dtype(scene))
+    try:  # Camera.measure, with progress (bit for bit the same)
+        m, = measure_many(scene, [(camera, args.integration_time, args.start)], args.seed,
+                          lambda done, total: progress(done, total, "frames"))
     except RadiosimError as exc:  # the library states SI values: add the user's own
         if "--integration-time" in str(exc):
             raise
@@ -272,6 +286,23 @@ def _add_dask_options(parser, what: str):
                         "tcp://HOST:PORT (default $RADIOSIM_SCHEDULER; none: in this process)")
     parser.add_argument("--workers", type=_count(1, what="a number of workers"), default=None,
                         help=f"run {what} on a local Dask cluster of N worker processes")
+
+
+def _add_seed(parser, default=0, said="0"):
+    parser.add_argument("--seed", type=parse_seed, default=default,
+                        help=f"noise seed ≥ 0 (default {said})")
+
+
+def _add_out_folder(parser, default: str, previous: str):
+    """``--out FOLDER`` and ``--overwrite`` of a command that writes a folder."""
+    parser.add_argument("--out", help=f"output folder, new or empty (default {default})")
+    parser.add_argument("--overwrite", action="store_true",
+                        help=f"replace the files of radiosim's previous {previous}")
+
+
+def _add_quiet(parser):
+    parser.add_argument("-q", "--quiet", action="store_true",
+                        help="no progress bar nor compile notice")
 
 
 def _add_out_file(parser, what: str):
@@ -361,17 +392,18 @@ def _check_scheduler(address):
 def _sse(args) -> int:
     import numpy as np
 
-    from radiosim.characterization import fit_scatter_halo, size_of_source
+    from radiosim.characterization import fit_curve_halo, size_of_source, sse_diameters
     from radiosim.files import write_text
 
     camera = _camera(args.camera, command="sse")
     _check_frame_period(camera, args.integration_time)
     _check_out_file(args, ".csv", "the SSE curve is a CSV table")
     pitch = camera.fpa.pixel_pitch
-    diameters = (np.array(args.diameters) if args.diameters else
-                 pitch * np.geomspace(2, 200, 13))
+    diameters = np.array(args.diameters) if args.diameters else sse_diameters(pitch)
+    progress = _Progress("disc", args.quiet)
+    _announce_compile(args)
     curve = size_of_source(camera, diameters, args.temperature, args.background,
-                           args.integration_time)
+                           args.integration_time, progress=progress)
     psf = ", ".join(type(p).__name__ for p in camera.optics.psf or ()) or "perfect lens"
     print(f"{camera.name} ({psf}): size-of-source effect, a {to_celsius(args.temperature):g} °C "
           f"disc on {to_celsius(args.background):g} °C, {args.integration_time * 1e6:g} µs")
@@ -382,9 +414,8 @@ def _sse(args) -> int:
                               curve.apparent_temperature):
         print(f"{d * 1e6:>10.1f}{sse:>10.5f}{to_celsius(t):>10.1f}")
         lines.append(f"{d * 1e6:.6g},{sig:.10g},{sse:.10g},{to_celsius(t):.6g}")
-    large = curve.diameter >= 10 * pitch
-    if large.sum() >= 4 and np.ptp(curve.sse[large]) > 1e-9:
-        fit = fit_scatter_halo(curve.diameter[large], curve.sse[large])
+    fit = fit_curve_halo(curve, pitch)
+    if fit is not None:
         print(f"effective halo fitted to the discs ≥ 10 pixels (diffraction's own r⁻³ wings "
               f"included): fraction {fit.halo.fraction:.4g}, width "
               f"{fit.halo.width * 1e6:.4g} µm (rms residual {np.sqrt(np.mean(fit.residuals**2)):.2g})")
@@ -427,14 +458,18 @@ def _uncertainty(args) -> int:
     draws = args.draws if args.draws is not None else spec.draws
     print(f"radiosim {__version__}: uncertainty of study {study.name} → {out.path}/ "
           f"({draws or 'adaptive'} draws, {', '.join(spec.inputs)} and the noise)")
+    bar = _Progress("draw", args.quiet)
+    _announce_compile(args, chip=True)
+
     def progress(done, total, seconds_left=None):
-        left = "" if seconds_left is None else f", about {seconds_left:.0f} s left"
-        print(f"[{done}/{total or 'adaptive'}] draws{left}", file=sys.stderr, flush=True)
+        bar(done, total, "draws" + ("" if seconds_left is None
+                                    else f", about {seconds_left:.0f} s left"))
 
     completed = False
     try:
         result = study.propagate(draws=args.draws, seed=args.seed, scheduler=args.scheduler,
                                  workers=args.workers, progress=None if args.quiet else progress)
+        bar.close()
         camera = study.cameras[spec.camera]
         text = io.StringIO()
         keys = ["quantity", "input", "distribution", "unit", "estimate", "std_uncertainty",
@@ -513,74 +548,34 @@ def _calibrate(args) -> int:
 
 
 def _report(args) -> int:
-    import csv
-    import io
-
-    import numpy as np
-
-    from radiosim.characterization import datasheet
+    from radiosim.characterization import datasheet, datasheet_plan
     from radiosim.files import OutputFolder, write_text
     from radiosim.plotting import figure, save_figure
 
     camera = _camera(args.camera, command="report")
     _check_frame_period(camera, args.integration_time)
-    if camera.fpa.shape is None:
-        raise RadiosimError(f"{camera.name} has no array shape ([fpa] shape): a datasheet "
-                            "measures its whole array")
     t_int = args.integration_time
-    calibration = camera.calibration(t_int)
-    low = calibration.lowest_measurable_temperature()
-    saturation = calibration.saturation_temperature
-    if not (np.isfinite(low) and saturation > low):
-        raise RadiosimError(f"at {t_int * 1e6:g} µs {camera.name} has no measurable range "
-                            f"within its calibration (floor {low:g} K, saturation "
-                            f"{saturation:g} K): choose another --integration-time")
+    plan = datasheet_plan(camera, t_int)  # the levels, checked against the camera
     if args.frames < 2:
         raise RadiosimError(f"--frames must be ≥ 2 (temporal variances need two read-outs), "
                             f"got {args.frames}")
-    top = min(saturation * 1.2, camera.calibration_range[1])
-    saturation = min(saturation, camera.calibration_range[1])
-    longest = 1.0 / camera.frame_rate if camera.frame_rate else 10e-3
-    times = np.geomspace(1e-6, longest, 13)
     out = OutputFolder(Path(args.out or f"radiosim-report-{camera.name}"),
                        overwrite=args.overwrite)
     print(f"radiosim {__version__}: datasheet of {camera.name} at {t_int * 1e6:g} µs → "
           f"{out.path}/")
+    progress = _Progress("step", args.quiet)
+    _announce_compile(args)
     completed = False
     try:
-        sheet = datasheet(camera, t_int, np.linspace(low, top, 25),
-                          np.linspace(low, saturation, 12, endpoint=False), times,
-                          frames=args.frames, rng=args.seed)
-        text = io.StringIO()
-        writer = csv.DictWriter(text, ["quantity", "condition", "value", "unit"],
-                                lineterminator="\n")
-        writer.writeheader()
-        writer.writerows({**r, "value": f"{r['value']:.6g}"} for r in sheet.rows)
-        write_text(out.staging / "datasheet.csv", text.getvalue())
-        ptc = sheet.ptc
-        fig = figure(6, 4)
-        ax = fig.add_subplot()
-        ax.plot(ptc.mean - ptc.dark_mean, ptc.variance - ptc.dark_variance, "o")
-        ax.set(xlabel="μ_y − μ_y,dark [DN]", ylabel="σ²_y − σ²_y,dark [DN²]",
-               title=f"{camera.name}: photon transfer at {t_int * 1e6:g} µs")
-        save_figure(fig, out.staging / "photon_transfer.png")
-        fig = figure(6, 4)
-        ax = fig.add_subplot()
-        ax.semilogy(*sheet.netd, "o-")
-        ax.set(xlabel="blackbody temperature [K]", ylabel="NETD [K]",
-               title=f"{camera.name}: NETD at {t_int * 1e6:g} µs")
-        save_figure(fig, out.staging / "netd.png")
-        fig = figure(6, 4)
-        ax = fig.add_subplot()
-        t_range, lowest, highest = sheet.range
-        highest = np.minimum(highest, camera.calibration_range[1])  # +∞: not within the range
-        ax.fill_between(t_range * 1e6, lowest, highest, alpha=0.3)
-        ax.semilogx(t_range * 1e6, lowest, label="lowest measurable (blank + 3σ)")
-        ax.semilogx(t_range * 1e6, highest, label="saturation")
-        ax.set(xlabel="integration time [µs]", ylabel="temperature [K]",
-               title=f"{camera.name}: measurable range")
-        ax.legend()
-        save_figure(fig, out.staging / "range.png")
+        sheet = datasheet(camera, t_int, plan.ptc_temperatures, plan.netd_temperatures,
+                          plan.range_times, frames=args.frames, rng=args.seed,
+                          progress=progress)
+        write_text(out.staging / "datasheet.csv", sheet.csv_text())
+        figures = [figure(6, 4) for _ in range(3)]
+        sheet.draw([fig.add_subplot() for fig in figures], camera.name, t_int,
+                   camera.calibration_range[1])
+        for fig, name in zip(figures, ("photon_transfer", "netd", "range")):
+            save_figure(fig, out.staging / f"{name}.png")
         out.commit()
         completed = True
     finally:
@@ -590,6 +585,55 @@ def _report(args) -> int:
         print(f"  {r['quantity']:<22}{r['value']:>12.4g} {r['unit']:<6} ({r['condition']})")
     print(f"wrote {out.path / 'datasheet.csv'} ({len(sheet.rows)} rows), photon_transfer.png, "
           "netd.png, range.png")
+    return 0
+
+
+#: Compile times [s] from an empty cache on 2 cores (measured; README): the variant a run needs
+#: (one frame type, with the chip's terms), and every variant (``radiosim warmup``).
+COMPILE_SECONDS, WARMUP_SECONDS = 60, 200
+
+
+def _announce_compile(args, frame_dtype="float64", chip=False):
+    """Say once, on a terminal's stderr, that the kernels are about to compile (not cached for
+    this frame dtype, or the segmented chip's kernels when ``chip``), before the work starts.
+    Not in a log: there an error stays the one line on stderr."""
+    if args.quiet or not sys.stderr.isatty():
+        return
+    from radiosim.kernels import compile_pending
+
+    also = ()
+    if chip:
+        from radiosim.scenes.segmented_chip.kernel import moving_terms_kernel
+
+        also = (moving_terms_kernel,)
+    if compile_pending((frame_dtype,), also=also):
+        print(f"radiosim: compiling radiosim's kernels, once, about {COMPILE_SECONDS} s "
+              "(radiosim warmup does it ahead of time)", file=sys.stderr, flush=True)
+
+
+def _frame_dtype(scene):
+    """The dtype in which the kernels read the scene's frames (float32 stays float32)."""
+    try:
+        block = scene.block_unchecked(0, 1, tuple(slice(0, n) for n in scene.shape))
+    except Exception:  # a scene that makes its frames: float64
+        block = None
+    return "float64" if block is None else block.dtype
+
+
+def _warmup(args) -> int:
+    import time
+
+    from radiosim.kernels import warmup
+    from radiosim.scenes import SegmentedChip
+
+    began = time.perf_counter()
+    report = warmup(progress=_Progress("variant", args.quiet))
+    chip = SegmentedChip()  # its moving terms, on a small region at the band's time
+    middle = tuple(slice(n // 2, n // 2 + 16) for n in chip.shape)
+    chip.temperature(chip.event_time, middle), chip.regions(chip.event_time, middle)
+    print(f"compiled radiosim's kernels in {time.perf_counter() - began:.0f} s "
+          f"({report['variants']} kernel variants and the chip's moving terms; cached in "
+          f"{report['cache']})")
     return 0
 
 
@@ -641,18 +685,16 @@ def build_parser() -> argparse.ArgumentParser:
                          "results.csv, EXR files and the paper's figures in --out.")
     run.add_argument("study", nargs="?", default="msec2009",
                      help="a study TOML file or a shipped study name (default msec2009)")
-    run.add_argument("--out", help="output folder, new or empty (default radiosim-STUDY)")
-    run.add_argument("--overwrite", action="store_true",
-                     help="replace the files of radiosim's previous run in --out (only those "
-                     "its manifest lists; other files are never touched)")
-    run.add_argument("--seed", type=parse_seed, default=0, help="noise seed ≥ 0 (default 0)")
+    _add_out_folder(run, "radiosim-STUDY", "run in --out (only those its manifest lists; "
+                    "other files are never touched)")
+    _add_seed(run)
     run.add_argument("--no-exr", action="store_true",
                      help="write no EXR files (then no maps nor profiles either)")
     run.add_argument("--no-figures", action="store_true", help="write no figures")
     run.add_argument("--format", choices=["exr", "netcdf"], default="exr",
                      help="netcdf: also write results.nc, the results as one xarray dataset "
                      "with the sweep parameters as dimensions (default: CSV and EXR only)")
-    run.add_argument("-q", "--quiet", action="store_true", help="no progress bar")
+    _add_quiet(run)
     _add_dask_options(run, "the measurements")
     run.set_defaults(func=_run)
     measure = sub.add_parser("measure", help="measure one scene file with one camera",
@@ -676,9 +718,9 @@ def build_parser() -> argparse.ArgumentParser:
     measure.add_argument("--length-unit", choices=["m", "mm", "um"], help="FEA CSV length unit")
     measure.add_argument("--fill", type=parse_temperature, default=None,
                          help="FEA: temperature outside the mesh, e.g. 20C (default 20C)")
-    measure.add_argument("--seed", type=parse_seed, default=0,
-                         help="noise seed ≥ 0 (default 0)")
+    _add_seed(measure)
     _add_out_file(measure, "the measurement (.exr)")
+    _add_quiet(measure)
     measure.set_defaults(func=_measure)
     unc = sub.add_parser("uncertainty", help="the Monte Carlo uncertainty budget of a study",
                          description="Propagate a study's [uncertainty] inputs through its "
@@ -688,14 +730,10 @@ def build_parser() -> argparse.ArgumentParser:
     unc.add_argument("--draws", type=_count(1, MAX_DRAWS, "a number of draws"), default=None,
                      help="Monte Carlo draws, 1 to 1,000,000 (default: the study's, else "
                      "adaptive)")
-    unc.add_argument("--seed", type=parse_seed, default=None,
-                     help="seed ≥ 0 (default: the study's)")
+    _add_seed(unc, None, "the study's")
     _add_dask_options(unc, "the draws")
-    unc.add_argument("--out", help="output folder, new or empty (default "
-                     "radiosim-STUDY-uncertainty)")
-    unc.add_argument("--overwrite", action="store_true",
-                     help="replace the files of radiosim's previous run in --out")
-    unc.add_argument("-q", "--quiet", action="store_true", help="no progress bar")
+    _add_out_folder(unc, "radiosim-STUDY-uncertainty", "run in --out")
+    _add_quiet(unc)
     unc.set_defaults(func=_uncertainty)
     sse = sub.add_parser("sse", help="the size-of-source curve of a camera",
                          description="Image uniform blackbody discs of increasing diameter "
@@ -711,6 +749,7 @@ def build_parser() -> argparse.ArgumentParser:
     sse.add_argument("--integration-time", type=parse_time, default=10e-6, metavar="T",
                      help="integration time (default 10us)")
     _add_out_file(sse, "the curve (.csv)")
+    _add_quiet(sse)
     sse.set_defaults(func=_sse)
     cal = sub.add_parser("calibrate", help="fit a camera's gain and offset to a measured "
                          "calibration table",
@@ -731,6 +770,7 @@ def build_parser() -> argparse.ArgumentParser:
     cal.add_argument("--fit-full-well", action="store_true",
                      help="raise the full well to hold the points past it")
     _add_out_file(cal, "the fitted camera (.toml)")
+    _add_quiet(cal)
     cal.set_defaults(func=_calibrate)
     report = sub.add_parser("report", help="an EMVA 1288-style datasheet of a camera",
                             description="Characterise a camera as an EMVA 1288 report does: "
@@ -743,12 +783,17 @@ def build_parser() -> argparse.ArgumentParser:
     report.add_argument("--frames", type=_count(2, what="a number of read-outs (temporal "
                         "variances need two)"), default=16,
                         help="read-outs per flat field (default 16)")
-    report.add_argument("--seed", type=parse_seed, default=0, help="noise seed ≥ 0 (default 0)")
-    report.add_argument("--out", help="output folder, new or empty (default "
-                        "radiosim-report-CAMERA)")
-    report.add_argument("--overwrite", action="store_true",
-                        help="replace the files of radiosim's previous report in --out")
+    _add_seed(report)
+    _add_out_folder(report, "radiosim-report-CAMERA", "report in --out")
+    _add_quiet(report)
     report.set_defaults(func=_report)
+    warm = sub.add_parser("warmup", help="compile radiosim's kernels ahead of time (once, "
+                          f"about {WARMUP_SECONDS} s)", description="Compile every kernel "
+                          "path (float32 and float64 frames, memory maps, linear and Planck "
+                          "responses, emissivity maps, the chip's moving terms) into numba's "
+                          "on-disk cache, so that no later run waits for a compilation.")
+    _add_quiet(warm)
+    warm.set_defaults(func=_warmup)
     presets = sub.add_parser("presets", help="list the cameras and studies")
     presets.set_defaults(func=_presets)
     scene = sub.add_parser("scene", help="the built-in segmented-chip scene")

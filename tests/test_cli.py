@@ -155,3 +155,68 @@ def test_sse_command_writes_its_curve_and_keeps_existing_files(tmp_path, capsys)
     capsys.readouterr()
     assert main(["sse", "nist-ir-psf", "--out", str(out)]) == 2
     assert "exists" in capsys.readouterr().err
+
+
+# -- progress on stderr, and compiling ahead of time ------------------------------------------
+
+
+def _progress_lines(err: str) -> list[str]:
+    return [line for line in err.splitlines() if line.startswith("[")]
+
+
+def test_sse_prints_one_progress_line_per_disc_and_none_with_quiet(capsys):
+    argv = ["sse", "nist-ir-psf", "--diameters", "12um", "60um", "300um"]
+    assert main(argv) == 0
+    err = capsys.readouterr().err
+    assert "\r" not in err  # stderr is not a terminal: plain lines
+    # The background and three discs, each counted out of 4 when it is done.
+    assert _progress_lines(err) == ["[1/4] background", "[2/4] disc 12 µm", "[3/4] disc 60 µm",
+                                    "[4/4] disc 300 µm"]
+    assert main(argv + ["-q"]) == 0
+    assert capsys.readouterr().err == ""
+
+
+def test_report_prints_progress_per_step_and_none_with_quiet(tmp_path, capsys):
+    assert main(["report", "nist-ir", "--frames", "2", "--out", str(tmp_path / "a")]) == 0
+    captured = capsys.readouterr()
+    lines = _progress_lines(captured.err)
+    # 25 photon-transfer levels, the flat fields, the NETD curve, 13 range times: 40 steps,
+    # counted one by one, on stderr only.
+    assert [line.split("]")[0] for line in lines] == [f"[{k}/40" for k in range(1, 41)]
+    assert "flat-field pair" in lines[0] and "measurable range" in lines[-1]
+    assert "\r" not in captured.err and not _progress_lines(captured.out)
+    assert main(["report", "nist-ir", "--frames", "2", "-q", "--out", str(tmp_path / "b")]) == 0
+    assert capsys.readouterr().err == ""
+
+
+def test_progress_on_a_terminal_is_one_bar_created_before_the_work(capsys):
+    import io
+
+    from radiosim.cli import _Progress
+
+    class Terminal(io.StringIO):
+        def isatty(self):
+            return True
+
+    stream = Terminal()
+    progress = _Progress("disc", stream=stream)
+    assert progress.bar is not None and progress.bar.n == 0  # before the first step
+    for k in range(1, 4):
+        progress(k, 3, f"disc {k}")
+    assert progress.bar.n == 3 and "3/3" in stream.getvalue()
+    quiet = Terminal()
+    _Progress("disc", quiet=True, stream=quiet)(1, 3, "disc 1")
+    assert quiet.getvalue() == ""
+
+
+def test_warmup_compiles_every_path_and_says_so_in_one_line(capsys):
+    # Last in this file: the tests above have compiled most paths, so this loads them from
+    # numba's cache and compiles only the rest (float32 frames, intp maps, memory maps).
+    from radiosim.kernels import compile_pending
+
+    assert main(["warmup", "-q"]) == 0
+    out = capsys.readouterr().out.splitlines()
+    assert len(out) == 1 and out[0].startswith("compiled radiosim's kernels in "), out
+    assert "cached in" in out[0]
+    # Nothing is left to compile, for any frame or index-map type.
+    assert not compile_pending(("float32", "float64"), ("uint8", "intp"))

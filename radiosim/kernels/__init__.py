@@ -64,7 +64,8 @@ frame dtype (float32, float64) or index-map dtype (uint8, intp) compiles the one
 serves linear, Planck and every emissivity form (about 35 s on a 2-core machine, most of it
 the twelve generated sweeps) and caches it on disk
 (``cache=True``, in ``radiosim/__pycache__`` or ``NUMBA_CACHE_DIR``); later processes load it in
-about 0.3 s.
+about 0.3 s. :func:`warmup` (``radiosim warmup``) compiles every variant ahead of time, and
+:func:`compile_pending` tells, from the cache's index file, whether a launch would compile.
 
 The package, one concept per module (imports flow down this list):
 
@@ -99,7 +100,8 @@ from radiosim.kernels.codes import (SIGNAL_INDEX, SIGNAL_MAP, SIGNAL_NONE, SIGNA
 from radiosim.kernels.engines import ENGINES, Engine, compiled_selected, get_engine, set_engine
 from radiosim.kernels.intrinsics import fast_exp
 from radiosim.kernels.launch import (accumulate, accumulate_merged, apply_thread_settings,
-                                     parallel_launch, pixel_mean)
+                                     cache_location, compile_pending, parallel_launch,
+                                     pixel_mean, warmup)
 from radiosim.kernels.reference import (Members, accumulate_merged_reference,
                                         accumulate_reference, pixel_mean_reference)
 from radiosim.kernels.table import RadianceKernelTable
@@ -131,6 +133,9 @@ __all__ = [
     "set_engine",
     "compiled_selected",
     "dispatchers",
+    "warmup",
+    "compile_pending",
+    "cache_location",
 ]
 
 
