@@ -64,17 +64,19 @@ MAX_DRAWS = 1_000_000
 
 class _Progress:
     """Progress on stderr, created before the work it measures: a tqdm bar on a terminal, one
-    plain line per step otherwise (no carriage returns: logs stay readable), nothing when
-    ``quiet``; nothing for the first ``delay`` [s]. Called as ``progress(done, total, label)``
-    (``total`` may be ``None``: unknown)."""
+    plain line per step otherwise (no carriage returns: logs stay readable) unless
+    ``terminal_only``, nothing when ``quiet``; nothing for the first ``delay`` [s]. Called as
+    ``progress(done, total, label)`` (``total`` may be ``None``: unknown)."""
 
-    def __init__(self, unit="measurement", quiet=False, delay=0.0, stream=None):
+    def __init__(self, unit="measurement", quiet=False, delay=0.0, stream=None,
+                 terminal_only=False):
         import time
 
         self.stream = stream or sys.stderr  # looked up now, not at import: redirections hold
         self.quiet, self.bar, self.clock = quiet, None, time.monotonic
+        self.quiet = quiet or (terminal_only and not self.stream.isatty())
         self.shown_after = self.clock() + delay
-        if not quiet and self.stream.isatty():
+        if not self.quiet and self.stream.isatty():
             from tqdm import tqdm
 
             self.bar = tqdm(file=self.stream, unit=unit, dynamic_ncols=True, delay=delay)
@@ -195,7 +197,9 @@ def _measure(args) -> int:
 
         check_not_an_input(args.out, [*getattr(scene, "paths", ()), path])
     _check_scale(args, scene, camera)
-    progress = _Progress("frame", args.quiet, delay=2.0)  # a long measurement: per block
+    # A long measurement: per block of frames, on a terminal only (in a log, an error after
+    # the work stays the one line on stderr).
+    progress = _Progress("frame", args.quiet, delay=2.0, terminal_only=True)
     _announce_compile(args, _frame_dtype(scene))
     try:  # Camera.measure, with progress (bit for bit the same)
         m, = measure_many(scene, [(camera, args.integration_time, args.start)], args.seed,
