@@ -215,11 +215,17 @@ def _measure(args) -> int:
     summary = summarise(m)
     print(f"{camera.name}: {m.shape[1]} × {m.shape[0]} pixels, {m.integration_time * 1e6:g} µs "
           f"from {m.t_start * 1e6:g} µs ({m.n_frames} frames)")
-    print(f"  scene peak {summary['peak_scene_C']:.1f} °C; highest reading "
-          f"{summary['peak_C']:.1f} °C (bias {summary['peak_bias_K']:+.1f} K, ±1σ "
-          f"{summary['peak_uncertainty_K']:.1f} K); saturated {100 * m.saturated_fraction:.1f} %,"
-          f" under range {100 * summary['under_range_fraction']:.1f} %, over range "
+    if math.isnan(summary["peak_C"]):  # every pixel flagged: no reading to print
+        reading = "no reading (every pixel flagged)"
+    else:
+        reading = (f"{summary['peak_C']:.1f} °C (bias {summary['peak_bias_K']:+.1f} K, ±1σ "
+                   f"{summary['peak_uncertainty_K']:.1f} K)")
+    print(f"  scene peak {summary['peak_scene_C']:.1f} °C; highest reading {reading}; saturated "
+          f"{100 * m.saturated_fraction:.1f} %, under range "
+          f"{100 * summary['under_range_fraction']:.1f} %, over range "
           f"{100 * summary['over_range_fraction']:.1f} %")
+    if summary["under_range_fraction"] == 1.0:
+        _explain_under_range(args, camera, summary["peak_scene_C"])
     if args.out:
         print(f"wrote {write_exr(args.out, m)}")
     return 0
@@ -241,6 +247,21 @@ def _sample_as_typed(message: str, units: str | None) -> str:
         f"is {match.group('value')} K; temperatures must be > 0 K (°C passed as kelvin?)",
         f"is {to_celsius(kelvin):g} °C ({kelvin:g} K); temperatures must be above absolute "
         "zero (-273.15 °C)")
+
+
+def _explain_under_range(args, camera: Camera, peak_scene_C: float):
+    """Say why a measurement read nothing: the scene is below what the camera can tell from its
+    dark level at this integration time (and, for a scene read as kelvin that would be a
+    plausible one in °C, ask whether the file was in °C)."""
+    low, _ = camera.measurable_range(args.integration_time)
+    low_text = "nothing" if math.isnan(low) else f"{to_celsius(low):.1f} °C"
+    print(f"  every pixel is under range: the scene's peak {peak_scene_C:.1f} °C is below "
+          f"{camera.name}'s lowest measurable temperature at {_typed(args.integration_time)} "
+          f"({low_text}: below it the counts lie within {camera.detection_sigma:g} σ of the blank "
+          "reading)")
+    if args.units == "K" and peak_scene_C < 0.0 and peak_scene_C + 273.15 > 0.0:
+        print(f"  were the frames in °C? They were read as kelvin (--units K): a peak of "
+              f"{peak_scene_C + 273.15:g} K; give --units C if it is {peak_scene_C + 273.15:g} °C")
 
 
 def _check_scale(args, scene, camera: Camera):

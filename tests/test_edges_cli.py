@@ -403,3 +403,20 @@ def test_the_commands_draw_bound_is_the_librarys():
     from radiosim import cli, uncertainty
 
     assert cli.MAX_DRAWS == uncertainty.MAX_DRAWS
+
+
+def test_a_scene_read_as_kelvin_that_reads_nothing_says_why(here, capsys):
+    # 20 read as kelvin (a °C file given --units K): every pixel is under range. The command
+    # says so, names the camera's lowest measurable temperature and asks about the unit,
+    # instead of printing "nan °C" alone.
+    np.save(here / "cold.npy", np.full((5, 24, 24), 20.0))
+    code, out, err = cli(["measure", "cold.npy", "--camera", "nist-ir", "--dx", "1um", "--dt",
+                          "1us", "--units", "K", "--integration-time", "2us"], capsys)
+    assert code == 0, err
+    assert "nan" not in out, out
+    assert "every pixel is under range" in out and "nist-ir's lowest measurable" in out, out
+    assert "--units C" in out, out
+    # A scene in range gets no such note.
+    code, out, err = cli(["measure", "frames.npy", "--camera", "nist-ir", "--dx", "1um", "--dt",
+                          "1us", "--units", "K", "--integration-time", "2us"], capsys)
+    assert code == 0 and "under range 0.0 %" in out and "every pixel" not in out, out
