@@ -34,7 +34,8 @@ from radiosim.errors import (Interrupted, RadiosimError, RadiosimIOError, Radios
 from radiosim import __version__  # noqa: E402
 from radiosim.units import (join_negatives as _join_negatives, parse_length,
                             parse_temperature, parse_time, parse_time_or_zero,
-                            typed as _typed, whole_number as _count, to_celsius)
+                            typed as _typed, whole_number as _count, to_celsius,
+                            to_kelvin)
 
 if TYPE_CHECKING:
     from radiosim.camera import Camera
@@ -259,9 +260,10 @@ def _explain_under_range(args, camera: Camera, peak_scene_C: float):
           f"{camera.name}'s lowest measurable temperature at {_typed(args.integration_time)} "
           f"({low_text}: below it the counts lie within {camera.detection_sigma:g} σ of the blank "
           "reading)")
-    if args.units == "K" and peak_scene_C < 0.0 and peak_scene_C + 273.15 > 0.0:
+    peak_K = float(to_kelvin(peak_scene_C, "C"))
+    if args.units == "K" and peak_scene_C < 0.0 < peak_K:
         print(f"  were the frames in °C? They were read as kelvin (--units K): a peak of "
-              f"{peak_scene_C + 273.15:g} K; give --units C if it is {peak_scene_C + 273.15:g} °C")
+              f"{peak_K:g} K; give --units C if it is {peak_K:g} °C")
 
 
 def _check_scale(args, scene, camera: Camera):
@@ -879,28 +881,27 @@ def main(argv=None) -> int:
     except (KeyboardInterrupt, Interrupted) as exc:
         if args.debug:
             raise
-        if command:  # the cleanup is done: a second signal must not cut the one line
-            for signum in signals:
-                signal.signal(signum, signal.SIG_IGN)
-        what = "SIGTERM" if isinstance(exc, Interrupted) else "Ctrl-C"
-        print(f"radiosim: interrupted ({what}); temporary files removed", file=sys.stderr)
-        if command:
-            _exit_now()
-        return EXIT_INTERRUPTED
+        return _end_interrupted(command, "SIGTERM" if isinstance(exc, Interrupted) else "Ctrl-C")
     except RadiosimError as exc:
         if args.debug:
             raise
+        if _Command.interrupted:  # the interrupt surfaced as another error: still an interrupt
+            return _end_interrupted(command, _Command.signal_name)
         print(f"radiosim: error: {exc}", file=sys.stderr)
         return EXIT_FAILURE if isinstance(exc, RadiosimIOError) else EXIT_INPUT
     except OSError as exc:
         if args.debug:
             raise
+        if _Command.interrupted:
+            return _end_interrupted(command, _Command.signal_name)
         where = f" {exc.filename}" if exc.filename else ""
         print(f"radiosim: error:{where} {exc.strerror or exc}", file=sys.stderr)
         return EXIT_FAILURE
     except Exception as exc:  # a bug, not a user mistake: say so, in one line
         if args.debug:
             raise
+        if _Command.interrupted:  # e.g. an import the signal cut short ("initialization failed")
+            return _end_interrupted(command, _Command.signal_name)
         print(f"radiosim: internal error ({type(exc).__name__}: {exc}); run with --debug for "
               "the traceback and please report it", file=sys.stderr)
         return EXIT_FAILURE
@@ -910,6 +911,17 @@ def main(argv=None) -> int:
         if _Command.interrupted:  # only the command silences logging (and then exits)
             logging.disable(logging.NOTSET)
         _Command.active = False
+
+
+def _end_interrupted(command: bool, what: str) -> int:
+    """One line for an interrupted command (its cleanup done), exit 130."""
+    if command:  # the cleanup is done: a second signal must not cut the one line
+        for signum in (signal.SIGINT, signal.SIGTERM):
+            signal.signal(signum, signal.SIG_IGN)
+    print(f"radiosim: interrupted ({what}); temporary files removed", file=sys.stderr)
+    if command:
+        _exit_now()
+    return EXIT_INTERRUPTED
 
 
 def _main_thread() -> bool:

@@ -90,6 +90,7 @@ class command_state:  # noqa: N801 - a namespace, not a class of objects
 
     active = False  # main() runs as the radiosim command
     interrupted = False
+    signal_name = ""  # the interrupting signal: "Ctrl-C" or "SIGTERM"
 
 
 def on_interrupt(signum, frame):
@@ -103,6 +104,8 @@ def on_interrupt(signum, frame):
         import threading
 
         command_state.interrupted = True
+        command_state.signal_name = ("Ctrl-C" if signum == signal.SIGINT
+                                     else signal.Signals(signum).name)
         logging.disable(logging.CRITICAL)
         _end_children()
         timer = threading.Timer(GRACE, _give_up, (signum,))

@@ -420,3 +420,23 @@ def test_a_scene_read_as_kelvin_that_reads_nothing_says_why(here, capsys):
     code, out, err = cli(["measure", "frames.npy", "--camera", "nist-ir", "--dx", "1um", "--dt",
                           "1us", "--units", "K", "--integration-time", "2us"], capsys)
     assert code == 0 and "under range 0.0 %" in out and "every pixel" not in out, out
+
+
+def test_an_interrupt_that_surfaces_as_another_error_is_still_an_interrupt(here, capsys,
+                                                                          monkeypatch):
+    # A signal that cuts an import short surfaces as ImportError ("initialization failed"):
+    # once the handler has marked the command interrupted, that is exit 130 and the one
+    # interrupt line, not "internal error".
+    from radiosim import cli as cli_module
+    from radiosim.errors import command_state
+
+    def cut_short(args):
+        command_state.interrupted = True
+        command_state.signal_name = "SIGTERM"
+        raise ImportError("initialization failed")
+
+    monkeypatch.setattr(cli_module, "_presets", cut_short)
+    code, out, err = cli(["presets"], capsys)
+    assert code == 130, (code, err)
+    assert err.strip() == "radiosim: interrupted (SIGTERM); temporary files removed", err
+    assert "internal error" not in err
