@@ -11,7 +11,9 @@ The chain, one module per stage, imports flowing one way (:data:`CHAIN`):
 :mod:`radiosim.spectral`) → :mod:`radiosim.integrator` → :mod:`radiosim.optics` (its
 point-spread functions in :mod:`radiosim.psf`; the image they form in :mod:`radiosim.imaging`) →
 :mod:`radiosim.electronics` → :mod:`radiosim.calibration` → :mod:`radiosim.measurement`,
-orchestrated by :class:`radiosim.camera.Camera`. Files in and out are in :mod:`radiosim.io`,
+orchestrated by :class:`radiosim.camera.Camera` (its acquisition modes in
+:mod:`radiosim.acquisition`, its laboratory procedures in :mod:`radiosim.characterization` and
+:mod:`radiosim.calibration_table`). Files in and out are in :mod:`radiosim.io`,
 studies in :mod:`radiosim.study`, and everything specific to the paper in
 :mod:`radiosim.paper`.
 """
@@ -39,7 +41,8 @@ _LAZY = {
     "MovingGaussianBand": "radiosim.scenes",
     "UniformBlackbody": "radiosim.scenes",
 }
-_SUBMODULES = frozenset({"errors", "units", "io", "paper", "scenes", "study"})
+_SUBMODULES = frozenset({"errors", "units", "io", "paper", "scenes", "study", "acquisition",
+                         "characterization", "calibration_table"})
 
 
 def __getattr__(name):
@@ -59,10 +62,11 @@ def __dir__():
 #: The package's modules in the order of the chain: a module imports only modules before it
 #: (tests/test_architecture.py checks this with ``ast``).
 CHAIN = (
-    "_version", "errors", "units", "checks", "config", "files", "spectral", "radiometry", "kernels", "scenes",
-    "response", "fpa", "integrator", "psf", "optics", "imaging", "electronics", "calibration", "measurement", "presets",
-    "camera", "characterization", "scheduling", "moments", "uncertainty", "io", "study_spec", "study",
-    "plotting", "paper", "cli",
+    "_version", "errors", "units", "checks", "config", "files", "spectral", "radiometry",
+    "kernels", "scenes", "response", "fpa", "integrator", "psf", "optics", "imaging",
+    "electronics", "calibration", "measurement", "presets", "acquisition", "camera",
+    "characterization", "calibration_table", "scheduling", "moments", "uncertainty", "io",
+    "study_spec", "study", "plotting", "reporting", "paper", "console", "cli",
 )
 
 __all__ = [

@@ -54,9 +54,10 @@ from functools import cached_property
 
 import numpy as np
 
-from radiosim.checks import check_fraction, check_positive
+from radiosim.checks import check_count, check_fraction, check_positive
 from radiosim.electronics import Electronics, Exposure, apply_nonlinearity
 from radiosim.errors import RadiosimError, RadiosimWarning
+from radiosim.radiometry import CALIBRATION_RANGE
 from radiosim.response import Response, object_signal, observed_signal
 
 __all__ = ["Calibration", "Reading", "MIN_CALIBRATION_SPAN_DN", "NonUniformityCorrection",
@@ -107,7 +108,8 @@ class Calibration:
     integration_time
         Integration time [s].
     assumed_emissivity
-        The camera's emissivity setting (dimensionless).
+        The camera's emissivity setting (dimensionless). This and the parameters after it
+        are keyword-only.
     temperature_range
         Temperatures the calibration covers [K].
     reflected_temperature
@@ -129,8 +131,8 @@ class Calibration:
     """
 
     def __init__(self, response: Response, electronics: Electronics, rate_per_signal: float,
-                 integration_time: float, assumed_emissivity: float = 1.0,
-                 temperature_range=(150.0, 3000.0), reflected_temperature: float | None = None,
+                 integration_time: float, *, assumed_emissivity: float = 1.0,
+                 temperature_range=CALIBRATION_RANGE, reflected_temperature: float | None = None,
                  path_transmission: float = 1.0, path_temperature: float | None = None,
                  background_signal: float = 0.0, detection_sigma: float = 3.0):
         self.integration_time = check_positive(integration_time, "integration time", "s")
@@ -457,7 +459,6 @@ def fit_calibration(camera, temperatures, counts, integration_time: float, frame
     residuals : numpy.ndarray
         Measured minus fitted counts [DN]; NaN at excluded points.
     """
-    from radiosim.checks import check_whole
 
     t = np.asarray(temperatures, dtype=float)
     y = np.asarray(counts, dtype=float)
@@ -468,7 +469,7 @@ def fit_calibration(camera, temperatures, counts, integration_time: float, frame
         raise RadiosimError("calibration temperatures must be finite and > 0 K, and the "
                             "counts finite")
     t_int = check_positive(integration_time, "integration_time", "s")
-    frames = check_whole(frames, "frames (read-outs averaged per counts value)")
+    frames = check_count(frames, "frames (read-outs averaged per counts value)")
     el = camera.electronics
     optics = camera.optics
     t_i = None

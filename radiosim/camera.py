@@ -16,13 +16,18 @@ The camera, and the measurement chain that runs a scene through it.
 6. calibration (:mod:`radiosim.calibration`): DN → apparent temperature and flags;
 7. :class:`~radiosim.measurement.Measurement`.
 
-Camera files (TOML) are read and written by :mod:`radiosim.presets`.
+Stages 2–3 and 4–7 are :func:`radiosim.acquisition.tensor_statistics` and
+:func:`radiosim.acquisition.read_out`, shared with :func:`~radiosim.acquisition.measure_many`
+(several measurements of one scene in one pass). The camera stays thin: how it takes frames in
+time (recording, superframing, its frame period) is in :mod:`radiosim.acquisition`, the
+laboratory procedures (flat fields, NUC and calibration fits, NETD, measurable range) in
+:mod:`radiosim.characterization`, all functions taking the camera first. Camera files (TOML) are
+read and written by :mod:`radiosim.presets`.
 """
 
 from __future__ import annotations
 
 import dataclasses
-import warnings
 import math
 from dataclasses import dataclass, field
 from functools import cached_property
@@ -30,21 +35,27 @@ from pathlib import Path
 
 import numpy as np
 
-
-from radiosim.calibration import Calibration, NonUniformityCorrection, fit_calibration
-from radiosim.checks import check_fraction, check_positive, check_rng, check_time
+from radiosim.acquisition import (check_frame_period, check_measurable, instrument_signal,
+                                  measure_many, measure_many_statistics, read_out,
+                                  tensor_statistics)
+from radiosim.calibration import Calibration, NonUniformityCorrection
+from radiosim.checks import check_fraction, check_positive, check_time
 from radiosim.config import build_checked, build_from_toml, dumps_toml, edge_field
 from radiosim.electronics import Electronics
-from radiosim.errors import RadiosimError, RadiosimWarning
+from radiosim.errors import RadiosimError
 from radiosim.fpa import FocalPlaneArray
 from radiosim.imaging import forms_image, image_signal
-from radiosim.integrator import (FootprintIntegrator, Job, TensorStatistics, Window, integrate,
-                                 integrate_many, integration_window, stack_rows)
+from radiosim.integrator import (FootprintIntegrator, TensorStatistics, Window,  # noqa: F401
+                                 integrate_many, integration_window)  # integrate_many: see below
 from radiosim.measurement import Measurement
-from radiosim.optics import Optics, collect
+from radiosim.optics import Optics
 from radiosim.presets import PRESET_DIRECTORY, available_presets, camera_fields, camera_table
+from radiosim.radiometry import CALIBRATION_RANGE
 from radiosim.response import LinearResponse, PlanckResponse, Response
 from radiosim.scenes.base import Scene
+
+# integrate_many is imported for tests/test_integrator.py, which patches
+# radiosim.camera.integrate_many (the stages now look it up in radiosim.integrator per call).
 
 __all__ = ["Optics", "FocalPlaneArray", "Camera", "measure_many", "measure_many_statistics",
            "available_presets", "PRESET_DIRECTORY"]
@@ -94,7 +105,7 @@ class Camera:
         :mod:`radiosim.calibration`).
     nuc : NonUniformityCorrection or None
         The non-uniformity correction applied to counts before the calibration (measured:
-        :meth:`fit_nuc`; not part of the camera file).
+        :func:`radiosim.characterization.fit_nuc`; not part of the camera file).
 
     Examples
     --------
@@ -117,7 +128,7 @@ class Camera:
     linear_responsivity: float = edge_field(1e6, "linear_responsivity_e_per_s_per_K",
                                             doc="electron rate per kelvin of the linear response")
     calibration_range: tuple[float, float] = edge_field(
-        (150.0, 3000.0), "calibration_range_K", kind="numbers",
+        CALIBRATION_RANGE, "calibration_range_K", kind="numbers",
         doc="temperatures the calibration covers [K]")
     assumed_reflected_temperature: float | None = edge_field(
         None, "assumed_reflected_temperature_K", doc="reflected-temperature setting [K]")
@@ -292,13 +303,6 @@ class Camera:
         """Electron rate per unit of response signal [e⁻ s⁻¹ per signal unit]."""
         return self.response_model.rate_per_signal(self.etendue)
 
-    def instrument_signal(self, temperature: float | None = None) -> float:
-        """The optics' own emission into a pixel [signal unit] at ``temperature`` [K] (default
-        the optics' instrument temperature); 0 for the linear response."""
-        if not self.response_model.radiometric:
-            return 0.0
-        return self.optics.emitted_radiance(self.fpa.quantum_efficiency, temperature)
-
     def calibration(self, integration_time: float) -> Calibration:
         """The camera's DN → temperature calibration for ``integration_time`` [s], under its
         settings (emissivity, reflected temperature, path, instrument temperature). A camera
@@ -311,11 +315,13 @@ class Camera:
             calibration = Calibration(
                 self.response_model, self.electronics,
                 self.rate_per_signal * self.calibration_scale, integration_time,
-                self.assumed_emissivity, self.calibration_range,
-                self.assumed_reflected_temperature, self.assumed_path_transmission,
-                self.assumed_path_temperature,
-                self.instrument_signal(self.assumed_instrument_temperature),
-                self.detection_sigma)
+                assumed_emissivity=self.assumed_emissivity,
+                temperature_range=self.calibration_range,
+                reflected_temperature=self.assumed_reflected_temperature,
+                path_transmission=self.assumed_path_transmission,
+                path_temperature=self.assumed_path_temperature,
+                background_signal=instrument_signal(self, self.assumed_instrument_temperature),
+                detection_sigma=self.detection_sigma)
             if len(kept) >= 16:
                 kept.pop(next(iter(kept)))
             kept[key] = calibration
@@ -346,18 +352,11 @@ class Camera:
         t_int = check_time(integration_time, "integration_time")
         if t_start is not None:
             t_start = check_time(t_start, "t_start", positive=False)
-        if self.frame_rate is not None:
-            needed = self.fpa.frame_period(t_int, self.readout_shape)
-            if needed > 1.0 / self.frame_rate * (1 + 1e-12):
-                raise RadiosimError(
-                    f"integration time {t_int:g} s" + (
-                        f" with its readout ({needed:g} s)" if needed != t_int else "")
-                    + f" exceeds the frame period {1 / self.frame_rate:g} s of {self.name} at "
-                    f"{self.frame_rate:g} Hz")
+        check_frame_period(self, t_int)
         return integration_window(scene, t_int, t_start)
 
     def measure(self, scene: Scene, integration_time: float, t_start: float | None = None,
-                rng=None) -> Measurement:
+                rng=None, progress=None) -> Measurement:
         """
         Measure ``scene`` over one integration.
 
@@ -372,300 +371,20 @@ class Camera:
             has one, else starting at t = 0.
         rng
             Seed or :class:`numpy.random.Generator` for shot and read noise.
+        progress
+            Called as ``progress(done, total)`` after each frame of the window (with an image
+            stage, after each frame of both passes, counted together); ``None``: silent.
 
         Returns
         -------
         Measurement
         """
         window = self.window(scene, integration_time, t_start)  # [s]
-        self.check_measurable(window.duration)
-        if self.rolling:
-            return self.read_out(self._rolling(scene, window), window, scene, rng)
-        # Scene frames (T [K], ε) → response signal per sample → mean per pixel over
-        # footprint × window [signal unit], with the tensor's T statistics [K].
-        # (Reflections, where the scene has them, are the image stage's: below.)
-        stats = integrate(scene, self.integrator(scene), window, self.response_model,
-                          emission_only=True)
-        if self.forms_image(scene):  # the statistics stay scene truth; the signal is imaged
-            stats = dataclasses.replace(stats, signal_mean=self.image(scene, window))
-        return self.read_out(stats, window, scene, rng)
-
-    def check_measurable(self, integration_time: float):
-        """Refuse (:class:`RadiosimError`, naming the camera, the integration time and the
-        limits) an integration time at which no temperature of the calibration range gives
-        a reading (:meth:`~radiosim.calibration.Calibration.check_measurable`)."""
-        self.calibration(integration_time).check_measurable(self.name)
-
-    @property
-    def rolling(self) -> bool:
-        """Whether the rows integrate over staggered windows (a rolling shutter)."""
-        return self.fpa.shutter == "rolling" and self.fpa.row_time > 0
-
-    def _rolling(self, scene: Scene, window: Window) -> TensorStatistics:
-        """A rolling shutter's statistics: pixel row i integrates over the window delayed by
-        i·row_time, all rows in one pass over the frames."""
-        if self.forms_image(scene):
-            raise RadiosimError(
-                f"{self.name}: a rolling shutter with a PSF, reflections or a path would need "
-                "one image per row; measure with shutter = 'snapshot' or without them")
-        integrator = self.integrator(scene)
-        delays = self.fpa.row_delays(integrator.shape[0])  # [s]
-        last = window.start + window.duration + delays[-1]
-        if scene.duration is not None and last > scene.duration * (1 + 1e-12):
-            raise RadiosimError(
-                f"the rolling shutter's last row integrates until {last:.6g} s, past the "
-                f"scene's end at {scene.duration:.6g} s (row time {self.fpa.row_time:g} s × "
-                f"{integrator.shape[0] - 1} rows)")
-        jobs = [Job(integrator.pixel_rows(i, i + 1),
-                    Window(window.start + delay, window.duration, window.alignment),
-                    self.response_model) for i, delay in enumerate(delays)]
-        return stack_rows(integrate_many(scene, jobs))
-
-    def read_out(self, stats: TensorStatistics, window: Window, scene: Scene,
-                 rng=None) -> Measurement:
-        """
-        The stages after the integrator: the optics, the electronics and the calibration turn
-        a window's tensor statistics into a :class:`Measurement`.
-        """
-        calibration = self.calibration(window.duration)
-        calibration.check_resolution(stacklevel=3)
-        # Optics: mean signal and the optics' emission → mean photo-electrons [e⁻] through the
-        # étendue.
-        photoelectrons = collect(stats.signal_mean + self.instrument_signal(),
-                                 self.rate_per_signal, window.duration)
-        # Electronics: the fixed pattern, dark charge, shot noise, full well, non-linearity,
-        # read noise, ADC → counts [DN].
-        pattern = self.fpa.pattern(photoelectrons.shape)
-        exposure = self.electronics.expose(photoelectrons, window.duration, rng, pattern)
-        if self.nuc is not None:  # the NUC: counts [DN] → corrected counts [DN]; its bad
-            # pixels take their neighbours' values, and their own flags no longer apply
-            good = ~self.nuc.bad[:exposure.counts.shape[0], :exposure.counts.shape[1]]
-            exposure = dataclasses.replace(
-                exposure, counts=self.nuc.apply(exposure.counts),
-                saturated=exposure.saturated & good, adc_floor=exposure.adc_floor & good)
-        # Calibration: counts [DN] → apparent temperature [K] and flags.
-        reading = calibration.read(exposure)
-        if reading.saturated.any():
-            warnings.warn(
-                f"{self.name}: {int(reading.saturated.sum())} of {reading.saturated.size} pixels "
-                f"saturated at {window.duration:g} s integration; their apparent temperature is "
-                "NaN", RadiosimWarning, stacklevel=3)
-        return Measurement(
-            apparent_temperature=reading.apparent_temperature, counts=exposure.counts,
-            electrons=exposure.electrons, saturated=reading.saturated,
-            under_range=reading.under_range, over_range=reading.over_range,
-            tensor_max=stats.max, tensor_mean=stats.mean,
-            tensor_std=stats.std, signal_mean=stats.signal_mean,
-            signal_unit=self.response_model.unit, camera=self,
-            integration_time=window.duration, t_start=window.start, n_frames=stats.n_frames,
-            scene=scene.describe(), alignment=window.alignment,
-        )
-
-    @property
-    def readout_shape(self) -> tuple[int, int]:
-        """The window the array reads, as its number of rows and columns: the array's shape, or
-        one pixel if it has none."""
-        return tuple(self.fpa.shape) if self.fpa.shape is not None else (1, 1)
-
-    def frame_period(self, integration_time: float) -> float:
-        """
-        The camera's frame period [s] at ``integration_time`` [s]: the array's own (integration
-        and readout, :meth:`~radiosim.fpa.FocalPlaneArray.frame_period`), or the frame rate's
-        if that is slower. A camera with neither a frame rate nor a readout time has none.
-        """
-        own = self.fpa.frame_period(integration_time, self.readout_shape)
-        if self.frame_rate is not None:
-            return max(1.0 / self.frame_rate, own)
-        if self.fpa.readout_time(self.readout_shape) == 0:
-            raise RadiosimError(f"{self.name} has no frame rate nor readout time; set "
-                                "frame_rate_hz or the [fpa] readout times")
-        return own
-
-    def record(self, scene: Scene, integration_time: float, n_frames: int,
-               t_start: float | None = None, rng=None) -> list[Measurement]:
-        """
-        Record ``n_frames`` camera frames with the camera's real timing.
-
-        Frame i integrates over [t_start + i·P, … + integration_time] with P the frame period
-        (:meth:`frame_period`: the readout's, or the frame rate's if slower); ``t_start``
-        defaults to the start that centres the first frame's window on the scene's event.
-        One generator drives the noise of all frames.
-        """
-        if isinstance(n_frames, bool) or int(n_frames) != n_frames or n_frames < 1:
-            raise RadiosimError(f"n_frames must be a whole number ≥ 1, got {n_frames!r}")
-        period = self.frame_period(integration_time)
-        rng = check_rng(rng)
-        first = self.window(scene, integration_time, t_start)
-        return [self.measure(scene, integration_time, first.start + i * period, rng)
-                for i in range(int(n_frames))]
-
-    def superframe(self, scene: Scene, integration_times, t_start: float | None = None,
-                   rng=None) -> Measurement:
-        """
-        Superframing: integrate subframes of ``integration_times`` [s] in sequence with the
-        camera's real timing (each starts one frame period after the previous one's start),
-        calibrate each with its own calibration, and merge them per pixel: the longest
-        subframe whose reading is valid (neither saturated, under nor over range); a pixel with
-        no valid subframe keeps the flags of its shortest subframe if any is saturated, else of
-        its longest. The scene moves between subframes, and the merged frame shows it.
-
-        Parameters
-        ----------
-        scene
-            The scene.
-        integration_times
-            The subframes' integration times [s], in the order the camera cycles them.
-        t_start
-            Start of the first subframe [s]; ``None``: as :meth:`window` chooses.
-        rng
-            Seed or generator; the subframes draw their noise from it in turn.
-
-        Returns
-        -------
-        Measurement
-            Per-pixel fields from each pixel's subframe; ``subframe`` says which;
-            ``integration_time`` is the longest subframe's, ``t_start`` the first's.
-        """
-        times = [check_positive(t, "integration time", "s") for t in integration_times]
-        if not times:
-            raise RadiosimError("a superframe needs at least one integration time")
-        rng = check_rng(rng)
-        start = self.window(scene, times[0], t_start).start
-        subframes = []
-        for t_int in times:
-            subframes.append(self.measure(scene, t_int, start, rng))
-            start += self.frame_period(t_int) if (self.frame_rate is not None or
-                                                  self.fpa.readout_time(self.readout_shape) > 0
-                                                  ) else t_int
-        order = np.argsort(times, kind="stable")  # shortest first
-        shape = subframes[0].shape
-        chosen = np.full(shape, -1)
-        for j in order:  # longer valid subframes overwrite shorter ones
-            chosen = np.where(subframes[j].valid, j, chosen)
-        none = chosen < 0
-        any_saturated = np.any([m.saturated for m in subframes], axis=0)
-        chosen = np.where(none & any_saturated, order[0], np.where(none, order[-1], chosen))
-
-        def pick(name):
-            stack = np.stack([getattr(m, name) for m in subframes])
-            return np.take_along_axis(stack, chosen[None], 0)[0]
-
-        first = subframes[0]
-        return Measurement(
-            **{name: pick(name) for name in (
-                "apparent_temperature", "counts", "electrons", "saturated", "under_range",
-                "over_range", "tensor_max", "tensor_mean", "tensor_std", "signal_mean")},
-            signal_unit=first.signal_unit, camera=self, integration_time=max(times),
-            t_start=first.t_start, n_frames=sum(m.n_frames for m in subframes),
-            scene=first.scene, alignment=first.alignment, subframe=chosen,
-            subframe_times=tuple(times), subframe_starts=tuple(m.t_start for m in subframes))
-
-    # -- the array's fixed pattern and its correction ------------------------------------------
-
-    def flat_fields(self, temperature: float | None, integration_time: float,
-                    frames: int = 16, rng=None):
-        """
-        ``frames`` read-outs [DN] (frames, rows, columns) of a uniform blackbody filling the
-        array at ``temperature`` [K] — or of darkness (no photo-charge) for ``None`` — and the
-        pixels saturated in any of them.
-
-        The blackbody is imaged once; each frame is a new read-out of the electronics (shot
-        and read noise, with the array's fixed pattern), without the NUC.
-        """
-        from radiosim.scenes.analytic import UniformBlackbody
-
-        if self.fpa.shape is None:
-            raise RadiosimError(f"{self.name} has no array shape: a flat field needs one")
-        if isinstance(frames, bool) or int(frames) != frames or frames < 1:
-            raise RadiosimError(f"frames must be a whole number ≥ 1, got {frames!r}")
-        rng = check_rng(rng)
-        t_int = check_positive(integration_time, "integration_time", "s")
-        if temperature is None:
-            photo = np.zeros(self.fpa.shape)
-        else:
-            scene = UniformBlackbody(check_positive(temperature, "temperature", "K"),
-                                     shape=self.fpa.shape, dx=self.fpa.pixel_pitch, dt=t_int)
-            at_corner = self.replace(fpa=dataclasses.replace(self.fpa, origin=(0.0, 0.0)))
-            window = at_corner.window(scene, t_int, 0.0)
-            stats = integrate(scene, at_corner.integrator(scene), window, self.response_model)
-            photo = collect(stats.signal_mean + self.instrument_signal(), self.rate_per_signal,
-                            t_int)  # [e⁻]
-        pattern = self.fpa.pattern(photo.shape)
-        counts = np.empty((int(frames), *photo.shape))
-        saturated = np.zeros(photo.shape, dtype=bool)
-        for k in range(int(frames)):
-            exposure = self.electronics.expose(photo, t_int, rng, pattern)
-            counts[k] = exposure.counts
-            saturated |= exposure.saturated
-        return counts, saturated
-
-    def flat_field(self, temperature: float | None, integration_time: float, frames: int = 16,
-                   rng=None):
-        """The mean of :meth:`flat_fields` [DN] and the pixels saturated in any frame."""
-        counts, saturated = self.flat_fields(temperature, integration_time, frames, rng)
-        return counts.mean(axis=0), saturated
-
-    def fit_nuc(self, temperatures, integration_time: float, frames: int = 16,
-                rng=None) -> Camera:
-        """
-        The camera with a non-uniformity correction computed as cameras do: flat fields of
-        uniform blackbodies at ``temperatures`` [K] (two: a two-point NUC; more: multi-point),
-        ``frames`` read-outs each, at ``integration_time`` [s]
-        (:class:`~radiosim.calibration.NonUniformityCorrection`).
-        """
-        rng = check_rng(rng)
-        temperatures = [float(t) for t in temperatures]
-        flats, saturated = zip(*(self.flat_field(t, integration_time, frames, rng)
-                                 for t in temperatures))
-        nuc = NonUniformityCorrection.from_flat_fields(
-            np.array(flats), temperatures, integration_time, np.any(saturated, axis=0))
-        return self.replace(nuc=nuc)
-
-    # -- calibrating from measured points ---------------------------------------------------------
-
-    def fit_calibration(self, temperatures, counts, integration_time: float, frames: int = 1,
-                        emissivity: float = 1.0, instrument_temperatures=None,
-                        exclude_unusable: bool = False, fit_full_well: bool = False):
-        """
-        Fit the camera's system gain K [DN/e⁻] and offset [DN] (and, with several
-        ``instrument_temperatures`` [K], the optics' emissivity) to a measured calibration
-        table: blackbody ``temperatures`` [K] against mean ``counts`` [DN] at
-        ``integration_time`` [s], each the mean of ``frames`` read-outs; points beyond the full
-        well or the converter's range are refused, excluded (``exclude_unusable``) or widen the
-        well (``fit_full_well``). See :func:`radiosim.calibration.fit_calibration`.
-
-        Returns
-        -------
-        camera : Camera
-            This camera with the fitted gain and offset (and optics emissivity).
-        residuals : numpy.ndarray
-            Measured minus fitted counts [DN] (NaN at excluded points).
-        """
-        return fit_calibration(self, temperatures, counts, integration_time, frames,
-                               emissivity, instrument_temperatures, exclude_unusable,
-                               fit_full_well)
-
-    # -- performance ----------------------------------------------------------------------------
-
-    def netd(self, temperature, integration_time: float) -> np.ndarray:
-        """
-        Noise-equivalent temperature difference [K] of a grey body (the camera's assumed
-        emissivity and settings) at ``temperature`` [K]: the temporal noise [e⁻ rms] over the
-        slope of the mean charge, d e⁻/dT (shot noise of signal, background and dark charge;
-        read and quantisation noise). The fixed pattern is not temporal noise and is not
-        included.
-        """
-        return self.calibration(integration_time).netd(temperature)
-
-    def measurable_range(self, integration_time: float) -> tuple[float, float]:
-        """
-        (lowest measurable temperature, saturation temperature) [K] of a grey body at
-        ``integration_time`` [s]: the temperature whose mean counts reach the detection limit
-        (blank + k σ, k = :attr:`detection_sigma`), and the one that fills the well or the
-        converter (NaN or ∞ where the calibration range does not hold them).
-        """
-        calibration = self.calibration(integration_time)
-        return calibration.lowest_measurable_temperature(), calibration.saturation_temperature
+        check_measurable(self, window.duration)
+        # Scene → response → integrator (→ the optics' image): the tensor statistics.
+        stats, = tensor_statistics(scene, [(self, window)], progress)
+        # Optics → electronics → calibration: the measurement.
+        return read_out(self, stats, window, scene, rng)
 
 
 def check_scene(scene) -> Scene:
@@ -683,66 +402,3 @@ def check_scene(scene) -> Scene:
             "FrameStack(frames, dt=…, dx=…) (frame interval [s], sample pitch [m])")
     raise RadiosimError(f"measure needs a Scene (e.g. FrameStack(frames, dt=…, dx=…) or "
                         f"UniformBlackbody), got {type(scene).__name__} {scene!r:.60}")
-
-
-def measure_many(scene: Scene, cases, rng=None, progress=None) -> list[Measurement]:
-    """
-    Several measurements of one scene in one pass over its frames.
-
-    Each frame any window touches is read (or generated) once and feeds every measurement
-    (:func:`~radiosim.integrator.integrate_many`); the read-outs then follow in the order of
-    ``cases``, drawing their noise from one generator, so the result equals calling
-    :meth:`Camera.measure` on each case in turn with that generator, bit for bit.
-
-    Parameters
-    ----------
-    scene
-        The scene.
-    cases
-        ``(camera, integration_time [s], t_start [s] or None)`` triples.
-    rng
-        Seed or :class:`numpy.random.Generator`.
-    progress
-        Called as ``progress(done, total)`` after each frame.
-    """
-    rng = check_rng(rng)
-    cases = list(cases)
-    return [camera.read_out(stats, window, scene, rng)
-            for (camera, _, _), (window, stats) in zip(
-                cases, measure_many_statistics(scene, cases, progress))]
-
-
-def measure_many_statistics(scene: Scene, cases, progress=None) -> list:
-    """
-    The noise-free part of :func:`measure_many`: each case's window and tensor statistics
-    (mean signal, with the optics' image where the camera forms one), from one pass over the
-    scene's frames. A read-out (:meth:`Camera.read_out`) with any generator turns each into a
-    measurement, so callers can give each case its own seed.
-
-    Returns
-    -------
-    list of (Window, TensorStatistics)
-        In the order of ``cases``.
-    """
-    cases = list(cases)
-    windows = [camera.window(scene, t_int, t_start) for camera, t_int, t_start in cases]
-    for (camera, _, _), window in zip(cases, windows):
-        camera.check_measurable(window.duration)
-    integrators = {}
-    jobs = []
-    snapshot = [i for i, (camera, _, _) in enumerate(cases) if not camera.rolling]
-    for (camera, _, _), window in ((cases[i], windows[i]) for i in snapshot):
-        fpa = camera.fpa
-        key = (fpa.pixel_pitch, fpa.fill_factor, fpa.shape, fpa.origin)
-        if key not in integrators:  # cameras with the same footprints share them
-            integrators[key] = camera.integrator(scene)
-        jobs.append(Job(integrators[key], window, camera.response_model))
-    snapshot_statistics = dict(zip(snapshot, integrate_many(scene, jobs, progress,
-                                                            emission_only=True)))
-    statistics = [snapshot_statistics[i] if i in snapshot_statistics
-                  else camera._rolling(scene, window)  # its own pass, one job per row
-                  for i, ((camera, _, _), window) in enumerate(zip(cases, windows))]
-    statistics = [dataclasses.replace(stats, signal_mean=camera.image(scene, window))
-                  if not camera.rolling and camera.forms_image(scene) else stats
-                  for (camera, _, _), window, stats in zip(cases, windows, statistics)]
-    return list(zip(windows, statistics))

@@ -1,6 +1,10 @@
 """
-Camera characterisation: the photon-transfer curve after EMVA 1288 and what it recovers, and the
-size-of-source effect of the optics.
+Camera characterisation: the laboratory procedures, as functions taking the camera first —
+flat fields (:func:`flat_fields`), the non-uniformity correction fitted to them
+(:func:`fit_nuc`), the calibration fitted to measured points (:func:`fit_calibration`, from
+:mod:`radiosim.calibration`; from a CSV table: :mod:`radiosim.calibration_table`), the NETD
+(:func:`netd`) and the measurable range (:func:`measurable_range`); the photon-transfer curve
+after EMVA 1288 and what it recovers, and the size-of-source effect of the optics.
 
 A flat field (a uniform blackbody) is recorded twice at each exposure level; the mean of the
 pair gives μ_y [DN] and half the variance of their difference gives the temporal variance σ²_y
@@ -39,21 +43,22 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from radiosim.checks import check_positive
+from radiosim.acquisition import photoelectrons
+from radiosim.calibration import NonUniformityCorrection, fit_calibration
+from radiosim.checks import check_positive, check_rng
 from radiosim.errors import RadiosimError, RadiosimWarning
-from radiosim.integrator import integration_window
-from radiosim.optics import collect
+from radiosim.integrator import integrate, integration_window
 from radiosim.psf import ScatterHalo
 from radiosim.scenes.analytic import UniformBlackbody
 from radiosim.scenes.framestack import FrameStack
-from radiosim.units import to_celsius, to_kelvin
+from radiosim.units import AMBIENT_TEMPERATURE
 
 __all__ = ["PhotonTransfer", "photon_transfer", "EmvaResult", "fit_emva1288",
            "SizeOfSource", "size_of_source", "HaloFit", "fit_scatter_halo", "SSE_DIAMETERS",
            "sse_diameters", "fit_curve_halo", "DatasheetPlan", "datasheet_plan",
            "SpatialNonuniformity", "spatial_nonuniformity", "linearity_error",
-           "residual_nonuniformity", "Datasheet", "datasheet", "CalibrationTable",
-           "read_calibration_table", "calibrate_from_table"]
+           "residual_nonuniformity", "Datasheet", "datasheet", "flat_fields", "flat_field",
+           "fit_nuc", "fit_calibration", "netd", "measurable_range"]
 
 
 @dataclass(frozen=True)
@@ -205,7 +210,7 @@ def _disc_signal(camera, diameter: float, temperature: float, background: float,
 
 
 def size_of_source(camera, diameters, temperature: float = 1273.15,
-                   background: float = 293.15, integration_time: float = 10e-6,
+                   background: float = AMBIENT_TEMPERATURE, integration_time: float = 10e-6,
                    progress=None) -> SizeOfSource:
     """
     The camera's size-of-source curve: the reading of uniform blackbody discs against their
@@ -259,7 +264,7 @@ def size_of_source(camera, diameters, temperature: float = 1273.15,
     base = disc(0, 0.0)
     signal = np.array([disc(k + 1, d) for k, d in enumerate(diameters)])
     calibration = camera.calibration(t_int)
-    photo = collect(signal + camera.instrument_signal(), camera.rate_per_signal, t_int)
+    photo = photoelectrons(camera, signal, t_int)
     apparent = calibration.temperature(camera.electronics.mean_counts(photo, t_int))
     return SizeOfSource(diameters, signal, base, (signal - base) / (signal[-1] - base),
                         apparent)
@@ -360,6 +365,89 @@ def fit_curve_halo(curve: SizeOfSource, pixel_pitch: float) -> HaloFit | None:
     return fit_scatter_halo(curve.diameter[large], curve.sse[large])
 
 
+# -- flat fields, the NUC, and the camera's performance -----------------------------------------
+
+
+def flat_fields(camera, temperature: float | None, integration_time: float, frames: int = 16,
+                rng=None):
+    """
+    ``frames`` read-outs [DN] (frames, rows, columns) of a uniform blackbody filling
+    ``camera``'s array at ``temperature`` [K] — or of darkness (no photo-charge) for ``None``
+    — and the pixels saturated in any of them.
+
+    The blackbody is imaged once; each frame is a new read-out of the electronics (shot
+    and read noise, with the array's fixed pattern), without the NUC.
+    """
+    if camera.fpa.shape is None:
+        raise RadiosimError(f"{camera.name} has no array shape: a flat field needs one")
+    if isinstance(frames, bool) or int(frames) != frames or frames < 1:
+        raise RadiosimError(f"frames must be a whole number ≥ 1, got {frames!r}")
+    rng = check_rng(rng)
+    t_int = check_positive(integration_time, "integration_time", "s")
+    if temperature is None:
+        photo = np.zeros(camera.fpa.shape)
+    else:
+        scene = UniformBlackbody(check_positive(temperature, "temperature", "K"),
+                                 shape=camera.fpa.shape, dx=camera.fpa.pixel_pitch, dt=t_int)
+        at_corner = camera.replace(fpa=dataclasses.replace(camera.fpa, origin=(0.0, 0.0)))
+        window = at_corner.window(scene, t_int, 0.0)
+        stats = integrate(scene, at_corner.integrator(scene), window, camera.response_model)
+        photo = photoelectrons(camera, stats.signal_mean, t_int)  # [e⁻]
+    pattern = camera.fpa.pattern(photo.shape)
+    counts = np.empty((int(frames), *photo.shape))
+    saturated = np.zeros(photo.shape, dtype=bool)
+    for k in range(int(frames)):
+        exposure = camera.electronics.expose(photo, t_int, rng, pattern)
+        counts[k] = exposure.counts
+        saturated |= exposure.saturated
+    return counts, saturated
+
+
+def flat_field(camera, temperature: float | None, integration_time: float, frames: int = 16,
+               rng=None):
+    """The mean of :func:`flat_fields` [DN] and the pixels saturated in any frame."""
+    counts, saturated = flat_fields(camera, temperature, integration_time, frames, rng)
+    return counts.mean(axis=0), saturated
+
+
+def fit_nuc(camera, temperatures, integration_time: float, frames: int = 16, rng=None):
+    """
+    ``camera`` with a non-uniformity correction computed as cameras do: flat fields of
+    uniform blackbodies at ``temperatures`` [K] (two: a two-point NUC; more: multi-point),
+    ``frames`` read-outs each, at ``integration_time`` [s]
+    (:class:`~radiosim.calibration.NonUniformityCorrection`).
+    """
+    rng = check_rng(rng)
+    temperatures = [float(t) for t in temperatures]
+    flats, saturated = zip(*(flat_field(camera, t, integration_time, frames, rng)
+                             for t in temperatures))
+    nuc = NonUniformityCorrection.from_flat_fields(
+        np.array(flats), temperatures, integration_time, np.any(saturated, axis=0))
+    return camera.replace(nuc=nuc)
+
+
+def netd(camera, temperature, integration_time: float) -> np.ndarray:
+    """
+    Noise-equivalent temperature difference [K] of a grey body (``camera``'s assumed
+    emissivity and settings) at ``temperature`` [K] and ``integration_time`` [s]: the temporal
+    noise [e⁻ rms] over the slope of the mean charge, d e⁻/dT (shot noise of signal,
+    background and dark charge; read and quantisation noise). The fixed pattern is not
+    temporal noise and is not included.
+    """
+    return camera.calibration(integration_time).netd(temperature)
+
+
+def measurable_range(camera, integration_time: float) -> tuple[float, float]:
+    """
+    (lowest measurable temperature, saturation temperature) [K] of a grey body with ``camera``
+    at ``integration_time`` [s]: the temperature whose mean counts reach the detection limit
+    (blank + k σ, k = the camera's ``detection_sigma``), and the one that fills the well or
+    the converter (NaN or ∞ where the calibration range does not hold them).
+    """
+    calibration = camera.calibration(integration_time)
+    return calibration.lowest_measurable_temperature(), calibration.saturation_temperature
+
+
 # -- the spatial model (EMVA 1288 §8), linearity and the NUC's residual ----------------------
 
 
@@ -419,8 +507,8 @@ def spatial_nonuniformity(camera, temperature: float, integration_time: float, g
     left out and counted.
     """
     rng = np.random.default_rng(rng)
-    dark, dark_saturated = camera.flat_fields(None, integration_time, frames, rng)
-    bright, saturated = camera.flat_fields(temperature, integration_time, frames, rng)
+    dark, dark_saturated = flat_fields(camera, None, integration_time, frames, rng)
+    bright, saturated = flat_fields(camera, temperature, integration_time, frames, rng)
     response = bright.mean(axis=0) - dark.mean(axis=0)
     defects = saturated | dark_saturated | _outliers(dark.mean(axis=0)) | _outliers(response)
     if defects.mean() > 0.01:
@@ -476,11 +564,12 @@ def residual_nonuniformity(camera, temperatures, integration_time: float, frames
     responses differ in shape (non-linearity spread).
     """
     if camera.nuc is None:
-        raise RadiosimError(f"{camera.name} has no NUC: fit one first (Camera.fit_nuc)")
+        raise RadiosimError(f"{camera.name} has no NUC: fit one first "
+                            "(radiosim.characterization.fit_nuc)")
     rng = np.random.default_rng(rng)
     out = []
     for t in temperatures:
-        counts, saturated = camera.flat_fields(float(t), integration_time, frames, rng)
+        counts, saturated = flat_fields(camera, float(t), integration_time, frames, rng)
         good = ~camera.nuc.bad[:counts.shape[1], :counts.shape[2]]
         if saturated[good].any():  # the NUC's bad pixels are replaced, saturated or not
             out.append(np.nan)
@@ -579,12 +668,12 @@ def datasheet(camera, integration_time: float, ptc_temperatures, netd_temperatur
     below = ptc.mean < 0.98 * ptc.mean.max()
     le = linearity_error(exposure[below], ptc.mean[below], ptc.dark_mean)
     t_netd = np.asarray(netd_temperatures, dtype=float)
-    netd = camera.netd(t_netd, integration_time)
+    netd_curve = netd(camera, t_netd, integration_time)
     step("NETD curve")
     times = np.asarray(range_times, dtype=float)
     limits = []
     for t in times:
-        limits.append(camera.measurable_range(t))
+        limits.append(measurable_range(camera, t))
         step(f"measurable range at {t * 1e6:.3g} µs")
     limits = np.array(limits)
     condition = f"t_int = {integration_time * 1e6:g} us"
@@ -600,13 +689,13 @@ def datasheet(camera, integration_time: float, ptc_temperatures, netd_temperatur
         {"quantity": "linearity error", "condition": condition, "value": le, "unit": "%"},
     ]
     rows += [{"quantity": "NETD", "condition": f"{condition}, {t:g} K", "value": float(v),
-              "unit": "K"} for t, v in zip(t_netd, netd)]
+              "unit": "K"} for t, v in zip(t_netd, netd_curve)]
     for t, (low, sat) in zip(times, limits):
         rows.append({"quantity": "lowest measurable temperature",
                      "condition": f"t_int = {t * 1e6:g} us", "value": float(low), "unit": "K"})
         rows.append({"quantity": "saturation temperature",
                      "condition": f"t_int = {t * 1e6:g} us", "value": float(sat), "unit": "K"})
-    return Datasheet(rows, ptc, (t_netd, netd), (times, limits[:, 0], limits[:, 1]))
+    return Datasheet(rows, ptc, (t_netd, netd_curve), (times, limits[:, 0], limits[:, 1]))
 
 
 @dataclass(frozen=True)
@@ -649,184 +738,3 @@ def datasheet_plan(camera, integration_time: float) -> DatasheetPlan:
     return DatasheetPlan(np.linspace(low, top, PTC_LEVELS),
                          np.linspace(low, saturation, NETD_LEVELS, endpoint=False),
                          np.geomspace(RANGE_SHORTEST, longest, RANGE_TIMES))
-
-
-# -- calibrating from a measured table ----------------------------------------------------------
-
-
-@dataclass(frozen=True)
-class CalibrationTable:
-    """
-    A measured calibration table, read and checked (:func:`read_calibration_table`).
-
-    Attributes
-    ----------
-    temperature : numpy.ndarray
-        Blackbody temperatures [K].
-    counts : numpy.ndarray
-        Mean counts [DN].
-    instrument_temperature : numpy.ndarray or None
-        Instrument temperatures [K] of each row, if the table gives them.
-    """
-
-    temperature: np.ndarray
-    counts: np.ndarray
-    instrument_temperature: np.ndarray | None = None
-
-
-def _column(path, rows, name, line_of) -> np.ndarray:
-    values = []
-    for k, row in enumerate(rows):
-        text = row.get(name)
-        try:
-            values.append(float(text))
-        except (TypeError, ValueError):
-            raise RadiosimError(f"{path}: line {line_of[k]}, column {name} = {text!r}: "
-                                "expected a number") from None
-    values = np.array(values)
-    if not np.all(np.isfinite(values)):
-        k = int(np.argmax(~np.isfinite(values)))
-        raise RadiosimError(f"{path}: line {line_of[k]}, column {name} = {values[k]}: expected "
-                            "a finite number")
-    return values
-
-
-def _temperature(path, rows, columns, stem, line_of, stated):
-    """A temperature column [K] given as ``stem_K`` and/or ``stem_C``; both must agree, and
-    with the unit a ``# units:`` line states."""
-    found = {u: to_kelvin(_column(path, rows, f"{stem}_{u}", line_of), u)
-             for u in ("K", "C") if f"{stem}_{u}" in columns}
-    if not found:
-        return None
-    if stated is not None and stated not in found:
-        given = next(iter(found))
-        raise RadiosimError(f"{path}: column {stem}_{given} is in {given}, but the file's units "
-                            f"line says {stem.split('_')[0]}={stated}")
-    if len(found) == 2:
-        differ = ~np.isclose(found["K"], found["C"], rtol=0, atol=0.01)
-        if differ.any():
-            k = int(np.argmax(differ))
-            raise RadiosimError(
-                f"{path}: columns {stem}_K and {stem}_C disagree at line {line_of[k]}: "
-                f"{found['K'][k]:g} K against {to_celsius(found['C'][k]):g} °C = "
-                f"{found['C'][k]:g} K")
-    return found["K"] if "K" in found else found["C"]
-
-
-def read_calibration_table(path) -> CalibrationTable:
-    """
-    Read a calibration table: a CSV with ``temperature_K`` (or ``temperature_C``) and
-    ``counts`` columns, optionally ``instrument_temperature_K`` (or ``_C``); ``#`` lines are
-    comments, and a ``# units: temperature=C`` line states units the columns must agree with.
-    A table whose columns contradict each other is refused naming the file and the column:
-    a column given twice, a temperature in both units that disagree, a units line that
-    disagrees with a column's suffix, a value that is not a number, or counts that fall as
-    the temperature rises.
-    """
-    import csv
-    import re
-    from pathlib import Path
-
-    from radiosim.errors import RadiosimIOError
-
-    path = Path(path)
-    if not path.is_file():
-        raise RadiosimError(f"{path} does not exist (expected a CSV of temperature_K or "
-                            "temperature_C, and counts)")
-    try:
-        text = path.read_text(encoding="utf-8-sig")
-    except UnicodeDecodeError as exc:
-        raise RadiosimError(f"cannot read {path}: not UTF-8 text ({exc.reason})") from None
-    except OSError as exc:
-        raise RadiosimIOError(f"cannot read {path}: {exc.strerror or exc}") from None
-    lines = text.splitlines()
-    stated = {}
-    data_lines = []
-    for number, line in enumerate(lines, start=1):
-        if line.lstrip().startswith("#"):
-            match = re.match(r"#\s*units?\s*:\s*(.*)$", line.strip(), re.IGNORECASE)
-            for item in re.split(r"[,;\s]+", match.group(1)) if match else ():
-                if "=" in item:
-                    key, _, unit = item.partition("=")
-                    unit = unit.strip().upper().replace("°", "")
-                    stated[key.strip().lower()] = unit
-        elif line.strip():
-            data_lines.append((number, line))
-    if not data_lines:
-        raise RadiosimError(f"{path}: no header and no rows (expected columns temperature_K or "
-                            "temperature_C, and counts)")
-    try:
-        parsed = list(csv.reader([line for _, line in data_lines]))
-    except csv.Error as exc:
-        raise RadiosimError(f"{path}: not a valid CSV: {exc}") from None
-    header = [h.strip() for h in parsed[0]]
-    duplicate = sorted({h for h in header if header.count(h) > 1})
-    if duplicate:
-        raise RadiosimError(f"{path}: column {duplicate[0]} appears {header.count(duplicate[0])} "
-                            "times in the header; give each column once")
-    rows, line_of = [], []
-    for (number, _), values in zip(data_lines[1:], parsed[1:]):
-        if len(values) != len(header):
-            raise RadiosimError(f"{path}: line {number} has {len(values)} values for "
-                                f"{len(header)} columns ({', '.join(header)})")
-        rows.append(dict(zip(header, values)))
-        line_of.append(number)
-    columns = set(header)
-    for stem in ("temperature", "instrument_temperature"):
-        unit = stated.get(stem)
-        if unit is not None and unit not in ("K", "C"):
-            raise RadiosimError(f"{path}: units line gives {stem}={unit}; expected K or C")
-    temperature = _temperature(path, rows, columns, "temperature", line_of,
-                               stated.get("temperature"))
-    if temperature is None or "counts" not in columns:
-        raise RadiosimError(f"{path}: needs columns temperature_K (or temperature_C) and "
-                            f"counts, found {', '.join(header)}")
-    if not rows:
-        raise RadiosimError(f"{path}: the table has a header but no rows")
-    counts = _column(path, rows, "counts", line_of)
-    instrument = _temperature(path, rows, columns, "instrument_temperature", line_of,
-                              stated.get("instrument_temperature"))
-    if np.any(temperature <= 0):
-        k = int(np.argmax(temperature <= 0))
-        raise RadiosimError(f"{path}: line {line_of[k]}: temperature {temperature[k]:g} K is not "
-                            "above 0 K (°C in a temperature_K column?)")
-    if instrument is None:
-        order = np.argsort(temperature, kind="stable")
-        ts, ys = temperature[order], counts[order]
-        fall = (np.diff(ts) > 0) & (np.diff(ys) < 0)
-        if fall.any():
-            j = int(np.argmax(fall))
-            a, b = line_of[order[j]], line_of[order[j + 1]]
-            raise RadiosimError(
-                f"{path}: column counts is not monotonic in temperature: {ys[j]:g} DN at "
-                f"{ts[j]:g} K (line {a}) but {ys[j + 1]:g} DN at {ts[j + 1]:g} K (line {b})")
-    return CalibrationTable(temperature, counts, instrument)
-
-
-def calibrate_from_table(camera, path, integration_time: float, frames: int = 1,
-                         exclude_unusable: bool = False, fit_full_well: bool = False):
-    """
-    What ``radiosim calibrate`` does: read and check the table at ``path``
-    (:func:`read_calibration_table`), check ``integration_time`` [s] and ``frames`` (a whole
-    number ≥ 1 of read-outs averaged in each counts value), and fit the camera
-    (:func:`~radiosim.calibration.fit_calibration`); errors name the file.
-
-    Returns
-    -------
-    camera, residuals, table
-        The fitted camera, measured minus fitted counts [DN], the :class:`CalibrationTable`.
-    """
-    from radiosim.calibration import fit_calibration
-    from radiosim.checks import check_time, check_whole
-
-    frames = check_whole(frames, "frames (read-outs averaged per counts value)")
-    t_int = check_time(integration_time, "integration_time")
-    table = read_calibration_table(path)
-    try:
-        fitted, residuals = fit_calibration(
-            camera, table.temperature, table.counts, t_int, frames,
-            instrument_temperatures=table.instrument_temperature,
-            exclude_unusable=exclude_unusable, fit_full_well=fit_full_well)
-    except RadiosimError as exc:
-        raise RadiosimError(f"{path}: {exc}") from None
-    return fitted, residuals, table

@@ -14,7 +14,7 @@ import numpy as np
 from radiosim.errors import RadiosimError
 
 __all__ = ["check_positive", "check_non_negative", "check_fraction", "check_frame", "check_rng",
-           "check_time", "check_whole", "bad_sample_message"]
+           "check_time", "check_count", "check_whole", "bad_sample_message"]
 
 
 def check_rng(rng) -> np.random.Generator:
@@ -55,13 +55,33 @@ def check_time(value, name: str, positive: bool = True) -> float:
     return number
 
 
-def check_whole(value, name: str, minimum: int = 1) -> int:
-    """``value`` as an int ≥ ``minimum`` (booleans, fractions, strings refused)."""
-    if isinstance(value, (bool, np.bool_, str, bytes)) or not isinstance(
-            value, (int, float, np.integer, np.floating)) or not math.isfinite(value) or \
-            int(value) != value or value < minimum:
+def check_count(value, name: str, minimum: int = 1, *, integers_only: bool = False) -> int:
+    """
+    A count (frames, draws, bands, a seed) as an int ≥ ``minimum``, or a
+    :class:`RadiosimError` naming it: ``{name} must be a whole number ≥ {minimum}, got …``.
+
+    Booleans, strings, non-finite and fractional values are refused; a whole float (``3.0``)
+    is accepted unless ``integers_only`` (then only ``int`` and numpy integers are: a count
+    that the API documents as an int).
+
+    Examples
+    --------
+    >>> check_count(3.0, "frames"), check_count(0, "seed", 0)
+    (3, 0)
+    >>> check_count(3.0, "draws", 2, integers_only=True)
+    Traceback (most recent call last):
+    ...
+    radiosim.errors.RadiosimError: draws must be a whole number ≥ 2, got 3.0
+    """
+    kinds = (int, np.integer) if integers_only else (int, float, np.integer, np.floating)
+    if isinstance(value, (bool, np.bool_)) or not isinstance(value, kinds) or \
+            not math.isfinite(value) or int(value) != value or value < minimum:
         raise RadiosimError(f"{name} must be a whole number ≥ {minimum}, got {value!r}")
     return int(value)
+
+
+#: The former name of :func:`check_count` (same behaviour).
+check_whole = check_count
 
 
 def _number(value, name: str, unit: str) -> float:

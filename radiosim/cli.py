@@ -17,9 +17,8 @@ from __future__ import annotations
 
 import argparse
 import logging
-import math
 import os
-import re
+import shlex
 import signal
 import sys
 import warnings
@@ -32,8 +31,9 @@ from radiosim.errors import (Interrupted, RadiosimError, RadiosimIOError, Radios
                              command_state as _Command, exit_interrupted as _exit_now,
                              on_interrupt as _interrupt)
 from radiosim import __version__  # noqa: E402
-from radiosim.units import (join_negatives as _join_negatives, parse_length,
-                            parse_temperature, parse_time, parse_time_or_zero,
+from radiosim.console import Progress as _Progress, show_warning as _show_warning
+from radiosim.units import (AMBIENT_TEMPERATURE, join_negatives as _join_negatives,
+                            parse_length, parse_temperature, parse_time, parse_time_or_zero,
                             typed as _typed, whole_number as _count, to_celsius,
                             to_kelvin)
 
@@ -63,40 +63,6 @@ def parse_seed(text: str) -> int:
 MAX_DRAWS = 1_000_000
 
 
-class _Progress:
-    """Progress on stderr, created before the work it measures: a tqdm bar on a terminal, one
-    plain line per step otherwise (no carriage returns: logs stay readable) unless
-    ``terminal_only``, nothing when ``quiet``; nothing for the first ``delay`` [s]. Called as
-    ``progress(done, total, label)`` (``total`` may be ``None``: unknown)."""
-
-    def __init__(self, unit="measurement", quiet=False, delay=0.0, stream=None,
-                 terminal_only=False):
-        import time
-
-        self.stream = stream or sys.stderr  # looked up now, not at import: redirections hold
-        self.quiet, self.bar, self.clock = quiet, None, time.monotonic
-        self.quiet = quiet or (terminal_only and not self.stream.isatty())
-        self.shown_after = self.clock() + delay
-        if not self.quiet and self.stream.isatty():
-            from tqdm import tqdm
-
-            self.bar = tqdm(file=self.stream, unit=unit, dynamic_ncols=True, delay=delay)
-
-    def __call__(self, done, total=None, label=""):
-        if self.bar is not None:
-            self.bar.total = total
-            self.bar.set_postfix_str(str(label)[:50], refresh=False)
-            self.bar.update(done - self.bar.n)
-            if total and done >= total:
-                self.bar.close()
-        elif not self.quiet and self.clock() >= self.shown_after:
-            print(f"[{done}/{total or '?'}] {label}".rstrip(), file=self.stream, flush=True)
-
-    def close(self):
-        if self.bar is not None:
-            self.bar.close()
-
-
 def _run(args) -> int:
     from radiosim.files import OutputFolder
 
@@ -123,7 +89,8 @@ def _run(args) -> int:
         if args.format == "netcdf":  # the results as one labelled dataset, next to the CSV
             from radiosim.io.netcdf import write_netcdf
 
-            write_netcdf(out.staging / "results.nc", result.to_xarray(study.name))
+            write_netcdf(out.staging / "results.nc", result.to_xarray(
+                study.name, history=getattr(args, "command_line", None)))
         written = out.commit()
         completed = True
     finally:
@@ -144,54 +111,52 @@ def _run(args) -> int:
     return 0
 
 
+#: read_scene's keywords as the command's options.
+_SCENE_OPTIONS = {"dt": "--dt", "dx": "--dx", "units": "--units", "time_unit": "--time-unit",
+                  "length_unit": "--length-unit", "fill": "--fill"}
+
+
+def _scene_refusal(exc, args) -> str:
+    """radiosim.io.read_scene's refusal (SceneArgumentError) in the command's words: its
+    options, with their values as typed."""
+    path = exc.path
+    if exc.reason == "mesh":
+        return (f"{path}: FEA meshes are read in Python, with their times and units: "
+                "radiosim.io.read_fea_mesh (docs/howto.md); radiosim measure takes .npy/.npz "
+                "stacks, EXR frames or a nodal .csv")
+    if exc.reason == "not-taken" and exc.keywords == ("fill",):
+        return (f"--fill {_typed(args.fill, 'K')}: {path} is not an FEA nodal .csv; a stack or "
+                "EXR frames cover the whole field (expected --fill only with a .csv, for the "
+                "points outside the mesh)")
+    if exc.reason == "not-taken":
+        given = [f"{_SCENE_OPTIONS[k]} {getattr(args, k)}" for k in exc.keywords]
+        return (f"{' and '.join(given)}: {path} is not an FEA nodal .csv; the units of its "
+                "frames are --dt, --dx and --units (expected --time-unit and --length-unit only "
+                "with a .csv)")
+    if exc.reason == "missing":
+        missing = [_SCENE_OPTIONS[k] for k in exc.keywords]
+        return (f"{path}: give {', '.join(missing)} (the file does not state "
+                f"{'them' if len(missing) > 1 else 'it'}; e.g. --dt 0.2us --dx 0.5um --units C)")
+    if exc.reason == "units":
+        return (f"{path}: give the units on the command line with --time-unit, --length-unit "
+                "and --units (or a header line '# units: time=…, length=…, temperature=…')")
+    return str(exc)
+
+
 def _measure(args) -> int:
-    from radiosim.camera import measure_many
-    from radiosim.io import read_fea_nodes, read_frames, write_exr
+    from radiosim.acquisition import frame_dtype
+    from radiosim.io import SceneArgumentError, read_scene, write_exr
+    from radiosim.reporting import bad_sample_in, is_bad_sample, measurement_lines
     from radiosim.study import summarise
 
     camera = _camera(args.camera, args.pixel_pitch)
     path = Path(args.scene)
-    if not any(c in args.scene for c in "*?[") and not path.exists():
-        raise RadiosimError(f"{path} does not exist (expected a .npy/.npz stack, a folder or "
-                            "glob of .exr frames, or an FEA nodal .csv)")
-    suffix = path.suffix.lower()
-    if suffix in (".pvd", ".vtu", ".vtk", ".xdmf", ".xmf", ".exo", ".e", ".msh"):
-        raise RadiosimError(f"{path}: FEA meshes are read in Python, with their times and "
-                            "units: radiosim.io.read_fea_mesh (docs/howto.md); radiosim "
-                            "measure takes .npy/.npz stacks, EXR frames or a nodal .csv")
-    if suffix != ".csv":  # only an FEA CSV has columns in units of their own
-        given = [f"--{flag.replace('_', '-')} {getattr(args, flag)}"
-                 for flag in ("time_unit", "length_unit") if getattr(args, flag)]
-        if args.fill is not None:
-            raise RadiosimError(f"--fill {_typed(args.fill, 'K')}: {path} is not an FEA nodal "
-                                ".csv; a stack or EXR frames cover the whole field (expected "
-                                "--fill only with a .csv, for the points outside the mesh)")
-        if given:
-            raise RadiosimError(f"{' and '.join(given)}: {path} is not an FEA nodal .csv; "
-                                "the units of its frames are --dt, --dx and --units (expected "
-                                "--time-unit and --length-unit only with a .csv)")
-    needed = {".csv": ("dx",), ".npy": ("dt", "dx", "units"), ".npz": ("dt", "dx", "units")}
-    missing = [f"--{flag}" for flag in needed.get(suffix, ()) if getattr(args, flag) is None]
-    if missing:
-        raise RadiosimError(f"{path}: give {', '.join(missing)} (the file does not state "
-                            f"{'them' if len(missing) > 1 else 'it'}; e.g. --dt 0.2us --dx "
-                            "0.5um --units C)")
-    if suffix == ".csv":
-        # The user's statements, each passed as given (the reader checks them against the
-        # file's own header and refuses a contradiction); None: the file's header alone.
-        units = {k: v for k, v in (("time", args.time_unit), ("length", args.length_unit),
-                                   ("temperature", args.units)) if v} or None
-        try:
-            scene = read_fea_nodes(path, dx=args.dx, dt=args.dt, units=units,
-                                   fill=293.15 if args.fill is None else args.fill)
-        except RadiosimError as exc:
-            if "stated nowhere" not in str(exc):
-                raise
-            raise RadiosimError(f"{path}: give the units on the command line with --time-unit, "
-                                "--length-unit and --units (or a header line '# units: time=…, "
-                                "length=…, temperature=…')") from None
-    else:
-        scene = read_frames(path, dt=args.dt, dx=args.dx, units=args.units)
+    try:  # the file by its suffix (radiosim.io.SCENE_TYPES); refusals in the options' words
+        scene = read_scene(path, dt=args.dt, dx=args.dx, units=args.units,
+                           time_unit=args.time_unit, length_unit=args.length_unit,
+                           fill=args.fill)
+    except SceneArgumentError as exc:
+        raise RadiosimError(_scene_refusal(exc, args)) from None
     _check_out_file(args, ".exr", "radiosim measure writes one EXR file")
     if args.out:
         from radiosim.files import check_not_an_input
@@ -201,30 +166,20 @@ def _measure(args) -> int:
     # A long measurement: per block of frames, on a terminal only (in a log, an error after
     # the work stays the one line on stderr).
     progress = _Progress("frame", args.quiet, delay=2.0, terminal_only=True)
-    _announce_compile(args, _frame_dtype(scene))
-    try:  # Camera.measure, with progress (bit for bit the same)
-        m, = measure_many(scene, [(camera, args.integration_time, args.start)], args.seed,
-                          lambda done, total: progress(done, total, "frames"))
+    _announce_compile(args, frame_dtype(scene))
+    try:
+        m = camera.measure(scene, args.integration_time, args.start, args.seed,
+                           progress=lambda done, total: progress(done, total, "frames"))
     except RadiosimError as exc:  # the library states SI values: add the user's own
         if "--integration-time" in str(exc):
             raise
-        if _BAD_SAMPLE.match(str(exc)):  # the file's fault, not the window's
-            raise type(exc)(f"{path}: {_sample_as_typed(str(exc), args.units)}") from None
+        if is_bad_sample(str(exc)):  # the file's fault, not the window's
+            raise type(exc)(f"{path}: {bad_sample_in(str(exc), args.units)}") from None
         given = f"--integration-time {_typed(args.integration_time)}" + (
             f", --start {_typed(args.start)}" if args.start is not None else "")
         raise type(exc)(f"{exc} ({given})") from None
     summary = summarise(m)
-    print(f"{camera.name}: {m.shape[1]} × {m.shape[0]} pixels, {m.integration_time * 1e6:g} µs "
-          f"from {m.t_start * 1e6:g} µs ({m.n_frames} frames)")
-    if math.isnan(summary["peak_C"]):  # every pixel flagged: no reading to print
-        reading = "no reading (every pixel flagged)"
-    else:
-        reading = (f"{summary['peak_C']:.1f} °C (bias {summary['peak_bias_K']:+.1f} K, ±1σ "
-                   f"{summary['peak_uncertainty_K']:.1f} K)")
-    print(f"  scene peak {summary['peak_scene_C']:.1f} °C; highest reading {reading}; saturated "
-          f"{100 * m.saturated_fraction:.1f} %, under range "
-          f"{100 * summary['under_range_fraction']:.1f} %, over range "
-          f"{100 * summary['over_range_fraction']:.1f} %")
+    print("\n".join(measurement_lines(m, summary)))
     if summary["under_range_fraction"] == 1.0:
         _explain_under_range(args, camera, summary["peak_scene_C"])
     if args.out:
@@ -232,34 +187,13 @@ def _measure(args) -> int:
     return 0
 
 
-#: The reader's message for a bad temperature sample (radiosim.checks.bad_sample_message).
-_BAD_SAMPLE = re.compile(
-    r"frame \d+: temperature at row \d+, column \d+ is (?P<value>\S+) K; temperatures must "
-    r"be > 0 K \(°C passed as kelvin\?\)|frame \d+: temperature at row")
-
-
-def _sample_as_typed(message: str, units: str | None) -> str:
-    """A bad-sample message in the unit of the file (--units C: the value in °C)."""
-    match = _BAD_SAMPLE.match(message)
-    if units != "C" or match is None or match.group("value") is None:
-        return message
-    kelvin = float(match.group("value"))
-    return message.replace(
-        f"is {match.group('value')} K; temperatures must be > 0 K (°C passed as kelvin?)",
-        f"is {to_celsius(kelvin):g} °C ({kelvin:g} K); temperatures must be above absolute "
-        "zero (-273.15 °C)")
-
-
 def _explain_under_range(args, camera: Camera, peak_scene_C: float):
     """Say why a measurement read nothing: the scene is below what the camera can tell from its
     dark level at this integration time (and, for a scene read as kelvin that would be a
     plausible one in °C, ask whether the file was in °C)."""
-    low, _ = camera.measurable_range(args.integration_time)
-    low_text = "nothing" if math.isnan(low) else f"{to_celsius(low):.1f} °C"
-    print(f"  every pixel is under range: the scene's peak {peak_scene_C:.1f} °C is below "
-          f"{camera.name}'s lowest measurable temperature at {_typed(args.integration_time)} "
-          f"({low_text}: below it the counts lie within {camera.detection_sigma:g} σ of the blank "
-          "reading)")
+    from radiosim.reporting import under_range_lines
+
+    print("\n".join(under_range_lines(camera, args.integration_time, peak_scene_C)))
     peak_K = float(to_kelvin(peak_scene_C, "C"))
     if args.units == "K" and peak_scene_C < 0.0 < peak_K:
         print(f"  were the frames in °C? They were read as kelvin (--units K): a peak of "
@@ -375,18 +309,11 @@ def _from_file(path, what: str, load):
 
 
 def _check_frame_period(camera: Camera, integration_time: float):
-    """The rule :meth:`Camera.window` applies to every measurement: the integration (with its
-    readout) must fit in the camera's frame period."""
-    if camera.frame_rate is None:
-        return
-    needed = camera.fpa.frame_period(integration_time, camera.readout_shape)
-    if needed > 1.0 / camera.frame_rate * (1 + 1e-12):
-        raise RadiosimError(
-            f"--integration-time {_typed(integration_time)}"
-            + (f" with its readout ({needed * 1e6:g} µs)" if needed != integration_time else "")
-            + f" exceeds the frame period of {camera.name} ({1e6 / camera.frame_rate:g} µs at "
-            f"{camera.frame_rate:g} Hz); expected at most "
-            f"{(1 / camera.frame_rate - (needed - integration_time)) * 1e6:g} µs")
+    """The rule :meth:`Camera.window` applies to every measurement, checked before the work:
+    the integration (with its readout) must fit in the camera's frame period."""
+    from radiosim.acquisition import check_frame_period
+
+    check_frame_period(camera, integration_time, f"--integration-time {_typed(integration_time)}")
 
 
 #: Dask protocols a scheduler address may use.
@@ -421,6 +348,7 @@ def _sse(args) -> int:
 
     from radiosim.characterization import fit_curve_halo, size_of_source, sse_diameters
     from radiosim.files import write_text
+    from radiosim.reporting import sse_csv, sse_lines
 
     camera = _camera(args.camera, command="sse")
     _check_frame_period(camera, args.integration_time)
@@ -434,20 +362,9 @@ def _sse(args) -> int:
     psf = ", ".join(type(p).__name__ for p in camera.optics.psf or ()) or "perfect lens"
     print(f"{camera.name} ({psf}): size-of-source effect, a {to_celsius(args.temperature):g} °C "
           f"disc on {to_celsius(args.background):g} °C, {args.integration_time * 1e6:g} µs")
-    print(f"{'diameter':>10}{'SSE':>10}{'reading':>10}")
-    print(f"{'[µm]':>10}{'[1]':>10}{'[°C]':>10}")
-    lines = ["diameter_um,signal,sse,apparent_C"]
-    for d, sig, sse, t in zip(curve.diameter, curve.signal, curve.sse,
-                              curve.apparent_temperature):
-        print(f"{d * 1e6:>10.1f}{sse:>10.5f}{to_celsius(t):>10.1f}")
-        lines.append(f"{d * 1e6:.6g},{sig:.10g},{sse:.10g},{to_celsius(t):.6g}")
-    fit = fit_curve_halo(curve, pitch)
-    if fit is not None:
-        print(f"effective halo fitted to the discs ≥ 10 pixels (diffraction's own r⁻³ wings "
-              f"included): fraction {fit.halo.fraction:.4g}, width "
-              f"{fit.halo.width * 1e6:.4g} µm (rms residual {np.sqrt(np.mean(fit.residuals**2)):.2g})")
+    print("\n".join(sse_lines(curve, fit_curve_halo(curve, pitch))))
     if args.out:
-        write_text(args.out, "\n".join(lines) + "\n")
+        write_text(args.out, sse_csv(curve))
         print(f"wrote {args.out}")
     return 0
 
@@ -464,14 +381,8 @@ def _study(target: str):
 
 
 def _uncertainty(args) -> int:
-    import csv
-    import io
-
-    import numpy as np
-
-    from radiosim.files import OutputFolder, write_text
-    from radiosim.io.exr import write_uncertainty_exr
-    from radiosim.plotting import figure, save_figure
+    from radiosim.files import OutputFolder
+    from radiosim.reporting import budget_lines, write_budget
 
     _check_scheduler(args.scheduler)
     study = _study(args.study)
@@ -497,54 +408,22 @@ def _uncertainty(args) -> int:
         result = study.propagate(draws=args.draws, seed=args.seed, scheduler=args.scheduler,
                                  workers=args.workers, progress=None if args.quiet else progress)
         bar.close()
-        camera = study.cameras[spec.camera]
-        text = io.StringIO()
-        keys = ["quantity", "input", "distribution", "unit", "estimate", "std_uncertainty",
-                "sensitivity", "gum_contribution_K", "mc_contribution_K", "share_percent"]
-        writer = csv.DictWriter(text, keys, lineterminator="\n")
-        writer.writeheader()
-        writer.writerows({k: (f"{r[k]:.6g}" if isinstance(r[k], float) else r[k])
-                          for k in keys} for r in result.budget)
-        write_text(out.staging / "budget.csv", text.getvalue())
-        write_uncertainty_exr(out.staging / "uncertainty.exr", result, camera,
-                              spec.integration_time)
-        fig = figure(10, 4)
-        ax1, ax2 = fig.subplots(1, 2)
-        image = ax1.imshow(result.std, cmap="viridis")
-        fig.colorbar(image, ax=ax1, label="standard uncertainty [K]")
-        ax1.set_title(f"{study.name}: u(T_app), {result.draws} draws")
-        ax1.set_axis_off()
-        peak = [r for r in result.budget if r["quantity"] == "peak"]
-        ax2.barh([r["input"] for r in peak], [r["gum_contribution_K"] for r in peak],
-                 label="GUM")
-        ax2.barh([r["input"] for r in peak], [r["mc_contribution_K"] for r in peak],
-                 height=0.4, label="one at a time (MC)")
-        ax2.set_xlabel("contribution to u(peak reading) [K]")
-        ax2.legend()
-        save_figure(fig, out.staging / "budget.png")
+        write_budget(out.staging, result, study.name, study.cameras[spec.camera],
+                     spec.integration_time)
         out.commit()
         completed = True
     finally:
         if not completed:
             out.abandon(keep=False)
-    print(f"{'input':<24}{'u(x)':>12}{'GUM [K]':>10}{'MC [K]':>10}{'share':>8}")
-    for r in (r for r in result.budget if r["quantity"] == "peak"):
-        print(f"{r['input']:<24}{r['std_uncertainty']:>12.4g}{r['gum_contribution_K']:>10.3g}"
-              f"{r['mc_contribution_K']:>10.3g}{r['share_percent']:>7.1f}%")
-    low, high = result.interval(0.95)
-    i = np.unravel_index(np.nanargmax(result.mean), result.mean.shape)
-    print(f"peak pixel {tuple(int(v) for v in i)}: {to_celsius(result.mean[i]):.1f} °C, u = "
-          f"{result.std[i]:.2f} K, 95 % [{to_celsius(low[i]):.1f}, {to_celsius(high[i]):.1f}] °C, "
-          f"scene {to_celsius(result.truth[i]):.1f} °C")
+    print("\n".join(budget_lines(result)))
     print(f"wrote {out.path / 'budget.csv'}, uncertainty.exr, budget.png")
     return 0
 
 
 def _calibrate(args) -> int:
-    import math
-
-    from radiosim.characterization import calibrate_from_table
+    from radiosim.calibration_table import calibrate_from_table
     from radiosim.files import write_text
+    from radiosim.reporting import calibration_lines
 
     camera = _camera(args.camera, command="calibrate")
     _check_frame_period(camera, args.integration_time)
@@ -553,21 +432,19 @@ def _calibrate(args) -> int:
         raise RadiosimError(f"{path} does not exist (expected a CSV of temperature_K or "
                             "temperature_C, and counts)")
     _check_out_file(args, ".toml", "the fitted camera is a TOML file")
+    progress = _Progress("step", args.quiet)
+    _announce_compile(args)
     # The library reads and checks the table (columns, units, BOM, monotonic counts) and
     # checks each point against the full well and the converter's range.
-    fitted, residuals, table = calibrate_from_table(
-        camera, path, args.integration_time, frames=args.frames,
-        exclude_unusable=args.exclude_unusable, fit_full_well=args.fit_full_well)
-    el = fitted.electronics
-    print(f"{camera.name} fitted to {path.name} ({len(table.temperature)} points, "
-          f"{args.integration_time * 1e6:g} µs): gain {el.gain:.6g} DN/e⁻ (was "
-          f"{camera.electronics.gain:.6g}), offset {el.offset:.6g} DN (was "
-          f"{camera.electronics.offset:.6g})"
-          + (f", optics emissivity {fitted.optics.emissivity:.4g}"
-             if table.instrument_temperature is not None else ""))
-    print(f"{'T [K]':>10}{'counts':>12}{'residual':>10}")
-    for t, c, r in zip(table.temperature, table.counts, residuals):
-        print(f"{t:>10.2f}{c:>12.1f}" + (f"{'excluded':>10}" if math.isnan(r) else f"{r:>10.2f}"))
+    try:
+        fitted, residuals, table = calibrate_from_table(
+            camera, path, args.integration_time, frames=args.frames,
+            exclude_unusable=args.exclude_unusable, fit_full_well=args.fit_full_well,
+            progress=progress)
+    finally:
+        progress.close()
+    print("\n".join(calibration_lines(camera, fitted, table, residuals, path.name,
+                                      args.integration_time)))
     if args.out:
         write_text(args.out, fitted.replace(name=f"{camera.name}-fitted").to_toml())
         print(f"wrote {args.out}")
@@ -576,8 +453,8 @@ def _calibrate(args) -> int:
 
 def _report(args) -> int:
     from radiosim.characterization import datasheet, datasheet_plan
-    from radiosim.files import OutputFolder, write_text
-    from radiosim.plotting import figure, save_figure
+    from radiosim.files import OutputFolder
+    from radiosim.reporting import DATASHEET_FIGURES, datasheet_lines, write_datasheet
 
     camera = _camera(args.camera, command="report")
     _check_frame_period(camera, args.integration_time)
@@ -597,21 +474,15 @@ def _report(args) -> int:
         sheet = datasheet(camera, t_int, plan.ptc_temperatures, plan.netd_temperatures,
                           plan.range_times, frames=args.frames, rng=args.seed,
                           progress=progress)
-        write_text(out.staging / "datasheet.csv", sheet.csv_text())
-        figures = [figure(6, 4) for _ in range(3)]
-        sheet.draw([fig.add_subplot() for fig in figures], camera.name, t_int,
-                   camera.calibration_range[1])
-        for fig, name in zip(figures, ("photon_transfer", "netd", "range")):
-            save_figure(fig, out.staging / f"{name}.png")
+        write_datasheet(out.staging, sheet, camera, t_int)
         out.commit()
         completed = True
     finally:
         if not completed:
             out.abandon(keep=False)
-    for r in sheet.rows[:6]:
-        print(f"  {r['quantity']:<22}{r['value']:>12.4g} {r['unit']:<6} ({r['condition']})")
-    print(f"wrote {out.path / 'datasheet.csv'} ({len(sheet.rows)} rows), photon_transfer.png, "
-          "netd.png, range.png")
+    print("\n".join(datasheet_lines(sheet)))
+    print(f"wrote {out.path / 'datasheet.csv'} ({len(sheet.rows)} rows), "
+          + ", ".join(f"{name}.png" for name in DATASHEET_FIGURES))
     return 0
 
 
@@ -638,15 +509,6 @@ def _announce_compile(args, frame_dtype="float64", chip=False):
               "(radiosim warmup does it ahead of time)", file=sys.stderr, flush=True)
 
 
-def _frame_dtype(scene):
-    """The dtype in which the kernels read the scene's frames (float32 stays float32)."""
-    try:
-        block = scene.block_unchecked(0, 1, tuple(slice(0, n) for n in scene.shape))
-    except Exception:  # a scene that makes its frames: float64
-        block = None
-    return "float64" if block is None else block.dtype
-
-
 def _warmup(args) -> int:
     import time
 
@@ -665,21 +527,9 @@ def _warmup(args) -> int:
 
 
 def _presets(args) -> int:
-    from radiosim.study import Study, available_studies
+    from radiosim.reporting import catalogue_lines
 
-    print("cameras (radiosim measure --camera NAME):")
-    print(f"  {'linear-ideal':<14} linear  the paper's ideal camera (any pixel pitch)")
-    from radiosim.camera import Camera, available_presets
-
-    for name in available_presets():
-        camera = Camera.preset(name)
-        rows, cols = camera.fpa.shape or ("-", "-")
-        print(f"  {name:<14} {camera.response:<7} {cols} x {rows} px, "
-              f"{camera.fpa.pixel_pitch * 1e6:g} µm object pixel, "
-              f"{camera.optics.band[0] * 1e6:g}-{camera.optics.band[1] * 1e6:g} µm")
-    print("studies (radiosim run NAME):")
-    for name in available_studies():
-        print(f"  {name:<14} {Study.preset(name).description}")
+    print("\n".join(catalogue_lines()))
     return 0
 
 
@@ -719,8 +569,8 @@ def build_parser() -> argparse.ArgumentParser:
                      help="write no EXR files (then no maps nor profiles either)")
     run.add_argument("--no-figures", action="store_true", help="write no figures")
     run.add_argument("--format", choices=["exr", "netcdf"], default="exr",
-                     help="netcdf: also write results.nc, the results as one xarray dataset "
-                     "with the sweep parameters as dimensions (default: CSV and EXR only)")
+                     help="netcdf: also write results.nc, the results as a CF-1.8 NetCDF file, "
+                     "one record per measurement (default: CSV and EXR only)")
     _add_quiet(run)
     _add_dask_options(run, "the measurements")
     run.set_defaults(func=_run)
@@ -769,7 +619,7 @@ def build_parser() -> argparse.ArgumentParser:
     sse.add_argument("camera", help="preset name or camera TOML")
     sse.add_argument("--temperature", type=parse_temperature, default=1273.15,
                      help="disc temperature, e.g. 1000C (default 1000C)")
-    sse.add_argument("--background", type=parse_temperature, default=293.15,
+    sse.add_argument("--background", type=parse_temperature, default=AMBIENT_TEMPERATURE,
                      help="background temperature, e.g. 20C (default 20C)")
     sse.add_argument("--diameters", type=parse_length, nargs="+",
                      help="disc diameters, e.g. 12um 60um 600um (default 2 to 200 pixels)")
@@ -843,18 +693,13 @@ class _Parser(argparse.ArgumentParser):
         self.exit(EXIT_INPUT, f"radiosim: error: {message} (see {self.prog} --help)\n")
 
 
-def _show_warning(message, category, filename, lineno, file=None, line=None):
-    """Warnings as one line on stderr, without the source line."""
-    name = "warning" if issubclass(category, RadiosimWarning) else category.__name__
-    print(f"radiosim: {name}: {message}", file=sys.stderr)
-
-
 def main(argv=None) -> int:
     """Run the command; returns the exit code (see the module docstring)."""
     command = argv is None  # the radiosim command itself (tests pass their argv)
     parser = build_parser()
-    args = parser.parse_args(_join_negatives(parser, sys.argv[1:] if argv is None
-                                             else [str(a) for a in argv]))
+    words = sys.argv[1:] if argv is None else [str(a) for a in argv]
+    args = parser.parse_args(_join_negatives(parser, words))
+    args.command_line = shlex.join(["radiosim", *words])  # a results file's history
     logging.basicConfig(level=logging.INFO if args.verbose else logging.WARNING,
                         format="%(levelname)s %(name)s: %(message)s")
     # The work's handlers: Ctrl-C and SIGTERM unwind (every ``finally`` removes its temporary

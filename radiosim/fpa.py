@@ -27,17 +27,16 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from radiosim.checks import check_fraction, check_positive
+from radiosim.checks import check_count, check_fraction, check_positive
 from radiosim.config import edge_field
 from radiosim.errors import RadiosimError
 from radiosim.spectral import as_spectrum
+from radiosim.units import MICRO
 
 if TYPE_CHECKING:  # colour-science is imported when a curve is built
     from colour import SpectralDistribution
 
 __all__ = ["FocalPlaneArray", "FixedPattern"]
-
-_UM = 1e-6
 
 
 @dataclass(frozen=True, eq=False)
@@ -91,16 +90,16 @@ class FocalPlaneArray:
     (5.0, 765.0)
     """
 
-    pixel_pitch: float = edge_field(None, "pixel_pitch_um", _UM,
+    pixel_pitch: float = edge_field(None, "pixel_pitch_um", MICRO,
                                     doc="object-space pixel pitch in µm")
     shape: tuple[int, int] | None = edge_field(None, "shape", kind="ints",
                                                doc="rows, columns")
     fill_factor: float = edge_field(1.0, "fill_factor", doc="active area fraction")
-    detector_pitch: float | None = edge_field(None, "detector_pitch_um", _UM,
+    detector_pitch: float | None = edge_field(None, "detector_pitch_um", MICRO,
                                               doc="focal-plane pixel pitch in µm")
     quantum_efficiency: float | SpectralDistribution = edge_field(
         1.0, "quantum_efficiency", kind="curve", doc="quantum efficiency curve or number")
-    origin: tuple[float, float] = edge_field((0.0, 0.0), "origin_um", _UM, kind="numbers",
+    origin: tuple[float, float] = edge_field((0.0, 0.0), "origin_um", MICRO, kind="numbers",
                                              doc="offset (y, x) of the first pixel cell in µm")
     prnu: float = edge_field(0.0, "prnu", doc="photo-response non-uniformity, rms [1]")
     dsnu: float = edge_field(0.0, "dsnu_e", doc="dark-signal non-uniformity, rms [e⁻]")
@@ -113,9 +112,10 @@ class FocalPlaneArray:
     pattern_file: str | None = edge_field(None, "pattern_file", kind="str",
                                           doc="NPZ file of measured pattern maps")
     readout: str = edge_field("itr", "readout", kind="str", doc="'itr' or 'iwr'")
-    row_time: float = edge_field(0.0, "row_time_us", _UM, doc="readout time per row [µs]")
-    pixel_time: float = edge_field(0.0, "pixel_time_us", _UM, doc="readout time per pixel [µs]")
-    readout_overhead: float = edge_field(0.0, "readout_overhead_us", _UM,
+    row_time: float = edge_field(0.0, "row_time_us", MICRO, doc="readout time per row [µs]")
+    pixel_time: float = edge_field(0.0, "pixel_time_us", MICRO,
+                                   doc="readout time per pixel [µs]")
+    readout_overhead: float = edge_field(0.0, "readout_overhead_us", MICRO,
                                          doc="readout overhead per frame [µs]")
     shutter: str = edge_field("snapshot", "shutter", kind="str", doc="'snapshot' or 'rolling'")
 
@@ -152,11 +152,8 @@ class FocalPlaneArray:
                 and self.dead_fraction + self.hot_fraction <= 1):
             raise RadiosimError(f"dead_fraction and hot_fraction must be ≥ 0 with a sum ≤ 1, got "
                                 f"{self.dead_fraction!r} and {self.hot_fraction!r}")
-        if isinstance(self.pattern_seed, bool) or int(self.pattern_seed) != self.pattern_seed \
-                or self.pattern_seed < 0:
-            raise RadiosimError(f"pattern_seed must be a whole number ≥ 0, got "
-                                f"{self.pattern_seed!r}")
-        object.__setattr__(self, "pattern_seed", int(self.pattern_seed))
+        object.__setattr__(self, "pattern_seed",
+                           check_count(self.pattern_seed, "pattern_seed", 0))
         if self.readout not in ("itr", "iwr"):
             raise RadiosimError(f"readout must be 'itr' (integrate then read) or 'iwr' "
                                 f"(integrate while read), got {self.readout!r}")

@@ -12,11 +12,159 @@ Two differences from the truth carry different names and signs:
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from typing import ClassVar
+from datetime import datetime, timezone
+from typing import ClassVar, NamedTuple
 
 import numpy as np
 
-__all__ = ["Measurement"]
+from radiosim._version import __version__
+from radiosim.errors import RadiosimError
+
+__all__ = ["Measurement", "Field", "FIELDS", "FLAGS", "SIGNAL_UNITS", "CONVENTIONS",
+           "field_attributes", "global_attributes"]
+
+#: The metadata conventions of radiosim's NetCDF files and xarray datasets.
+CONVENTIONS = "CF-1.8"
+
+
+class Field(NamedTuple):
+    """
+    One field of a :class:`Measurement`: the single table of names and units that the
+    measurement, the EXR writer (:mod:`radiosim.io.exr`) and the NetCDF writer
+    (:mod:`radiosim.io.netcdf`) read.
+
+    Attributes
+    ----------
+    name : str
+        The measurement's attribute (a dataclass field, a property or a scalar).
+    unit : str or None
+        Unit as radiosim writes it (:attr:`Measurement.UNITS`, the EXR header's
+        ``radiosim:unit:<channel>``); ``None``: the measurement's ``signal_unit``.
+    udunits : str or None
+        The same unit as a UDUNITS-2 string (the CF conventions' ``units``): counts of
+        digital numbers and of electrons are numbers, ``"1"``, their ``long_name`` says what
+        they count; ``None``: from :data:`SIGNAL_UNITS`.
+    long_name : str
+        What the field holds (the CF ``long_name``).
+    standard_name : str or None
+        Its name in the CF standard name table, where one exists (only the flags,
+        ``status_flag``: no entry of the table describes a camera's reading or the scene's
+        statistics over a pixel's footprint).
+    kind : str
+        ``"array"`` (a per-pixel array stored by the measurement), ``"derived"`` (a per-pixel
+        property computed from them) or ``"scalar"``.
+    channel : str or None
+        The EXR channel that holds it (``None``: not written to EXR).
+    """
+
+    name: str
+    unit: str | None
+    udunits: str | None
+    long_name: str
+    standard_name: str | None
+    kind: str
+    channel: str | None
+
+
+_WINDOW = "the pixel's footprint and integration window"
+
+#: Every field of a measurement, in the order of the EXR channels and of the NetCDF variables.
+FIELDS: tuple[Field, ...] = (
+    Field("apparent_temperature", "K", "K",
+          "apparent temperature: the camera's reading through its calibration (NaN where "
+          "flagged)", None, "array", "apparent_temperature"),
+    Field("counts", "DN", "1", "digital number (analogue-to-digital converter counts, DN)",
+          None, "array", "counts"),
+    Field("electrons", "e-", "1", "charge in the well at the end of integration (electrons)",
+          None, "array", "electrons"),
+    Field("saturated", "1", None,
+          "saturated: full well or converter top code, or above the calibration's range",
+          "status_flag", "array", "saturated"),
+    Field("under_range", "1", None,
+          "under range: converter code 0 or below the calibration's range", "status_flag",
+          "array", "under_range"),
+    Field("over_range", "1", None,
+          "over range: above the calibration's range with neither well nor converter full",
+          "status_flag", "array", "over_range"),
+    Field("peak_error", "K", "K",
+          "peak error: tensor maximum minus apparent temperature (positive when the camera "
+          "reads low)", None, "derived", "peak_error"),
+    Field("uncertainty", "K", "K",
+          "uncertainty: standard deviation of scene temperature over " + _WINDOW, None,
+          "derived", "uncertainty"),
+    Field("tensor_max", "K", "K", "maximum scene temperature over " + _WINDOW, None,
+          "array", "tensor_max"),
+    Field("tensor_mean", "K", "K",
+          "area- and time-weighted mean scene temperature over " + _WINDOW, None, "array",
+          "tensor_mean"),
+    Field("tensor_std", "K", "K",
+          "weighted population standard deviation of scene temperature over " + _WINDOW,
+          None, "array", None),
+    Field("signal_mean", None, None, "weighted mean response signal over " + _WINDOW, None,
+          "array", "signal_mean"),
+    Field("integration_time", "s", "s", "integration time", None, "scalar", None),
+    Field("t_start", "s", "s", "start of the integration window (scene time)", None,
+          "scalar", None),
+)
+
+#: The flag fields (booleans; NetCDF ``status_flag`` variables with ``flag_values`` 0 and 1).
+FLAGS: tuple[str, ...] = tuple(f.name for f in FIELDS if f.standard_name == "status_flag")
+
+#: A response's signal unit → (its UDUNITS-2 form, what the signal is). UDUNITS has no photon:
+#: a photon radiance is a number of photons per second, square metre and steradian.
+SIGNAL_UNITS: dict[str, tuple[str, str]] = {
+    "K": ("K", "temperature (linear response)"),
+    "photons s-1 m-2 sr-1": ("s-1 m-2 sr-1", "in-band photon radiance"),
+    "W m-2 sr-1": ("W m-2 sr-1", "in-band radiance"),
+}
+
+
+def field_attributes(name: str, signal_unit: str = "K") -> dict:
+    """
+    The CF attributes (``units``, ``long_name``, ``standard_name`` where one exists; flags
+    with ``flag_values`` and ``flag_meanings``) of the field ``name`` of :data:`FIELDS`.
+
+    Examples
+    --------
+    >>> field_attributes("counts")["units"], field_attributes("tensor_max")["units"]
+    ('1', 'K')
+    >>> field_attributes("signal_mean", "photons s-1 m-2 sr-1")["units"]
+    's-1 m-2 sr-1'
+    """
+    entry = next((f for f in FIELDS if f.name == name), None)
+    if entry is None:
+        raise RadiosimError(f"{name!r} is not a field of a measurement; fields: "
+                       f"{', '.join(f.name for f in FIELDS)}")
+    if entry.standard_name == "status_flag":
+        return {"long_name": entry.long_name, "standard_name": entry.standard_name,
+                "flag_values": np.array([0, 1], dtype=np.int8),
+                "flag_meanings": f"not_{name} {name}"}
+    if entry.unit is None:
+        udunits, what = SIGNAL_UNITS.get(signal_unit, (signal_unit, "signal"))
+        return {"units": udunits, "long_name": f"{entry.long_name}: {what}"}
+    attrs = {"units": entry.udunits, "long_name": entry.long_name}
+    if entry.standard_name:
+        attrs["standard_name"] = entry.standard_name
+    return attrs
+
+
+def global_attributes(title: str, history: str) -> dict:
+    """
+    The CF global attributes radiosim's datasets start with: ``Conventions``
+    (:data:`CONVENTIONS`), ``title``, ``history`` (one line: the UTC time, radiosim's version
+    and ``history``), ``source`` and ``radiosim_version``.
+
+    Examples
+    --------
+    >>> attrs = global_attributes("a title", "radiosim run msec2009")
+    >>> attrs["Conventions"], attrs["history"].endswith("radiosim run msec2009")
+    ('CF-1.8', True)
+    """
+    now = datetime.now(timezone.utc).strftime("%Y-%m-%dT%H:%M:%SZ")
+    return {"Conventions": CONVENTIONS, "title": title,
+            "history": f"{now} radiosim {__version__}: {history}",
+            "source": f"radiosim {__version__}, a physically based radiometric simulator of "
+                      "infrared cameras", "radiosim_version": __version__}
 
 
 @dataclass(frozen=True, eq=False)
@@ -69,7 +217,7 @@ class Measurement:
         Readings above the calibration range although neither the well nor the converter is
         full (with a very short integration, noise can carry a reading there).
     subframe : numpy.ndarray of int or None
-        For a superframe (:meth:`~radiosim.camera.Camera.superframe`): the subframe each pixel
+        For a superframe (:func:`~radiosim.acquisition.superframe`): the subframe each pixel
         was taken from (an index into ``subframe_times``).
     subframe_times : tuple of float
         A superframe's integration times [s], in the order they were taken.
@@ -77,28 +225,13 @@ class Measurement:
         The start of each subframe's window [s].
     """
 
-    #: Units of the array fields and derived properties.
-    UNITS: ClassVar[dict[str, str]] = {
-        "apparent_temperature": "K",
-        "counts": "DN",
-        "electrons": "e-",
-        "saturated": "1",
-        "under_range": "1",
-        "over_range": "1",
-        "tensor_max": "K",
-        "tensor_mean": "K",
-        "tensor_std": "K",
-        "peak_error": "K",
-        "uncertainty": "K",
-        "integration_time": "s",
-        "t_start": "s",
-    }
+    #: Units of the array fields and derived properties, as radiosim writes them (the EXR
+    #: header's ``radiosim:unit:<channel>``); :data:`FIELDS` holds them with their UDUNITS form.
+    UNITS: ClassVar[dict[str, str]] = {f.name: f.unit for f in FIELDS if f.unit is not None}
 
     #: The per-pixel arrays and their units (``signal_mean``'s is :attr:`signal_unit`).
-    ARRAYS: ClassVar[dict[str, str | None]] = {
-        "apparent_temperature": "K", "counts": "DN", "electrons": "e-", "saturated": "1",
-        "under_range": "1", "over_range": "1", "tensor_max": "K", "tensor_mean": "K",
-        "tensor_std": "K", "signal_mean": None}
+    ARRAYS: ClassVar[dict[str, str | None]] = {f.name: f.unit for f in FIELDS
+                                               if f.kind == "array"}
 
     apparent_temperature: np.ndarray
     counts: np.ndarray
@@ -135,14 +268,24 @@ class Measurement:
                 f"{int(self.under_range.sum())} under range, "
                 f"{int(self.over_range.sum())} over range>")
 
-    def to_xarray(self):
+    def to_xarray(self, history: str | None = None):
         """
-        The measurement as an :class:`xarray.Dataset`: dimensions ``y``, ``x`` with the pixel
-        centres' coordinates [m] (object space, from the array's origin), every array a
-        variable with its unit (``attrs["units"]``), flags as booleans, and as attributes the
-        camera (TOML), the window and the scene (``scene:<key>``).
-        :func:`radiosim.io.from_xarray` turns it back, and
-        :func:`radiosim.io.write_netcdf` writes it.
+        The measurement as a CF-1.8 :class:`xarray.Dataset`.
+
+        Dimensions ``y``, ``x`` with the pixel centres' coordinates [m] (object space, from
+        the array's origin); every array of :data:`ARRAYS` a variable with the CF attributes
+        of :data:`FIELDS` (UDUNITS ``units``, ``long_name``; the flags as booleans with
+        ``standard_name = "status_flag"``, ``flag_values`` and ``flag_meanings``, named by
+        ``apparent_temperature``'s ``ancillary_variables``); as attributes ``Conventions``,
+        ``title``, ``history``, ``source``, the camera (TOML, which rebuilds it exactly), the
+        window and the scene (``scene_<key>``). :func:`radiosim.io.from_xarray` turns it
+        back, and :func:`radiosim.io.write_netcdf` writes it.
+
+        Parameters
+        ----------
+        history
+            What made the measurement (for instance the command line), the end of the
+            ``history`` attribute's line; ``None``: the camera and the window.
 
         Examples
         --------
@@ -153,29 +296,35 @@ class Measurement:
         (('y', 'x'), 'K', 'm')
         >>> (ds.x.values * 1e6).round(9).tolist()  # pixel centres [µm]
         [1.0, 3.0, 5.0, 7.0]
+        >>> ds.counts.units, ds.Conventions
+        ('1', 'CF-1.8')
         """
         import xarray as xr
-
-        from radiosim import __version__
 
         fpa = self.camera.fpa
         rows, cols = self.shape
         y = fpa.origin[0] + (np.arange(rows) + 0.5) * fpa.pixel_pitch
         x = fpa.origin[1] + (np.arange(cols) + 0.5) * fpa.pixel_pitch
-        flags = ("saturated", "under_range", "over_range")
         data = {}
-        for name, unit in self.ARRAYS.items():
+        for name in self.ARRAYS:
             values = np.asarray(getattr(self, name))
-            values = values.astype(bool) if name in flags else values.astype(np.float64)
-            data[name] = (("y", "x"), values, {"units": unit or self.signal_unit})
-        attrs = {"radiosim_version": __version__, "camera": self.camera.to_toml(),
-                 "camera_name": self.camera.name, "signal_unit": self.signal_unit,
-                 "alignment": self.alignment, "integration_time_s": self.integration_time,
-                 "t_start_s": self.t_start, "n_frames": self.n_frames}
+            values = values.astype(bool) if name in FLAGS else values.astype(np.float64)
+            data[name] = (("y", "x"), values, field_attributes(name, self.signal_unit))
+        data["apparent_temperature"][2]["ancillary_variables"] = " ".join(FLAGS)
+        what = (f"camera {self.camera.name}, {self.integration_time:.10g} s from "
+                f"{self.t_start:.10g} s")
+        attrs = global_attributes(f"radiosim measurement: {what}", history or what)
+        attrs.update({"camera": self.camera.to_toml(), "camera_name": self.camera.name,
+                      "signal_unit": self.signal_unit, "alignment": self.alignment,
+                      "integration_time_s": self.integration_time, "t_start_s": self.t_start,
+                      "n_frames": self.n_frames})
         for key, value in self.scene.items():
-            attrs[f"scene:{key}"] = value
-        return xr.Dataset(data, coords={"y": ("y", y, {"units": "m"}),
-                                        "x": ("x", x, {"units": "m"})}, attrs=attrs)
+            attrs[f"scene_{key}"] = value
+        where = "centre of the pixel in object space, from the array's origin"
+        return xr.Dataset(data, coords={
+            "y": ("y", y, {"units": "m", "long_name": f"row position: {where}"}),
+            "x": ("x", x, {"units": "m", "long_name": f"column position: {where}"})},
+            attrs=attrs)
 
     @property
     def peak_error(self) -> np.ndarray:

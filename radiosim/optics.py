@@ -31,16 +31,15 @@ from radiosim.config import edge_field
 from radiosim.errors import RadiosimError
 from radiosim.fpa import FocalPlaneArray
 from radiosim.psf import PSF, as_psf
-from radiosim.radiometry import band_radiance
+from radiosim.radiometry import DEFAULT_BAND, band_radiance
 from radiosim.response import reflectance
 from radiosim.spectral import as_spectrum
+from radiosim.units import MICRO
 
 if TYPE_CHECKING:  # colour-science is imported when a curve is built
     from colour import SpectralDistribution
 
 __all__ = ["Optics", "etendue", "f_number_of", "collect"]
-
-_UM = 1e-6
 
 
 def etendue(active_area: float, f_number: float) -> float:
@@ -115,7 +114,7 @@ class Optics:
         optics, no emission.
     emissivity : float or None
         The optics' grey emissivity as seen by the pixel [1], where it is measured
-        (:meth:`radiosim.camera.Camera.fit_calibration` with several instrument temperatures);
+        (:func:`radiosim.calibration.fit_calibration` with several instrument temperatures);
         ``None``: 1 − transmission (Kirchhoff's law for a non-scattering lens).
 
     Examples
@@ -126,7 +125,7 @@ class Optics:
     12.49
     """
 
-    band: tuple[float, float] = edge_field((3.8e-6, 5.1e-6), "band_um", _UM, kind="numbers",
+    band: tuple[float, float] = edge_field(DEFAULT_BAND, "band_um", MICRO, kind="numbers",
                                            doc="integration limits in µm")
     f_number: float = edge_field(2.5, "f_number", doc="image-space f-number of the cold stop")
     transmission: float | SpectralDistribution = edge_field(

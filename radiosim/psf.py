@@ -58,7 +58,7 @@ from pathlib import Path
 import numpy as np
 from scipy import fft as sfft
 
-from radiosim.checks import check_fraction, check_positive
+from radiosim.checks import check_count, check_fraction, check_positive
 from radiosim.config import edge_value, si_value
 from radiosim.errors import RadiosimError, RadiosimWarning
 
@@ -130,10 +130,7 @@ class Diffraction(PSF):
     chromatic = True
 
     def __post_init__(self):
-        if isinstance(self.sub_bands, bool) or int(self.sub_bands) != self.sub_bands or \
-                self.sub_bands < 1:
-            raise RadiosimError(f"sub_bands must be a whole number ≥ 1, got {self.sub_bands!r}")
-        object.__setattr__(self, "sub_bands", int(self.sub_bands))
+        object.__setattr__(self, "sub_bands", check_count(self.sub_bands, "sub_bands"))
 
     def otf(self, fx, fy, wavelength, object_na):
         nu = np.hypot(fx, fy) / self.bandwidth(wavelength, object_na)

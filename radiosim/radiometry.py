@@ -57,6 +57,8 @@ __all__ = [
     "band_radiance",
     "BandRadianceTable",
     "TABLE_C_DU",
+    "DEFAULT_BAND",
+    "CALIBRATION_RANGE",
 ]
 
 #: First radiation constant :math:`c_1 = 2 \\pi h c^2` [W m²] (CODATA, exact).
@@ -65,6 +67,13 @@ PLANCK_C1 = 2 * math.pi * sc.h * sc.c**2
 PLANCK_C1L = 2 * sc.h * sc.c**2
 #: Second radiation constant :math:`c_2 = h c / k` [m K] (CODATA, exact).
 PLANCK_C2 = sc.h * sc.c / sc.k
+
+#: The default spectral band (λ1, λ2) [m]: 3.8–5.1 µm, the band of the paper's MWIR camera
+#: (InSb, no narrow filter), for radiance tables and optics that state none.
+DEFAULT_BAND = (3.8e-6, 5.1e-6)
+#: The temperatures (T_min, T_max) [K] a radiance table, and so a camera's calibration, cover
+#: by default: from below room temperature to beyond any cutting temperature.
+CALIBRATION_RANGE = (150.0, 3000.0)
 
 #: Radiance quantities and their units.
 QUANTITIES = {
@@ -250,7 +259,7 @@ def _quadrature(band, curves) -> tuple[np.ndarray, np.ndarray]:
 
 def band_radiance(
     temperature,
-    band=(3.8e-6, 5.1e-6),
+    band=DEFAULT_BAND,
     quantity: str = "photon",
     responsivity=None,
     emissivity=1.0,
@@ -367,11 +376,11 @@ class BandRadianceTable:
 
     def __init__(
         self,
-        band=(3.8e-6, 5.1e-6),
+        band=DEFAULT_BAND,
         quantity: str = "photon",
         responsivity=None,
         emissivity=1.0,
-        temperature_range=(150.0, 3000.0),
+        temperature_range=CALIBRATION_RANGE,
         per_octave: int | None = None,
     ):
         t_min, t_max = (float(v) for v in temperature_range)

@@ -5,7 +5,8 @@ A study file names
 
 -   a ``[scene]``: ``type = "segmented-chip"`` (optional ``params`` TOML, ``dt_us``, ``dx_um``,
     ``emissivity`` as a number, a curve name or a table per region), ``type = "frames"``
-    (``path``, ``dt_us``, ``dx_um``, ``units``, optional ``event_time_us``) or ``type = "fea"`` (``path``, ``dx_um``,
+    (``path``, ``dt_us``, ``dx_um``, ``units``, optional ``event_time_us``) or
+    ``type = "fea"`` (``path``, ``dx_um``,
     ``units`` table, ``fill_K``); any type may state its environment
     (:meth:`~radiosim.scenes.Scene.set_environment`): ``reflected_temperature_K`` (a number,
     or ``"tool"`` on the segmented chip for its reflected field, with ``reflection_view_um``),
@@ -43,10 +44,12 @@ import warnings
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import NamedTuple
 
 import numpy as np
 
-from radiosim.camera import Camera, measure_many_statistics
+from radiosim.acquisition import check_measurable, measure_many_statistics, read_out
+from radiosim.camera import Camera
 from radiosim.config import build_from_toml, reject_unknown
 from radiosim.errors import RadiosimError, RadiosimIOError, RadiosimWarning
 from radiosim.files import OutputFolder, atomic_write, check_name, is_staging, safe_name
@@ -58,9 +61,10 @@ from radiosim.study_spec import (ALIGNMENTS, CAMERA_KEYS, ENVIRONMENT_KEYS, HOOK
                                  UncertaintySpec, camera_from_table, exr_name, load_hook,
                                  scene_from_table)
 from radiosim.uncertainty import propagate
-from radiosim.units import shift, to_celsius
+from radiosim.units import round_significant, shift, to_celsius
 
-__all__ = ["Study", "Sweep", "StudyResult", "available_studies", "summarise", "STUDY_DIRECTORY",
+__all__ = ["Study", "Sweep", "Planned", "StudyResult", "available_studies", "summarise",
+           "STUDY_DIRECTORY",
            "RESULT_COLUMNS", "HOOKS", "load_hook", "format_value", "format_table",
            # read in radiosim.study_spec, importable from here as before
            "UncertaintySpec", "ALIGNMENTS", "STUDY_KEYS", "UNCERTAINTY_KEYS", "SWEEP_KEYS",
@@ -78,6 +82,35 @@ RESULT_COLUMNS = [
     "over_range_fraction", "warnings", "exr",
 ]
 
+class Planned(NamedTuple):
+    """One measurement of a study's plan (:meth:`Study.plan`)."""
+
+    sweep: Sweep
+    camera_name: str  # the camera's name in the study ([cameras.NAME])
+    camera: Camera  # with the sweep's response and pixel pitch
+    integration_time: float  # [s]
+    alignment: str  # on the scene's event: centred, starting or ending (ALIGNMENTS)
+
+
+class _Case(NamedTuple):
+    """A planned measurement and the scene it measures (a pixel sweep's: a crop)."""
+
+    sweep: Sweep
+    camera_name: str
+    camera: Camera
+    integration_time: float  # [s]
+    alignment: str
+    scene: Scene
+
+
+class _History(NamedTuple):
+    """The longest window of a pixel sweep's camera, whose pixel history is written."""
+
+    integration_time: float  # [s]
+    t_start: float  # [s]
+    pixel: Scene  # the scene cropped to the pixel
+
+
 def format_value(value):
     """A table cell: floats to 10 significant digits (no float noise such as
     899.4000000000002), others unchanged.
@@ -88,7 +121,7 @@ def format_value(value):
     ('899.4', '8.995502249', '1.0')
     """
     if isinstance(value, (float, np.floating)):
-        return repr(float(f"{float(value):.10g}"))
+        return repr(round_significant(value))
     return value
 
 
@@ -107,12 +140,15 @@ class StudyResult:
     history: Path | None = None
     columns: list[str] = field(default_factory=lambda: list(RESULT_COLUMNS))
 
-    def to_xarray(self, name: str = "study"):
-        """The rows as one :class:`xarray.Dataset` with the sweep parameters (sweep, camera,
-        integration time, pixel pitch) as dimensions (:func:`radiosim.io.results_to_xarray`)."""
+    def to_xarray(self, name: str = "study", history: str | None = None,
+                  institution: str | None = None):
+        """The rows as one CF-1.8 :class:`xarray.Dataset`: one record per measurement along
+        ``measurement``, the sweep parameters as coordinates along it
+        (:func:`radiosim.io.results_to_xarray`); ``history``: the command that made them."""
         from radiosim.io.netcdf import results_to_xarray
 
-        return results_to_xarray(self.rows, name)
+        return results_to_xarray(self.rows, name, columns=self.columns, history=history,
+                                 institution=institution)
 
 
 def summarise(m: Measurement) -> dict:
@@ -257,7 +293,8 @@ class Study:
     # -- the measurements ---------------------------------------------------------------------
 
     def plan(self):
-        """Every (sweep, camera name, camera, integration time [s], alignment) to measure."""
+        """Every measurement to make, as :class:`Planned` records (sweep, camera name, camera,
+        integration time [s], alignment)."""
         scene = self.scene
         for sweep in self.sweeps:
             pitches = ([p * scene.dx for p in sweep.pixel_samples] if sweep.pixel_samples
@@ -271,7 +308,7 @@ class Study:
                     camera = camera.replace(response=response)
                 if pitch is not None:
                     camera = camera.with_pixel_pitch(pitch)
-                yield sweep, name, camera, t_int, alignment
+                yield Planned(sweep, name, camera, t_int, alignment)
 
     def _window_start(self, t_int: float, alignment: str) -> float | None:
         scene = self.scene
@@ -386,16 +423,16 @@ class Study:
             exr_dir = out / "exr" if write_exr else None
         result = StudyResult(rows=[], exr_directory=exr_dir, columns=columns)
         history = {}
-        engine = None
+        run = close = None  # the Dask engine's (run, close), if one is asked for
         completed = False
         try:
             if scheduler is not None or workers is not None:
-                engine = connect(scheduler, workers)
+                run, close = connect(scheduler, workers)
             self._measure_all(plan, result, history, summary, pick_pixel, exr_dir, seeds,
-                              progress, engine)
-            if engine is not None:
-                engine[1]()  # close the cluster or client it opened
-                engine = None
+                              progress, run)
+            if close is not None:
+                close()  # the cluster or client it opened
+                close = None
             if out is not None:
                 result.table = out / "results.csv"
                 _write_csv(result.table, columns, result.rows)
@@ -407,9 +444,9 @@ class Study:
                 result = _moved(result, out, target)
             completed = True
         finally:
-            if engine is not None:
+            if close is not None:
                 with contextlib.suppress(Exception):
-                    engine[1]()
+                    close()
             if not completed and out is not None:
                 if result.rows:  # what completed, as a table of its own
                     with contextlib.suppress(Exception):
@@ -423,10 +460,11 @@ class Study:
         return result
 
     def _measure_all(self, plan, result, history, summary, pick_pixel, exr_dir, seeds,
-                     progress, engine=None):
+                     progress, run=None):
         """
         Measure every planned case into ``result.rows`` (and ``history``); case ``i`` draws
-        its noise from ``seeds[i]``. Consecutive cases on the same scene are measured in one
+        its noise from ``seeds[i]``; ``run``: the Dask engine's (one task per case), else in
+        this process. Consecutive cases on the same scene are measured in one
         pass over its frames where the camera module offers it; the warnings each case raises
         go to its row and are raised again here, in the plan's order.
         """
@@ -435,7 +473,7 @@ class Study:
 
         pixels = {}
         cases = []
-        for sweep, name, camera, t_int, alignment in plan:
+        for sweep, name, camera, t_int, alignment in plan:  # Planned records
             scene = self.scene
             if sweep.kind == "pixel":
                 if pick_pixel is None:
@@ -446,7 +484,7 @@ class Study:
                 if pitch not in pixels:  # one crop per pixel size: its cases share a pass
                     pixels[pitch] = pick_pixel(scene, pitch)
                 scene = pixels[pitch]
-            cases.append((sweep, name, camera, t_int, alignment, scene))
+            cases.append(_Case(sweep, name, camera, t_int, alignment, scene))
         files = {}
         for sweep, name, camera, t_int, alignment, scene in cases:  # before any work
             what = (f"sweep {sweep.name!r}, camera {name!r}, integration time "
@@ -454,7 +492,7 @@ class Study:
             try:
                 window = camera.window(scene, t_int, self._window_start(t_int, alignment))
                 frame_weights(window.start, window.duration, scene.dt, scene.n_frames)
-                camera.check_measurable(window.duration)
+                check_measurable(camera, window.duration)
                 camera.integrator(scene)
             except RadiosimError as exc:
                 raise self._named(exc, what) from None
@@ -467,37 +505,36 @@ class Study:
                         "digits (times) or 4 (pitches)"),
                         "sweeps")
                 files[filename] = what
-        groups = [list(g) for _, g in itertools.groupby(cases, key=lambda c: id(c[5]))]
+        # Consecutive cases on one scene (the same object) share a group: one pass over it.
+        groups = [list(g) for _, g in itertools.groupby(cases, key=lambda c: id(c.scene))]
         done = 0
         for group in groups:
-            scene = group[0][5]
-            starts = [self._window_start(t_int, alignment)
-                      for _, _, _, t_int, alignment, _ in group]
+            scene = group[0].scene
             group_seeds = seeds[done:done + len(group)]
-            triples = [(camera, t_int, start)
-                       for (_, _, camera, t_int, _, _), start in zip(group, starts)]
-            if engine is not None:  # one task per measurement, the scene shared as a recipe
-                outcomes = engine[0](_measure_task, [
+            triples = [(c.camera, c.integration_time,
+                        self._window_start(c.integration_time, c.alignment)) for c in group]
+            if run is not None:  # one task per measurement, the scene shared as a recipe
+                outcomes = run(_measure_task, [
                     (*triple, seed) for triple, seed in zip(triples, group_seeds)],
                     shared=(scene,))
             else:
                 outcomes = _measure_group(scene, triples, group_seeds)
-            for (sweep, name, camera, t_int, alignment, scene), (m, caught) in zip(group,
-                                                                                   outcomes):
+            for case, (m, caught) in zip(group, outcomes):
                 done += 1
                 for text in caught:  # to the caller, as raised: never silenced
                     warnings.warn(text, RadiosimWarning, stacklevel=3)
-                row = self._row(sweep, name, camera, t_int, alignment, scene, m, summary,
-                                exr_dir, write, history)
+                row = self._row(case, m, summary, exr_dir, write, history)
                 row["warnings"] = " | ".join(dict.fromkeys(caught))
                 result.rows.append(row)
                 if progress is not None:
-                    progress(done, len(cases), f"{sweep.name}: {name} ({camera.response}), "
-                             f"{t_int * 1e6:g} µs, {camera.fpa.pixel_pitch * 1e6:.3g} µm")
+                    camera = case.camera
+                    progress(done, len(cases), f"{case.sweep.name}: {case.camera_name} "
+                             f"({camera.response}), {case.integration_time * 1e6:g} µs, "
+                             f"{camera.fpa.pixel_pitch * 1e6:.3g} µm")
 
-    def _row(self, sweep, name, camera, t_int, alignment, scene, m, summary, exr_dir, write,
-             history) -> dict:
+    def _row(self, case: _Case, m: Measurement, summary, exr_dir, write, history) -> dict:
         """One row of the results table (and the measurement's EXR file)."""
+        sweep, name, camera, t_int, alignment, scene = case
         row = {
             "study": self.name, "sweep": sweep.name, "camera": name,
             "response": camera.response, "integration_time_us": shift(t_int, 6),
@@ -512,8 +549,8 @@ class Study:
             row.update(peak_C=to_celsius(float(m.tensor_mean[0, 0])),
                        peak_uncertainty_K=float(m.tensor_std[0, 0]))
             key = (name, camera.response)
-            if t_int > history.get(key, (0.0,))[0]:
-                history[key] = (t_int, m.t_start, scene)
+            if key not in history or t_int > history[key].integration_time:
+                history[key] = _History(t_int, m.t_start, scene)
         else:
             if summary is not None:
                 row.update(summary(m, scene))
@@ -588,11 +625,11 @@ def _write_csv(path: Path, columns: list[str], rows: list[dict]):
 def _measure_group(scene: Scene, cases, seeds) -> list:
     """In this process: (measurement, warning texts) of each ``(camera, integration time,
     start)`` case, case ``i``'s noise from ``seeds[i]``; the cases share one pass over the
-    scene's frames (:func:`~radiosim.camera.measure_many_statistics`)."""
+    scene's frames (:func:`~radiosim.acquisition.measure_many_statistics`)."""
     statistics, caught = recorded_call(measure_many_statistics, scene, cases)
     out = []
     for ((camera, _, _), (window, stats)), seed in zip(zip(cases, statistics), seeds):
-        m, texts = recorded_call(camera.read_out, stats, window, scene,
+        m, texts = recorded_call(read_out, camera, stats, window, scene,
                                  np.random.default_rng(seed))
         out.append((m, caught + texts))
     return out

@@ -14,13 +14,14 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from radiosim.camera import Camera
-from radiosim.checks import check_positive
+from radiosim.checks import check_count, check_positive
 from radiosim.config import read_number, reject_unknown
 from radiosim.errors import RadiosimError
 from radiosim.files import check_name, safe_name
+from radiosim.io.scenes import SCENE_TYPES, STUDY_SCENE_TYPES
 from radiosim.scenes.base import Scene
 from radiosim.uncertainty import INPUTS, MAX_DRAWS, distribution_from_table
-from radiosim.units import shift
+from radiosim.units import MICRO, shift
 
 __all__ = ["Sweep", "UncertaintySpec", "HOOKS", "load_hook", "ALIGNMENTS", "STUDY_KEYS",
            "UNCERTAINTY_KEYS", "SWEEP_KEYS", "SCENE_KEYS", "CAMERA_KEYS", "ENVIRONMENT_KEYS",
@@ -36,11 +37,9 @@ UNCERTAINTY_KEYS = ("camera", "integration_time_us", "t_start_us", "draws", "see
 #: The keys of a [[sweeps]] table.
 SWEEP_KEYS = ("name", "cameras", "response", "pixel_pitch_um", "pixel_samples",
               "integration_time_us", "integration_time_frames", "alignment", "kind")
-#: The keys of each [scene] type, and of a [cameras.NAME] table.
-SCENE_KEYS = {"segmented-chip": ("type", "params", "dx_um", "dt_us", "emissivity"),
-              "frames": ("type", "path", "dt_us", "dx_um", "units", "emissivity",
-                         "event_time_us"),
-              "fea": ("type", "path", "dx_um", "dt_us", "units", "fill_K", "emissivity")}
+#: The keys of each [scene] type (from the registry of scene types,
+#: :data:`radiosim.io.scenes.SCENE_TYPES`), and of a [cameras.NAME] table.
+SCENE_KEYS = STUDY_SCENE_TYPES
 CAMERA_KEYS = ("preset", "file", "response", "assumed_emissivity", "pixel_pitch_um",
                "assumed_reflected_temperature_K")
 #: The keys of a scene's environment (any type): see :meth:`Scene.set_environment`.
@@ -92,19 +91,15 @@ class UncertaintySpec:
         if camera not in cameras:
             raise RadiosimError(f"[uncertainty] camera must be one of the study's cameras "
                                 f"({', '.join(cameras)}), got {camera!r}")
-        t_int = read_number(table, "integration_time_us", "[uncertainty]", 1e-6)
+        t_int = read_number(table, "integration_time_us", "[uncertainty]", MICRO)
         if t_int is None:
             raise RadiosimError("[uncertainty] needs integration_time_us")
-        t_start = read_number(table, "t_start_us", "[uncertainty]", 1e-6)
+        t_start = read_number(table, "t_start_us", "[uncertainty]", MICRO)
         counts = {}
-        for key, default in (("draws", None), ("seed", 0), ("batch", 50)):
+        for key, default, least in (("draws", None, 2), ("seed", 0, 0), ("batch", 50, 1)):
             value = table.get(key, default)
-            if value is not None and (isinstance(value, bool) or not isinstance(value, int)
-                                      or value < (2 if key == "draws" else 0 if key == "seed"
-                                                  else 1)):
-                least = {"draws": 2, "seed": 0, "batch": 1}[key]
-                raise RadiosimError(f"[uncertainty] {key} must be a whole number ≥ {least}, "
-                                    f"got {value!r}")
+            if value is not None:
+                check_count(value, f"[uncertainty] {key}", least, integers_only=True)
             if key == "draws" and value is not None and value > MAX_DRAWS:
                 raise RadiosimError(f"[uncertainty] draws = {value} is above radiosim's bound "
                                     f"of {MAX_DRAWS} draws; give at most {MAX_DRAWS} (or no "
@@ -216,19 +211,6 @@ def _number(table: dict, key: str, what: str):
     return read_number(table, key, what)
 
 
-def _fill(spec: dict) -> float:
-    value = _number(spec, "fill_K", "[scene]")
-    return 293.15 if value is None else check_positive(value, "[scene] fill_K", "K")
-
-
-def _path(spec: dict, kind: str) -> str:
-    value = spec.pop("path", None)
-    if not isinstance(value, str) or not value:
-        raise RadiosimError(f"[scene] of type {kind!r} needs path = \"…\" (the file to read), "
-                            f"got {value!r}")
-    return value
-
-
 def camera_from_table(table: dict, name: str, base: Path) -> Camera:
     """The camera of a ``[cameras.NAME]`` table (``file`` relative to ``base``)."""
     if not isinstance(table, dict):
@@ -268,56 +250,19 @@ def camera_from_table(table: dict, name: str, base: Path) -> Camera:
 
 def scene_from_table(spec: dict, base: Path) -> Scene:
     """The scene of a ``[scene]`` table (its files relative to ``base``), with its
-    environment."""
-    from radiosim.io import read_fea_nodes, read_frames
-    from radiosim.scenes import ChipParameters, SegmentedChip
-
+    environment; its ``type`` is looked up in the registry of scene types
+    (:data:`radiosim.io.scenes.SCENE_TYPES`)."""
     spec = dict(spec)
     kind = spec.get("type")
     if kind not in SCENE_KEYS:
-        raise RadiosimError(f"scene type {kind!r} is not segmented-chip, frames or fea")
+        *first, last = SCENE_KEYS
+        raise RadiosimError(f"scene type {kind!r} is not {', '.join(first)} or {last}")
     allowed = (*SCENE_KEYS[kind], *ENVIRONMENT_KEYS)
     reject_unknown([k for k in spec if k not in allowed], allowed, f"[scene] ({kind})")
     spec.pop("type")
     environment = {k: spec.pop(k) for k in ENVIRONMENT_KEYS if k in spec}
-
-    def take_length(key, default=None):
-        value = _number(spec, key, "[scene]")
-        if value is not None and not (value > 0 or (key == "event_time_us" and value == 0)):
-            raise RadiosimError(f"[scene] {key} = {value!r}: expected a positive number "
-                                f"({'µm' if key.endswith('_um') else 'µs'})")
-        value = default if value is None else value
-        return None if value is None else shift(value, -6)
-
-    emissivity = spec.pop("emissivity", 1.0)
-    spec_event = spec.get("event_time_us")
-    if kind == "segmented-chip":
-        params = spec.pop("params", None)
-        params = ChipParameters.from_toml(base / params) if params else None
-        scene = SegmentedChip(params, dx=take_length("dx_um", 960 / 1440),
-                              dt=take_length("dt_us", 0.2), emissivity=emissivity)
-    elif kind == "frames":
-        numpy_stack = str(spec.get("path", "")).lower().endswith((".npy", ".npz"))
-        missing = [k for k in ("dt_us", "dx_um", "units") if k not in spec]
-        if numpy_stack and missing:
-            raise RadiosimError(f"[scene] of type 'frames' with a NumPy stack needs "
-                                f"{', '.join(missing)} (the file carries no grid nor unit)")
-        event = take_length("event_time_us")
-        path = _path(spec, kind)
-        try:
-            scene = read_frames(base / path, dt=take_length("dt_us"),
-                                dx=take_length("dx_um"), units=spec.pop("units", None),
-                                emissivity=emissivity, event_time=event)
-        except RadiosimError as exc:  # the reader states seconds: add what the file says
-            if event is None or "event_time" not in str(exc):
-                raise
-            raise RadiosimError(f"event_time_us = {spec_event!r}: {exc}") from None
-    elif kind == "fea":
-        scene = read_fea_nodes(base / _path(spec, kind), dx=take_length("dx_um"),
-                               dt=take_length("dt_us"), units=spec.pop("units", None),
-                               fill=_fill(spec),
-                               emissivity=emissivity)
-    return _set_environment(scene, environment)
+    build = next(t.from_table for t in SCENE_TYPES.values() if t.table == kind)
+    return _set_environment(build(spec, base), environment)
 
 
 def _set_environment(scene: Scene, table: dict) -> Scene:

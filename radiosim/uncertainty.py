@@ -41,10 +41,11 @@ import warnings
 from abc import ABC, abstractmethod
 from collections.abc import Callable
 from dataclasses import dataclass
+from typing import NamedTuple
 
 import numpy as np
 
-from radiosim.checks import check_positive
+from radiosim.checks import check_count, check_positive
 from radiosim.config import si_value
 from radiosim.errors import RadiosimError, RadiosimWarning
 from radiosim.moments import HISTOGRAM_BINS, PixelMoments
@@ -54,7 +55,7 @@ from radiosim.scheduling import (SCHEDULER_TIMEOUT, connect, recorded_warnings, 
                                  seed_sequence, with_eta)
 
 __all__ = ["Distribution", "Normal", "Uniform", "Triangular", "TruncatedNormal", "Samples",
-           "INPUTS", "UncertainInput", "distribution_from_table", "propagate", "UncertaintyResult",
+           "INPUTS", "UncertainInput", "Domain", "distribution_from_table", "propagate", "UncertaintyResult",
            "connect", "HISTOGRAM_BINS", "MAX_DRAWS", "SCHEDULER_TIMEOUT",
            "recorded_warnings"]
 
@@ -329,6 +330,15 @@ def _registration(axis):
     return apply
 
 
+class Domain(NamedTuple):
+    """The values an uncertain input accepts: from ``low`` to ``high`` [the input's unit],
+    ``low`` excluded if ``open_low``."""
+
+    low: float
+    high: float
+    open_low: bool = False
+
+
 @dataclass(frozen=True)
 class UncertainInput:
     """
@@ -344,8 +354,8 @@ class UncertainInput:
     unit : str
         Its SI unit (``"1"``: dimensionless).
     domain : callable
-        ``domain(model) → (low, high, low is open)``: the values the chain accepts [unit], for
-        the nominal camera, scene and window (a shift may not move them below zero).
+        ``domain(model) →`` :class:`Domain`: the values the chain accepts [unit], for the
+        nominal camera, scene and window (a shift may not move them below zero).
     apply : callable
         ``apply(camera, scene, settings, value) → (camera, scene, settings)``, ``settings`` the
         window's ``t_start`` and ``integration_time`` [s].
@@ -374,7 +384,7 @@ _EDGE_UNITS = {"1": "(dimensionless)"}
 
 def _within(low: float, high: float, open_low: bool = False) -> Callable:
     """A domain that does not depend on the nominal model."""
-    return lambda model: (low, high, open_low)
+    return lambda model: Domain(low, high, open_low)
 
 
 #: The uncertain inputs by name (:class:`UncertainInput`).
@@ -395,15 +405,15 @@ INPUTS = {i.name: i for i in (
     UncertainInput("calibration_scale", "the calibration's radiometric scale", "1",
                    _within(0.0, math.inf, True), _camera_field("calibration_scale")),
     UncertainInput("t_start", "the integration window's start, added to the nominal", "s",
-                   lambda model: (-model.t_start, math.inf, False), _window("t_start"), 1e-6),
+                   lambda model: Domain(-model.t_start, math.inf), _window("t_start"), 1e-6),
     UncertainInput("integration_time", "the integration time, added to the nominal", "s",
-                   lambda model: (-model.integration_time, math.inf, True),
+                   lambda model: Domain(-model.integration_time, math.inf, True),
                    _window("integration_time"), 1e-6),
     UncertainInput("registration_x", "the array's registration along x, added to its origin",
-                   "m", lambda model: (-model.camera.fpa.origin[1], math.inf, False),
+                   "m", lambda model: Domain(-model.camera.fpa.origin[1], math.inf),
                    _registration(1), 1e-6),
     UncertainInput("registration_y", "the array's registration along y, added to its origin",
-                   "m", lambda model: (-model.camera.fpa.origin[0], math.inf, False),
+                   "m", lambda model: Domain(-model.camera.fpa.origin[0], math.inf),
                    _registration(0), 1e-6),
 )}
 
@@ -417,7 +427,8 @@ def _check_domains(model) -> None:
     any draw, not found out by a failing task."""
     for name, dist in model.inputs.items():
         record = INPUTS[name]
-        low, high, open_low = record.domain(model)
+        domain = record.domain(model)
+        low, high, open_low = domain.low, domain.high, domain.open_low
         lo, hi = (float(v) for v in dist.ppf(np.array([_OUTSIDE_DOMAIN, 1 - _OUTSIDE_DOMAIN])))
         if lo < low or (open_low and lo <= low) or hi > high:
             unit = record.edge_unit
@@ -609,8 +620,7 @@ def propagate(camera, scene, integration_time: float, inputs: dict, draws: int |
                                ("budget_draws", budget_draws, 2)):
         if value is None and name in ("draws", "budget_draws"):
             continue
-        if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < least:
-            raise RadiosimError(f"{name} must be a whole number ≥ {least}, got {value!r}")
+        check_count(value, name, least, integers_only=True)
         if name in ("draws", "max_draws", "budget_draws") and value > MAX_DRAWS:
             raise RadiosimError(f"{name} = {value} is above radiosim's bound of {MAX_DRAWS} "
                                 "Monte Carlo draws (each draw is a whole measurement; GUM S1 "
@@ -689,6 +699,16 @@ def _monte_carlo(run, model, seed, draws, batch, digits, max_draws, shape, progr
     return moments, done
 
 
+class _Contribution(NamedTuple):
+    """One input's evaluations for the budget (per pixel, the noise fixed)."""
+
+    distribution: Distribution
+    sensitivity: np.ndarray  # [K per input unit], central differences
+    plus: np.ndarray  # apparent temperature [K] at mean + one standard uncertainty
+    minus: np.ndarray  # … at mean − one standard uncertainty
+    one_at_a_time: list  # the one-input-at-a-time Monte Carlo draws [K]
+
+
 def _budget(run, model, seed, noise_seed, draws, shape):
     """Per input: the GUM sensitivity (central differences of ± one standard uncertainty, the
     noise fixed) and the one-input-at-a-time Monte Carlo variance (the noise fixed); the
@@ -709,7 +729,7 @@ def _budget(run, model, seed, noise_seed, draws, shape):
         gum_var = gum_var + (sensitivity * dist.std) ** 2  # NaN where a step had no reading
         oat = run(_draw, [(child, (name,), fixed_noise) for child in children[i].spawn(draws)],
                   shared=(model,))
-        contributions[name] = (dist, sensitivity, plus, minus, oat)
+        contributions[name] = _Contribution(dist, sensitivity, plus, minus, oat)
     noise = run(_draw, [(child, (), None) for child in children[-1].spawn(draws)],
                 shared=(model,))
     with warnings.catch_warnings():
@@ -718,13 +738,15 @@ def _budget(run, model, seed, noise_seed, draws, shape):
     gum_var = gum_var + noise_var
     for summary, reduce in _SUMMARIES.items():
         summary_rows = []
-        for name, (dist, _, plus, minus, oat) in contributions.items():
-            c = (reduce(plus) - reduce(minus)) / (2 * dist.std)
+        for name, share in contributions.items():
+            dist = share.distribution
+            c = (reduce(share.plus) - reduce(share.minus)) / (2 * dist.std)
             summary_rows.append({
                 "quantity": summary, "input": name, "distribution": type(dist).__name__,
                 "unit": INPUTS[name].unit, "estimate": dist.mean, "std_uncertainty": dist.std,
                 "sensitivity": c, "gum_contribution_K": abs(c) * dist.std,
-                "mc_contribution_K": float(np.std([reduce(a) for a in oat], ddof=1))})
+                "mc_contribution_K": float(np.std([reduce(a) for a in share.one_at_a_time],
+                                                  ddof=1))})
         noise_u = float(np.std([reduce(a) for a in noise], ddof=1))
         summary_rows.append({"quantity": summary, "input": "temporal noise",
                              "distribution": "Poisson + Normal", "unit": "", "estimate": math.nan,

@@ -21,9 +21,12 @@ from radiosim.errors import RadiosimError
 
 __all__ = [
     "CELSIUS_OFFSET",
+    "AMBIENT_TEMPERATURE",
+    "MICRO",
     "UNITS",
     "TEMPERATURE_OFFSETS",
     "shift",
+    "round_significant",
     "parse_quantity",
     "to_si",
     "to_kelvin",
@@ -41,6 +44,14 @@ __all__ = [
 
 #: 0 °C in kelvin [K] (exact, by the definition of the Celsius scale).
 CELSIUS_OFFSET = 273.15
+
+#: Temperature of a scene's surroundings (and of what an FEA mesh does not cover) when none is
+#: stated [K]: a laboratory at 20 °C.
+AMBIENT_TEMPERATURE = 293.15
+
+#: The SI prefix micro [1]: the scale of the µm and µs in which files and presets state lengths
+#: and times (``pixel_pitch_um``, ``row_time_us``); SI value = edge value × MICRO.
+MICRO = 1e-6
 
 #: Units accepted at the edges, per kind: unit → (power of ten, offset) to SI.
 UNITS = {
@@ -96,6 +107,24 @@ def looks_negative(text: str) -> bool:
 #: Temperature units of files and their offset to kelvin [K].
 TEMPERATURE_OFFSETS = {unit: offset for unit, (_, offset) in UNITS["temperature"].items()
                        if unit != "°C"}
+
+
+def round_significant(value, digits: int = 10):
+    """
+    A float rounded to ``digits`` significant digits, as ``results.csv`` writes it
+    (:func:`radiosim.study.format_value`: no float noise such as 5.999999999999999); other
+    values unchanged.
+
+    Examples
+    --------
+    >>> round_significant(5.999999999999999), round_significant(1172.55 - 273.15)
+    (6.0, 899.4)
+    >>> round_significant(7), round_significant("centred")
+    (7, 'centred')
+    """
+    if isinstance(value, (float, np.floating)):
+        return float(f"{float(value):.{digits}g}")
+    return value
 
 
 def shift(value: float, exponent: int) -> float:

@@ -191,6 +191,17 @@ def valid_exr_bytes() -> bytes:
         return path.read_bytes()
 
 
+def assert_linear_fea_field(scene):
+    """``fea_rows``' field, T = 500 °C + x/2 + y/2 + t [µm, µs], is linear in x and y, so
+    linear interpolation over the mesh reproduces it exactly at every pixel centre
+    (x = j + ½, y = 7½ − i µm on the 1 µm grid of the 8 µm × 8 µm mesh, row 0 on top)."""
+    assert scene.n_frames == 3 and scene.dt == pytest.approx(1e-6, rel=1e-12)
+    i, j = np.mgrid[0:8, 0:8]
+    for t in range(3):
+        expected = 273.15 + 500.0 + t + ((j + 0.5) + (7.5 - i)) / 2
+        np.testing.assert_allclose(scene.frame(t), expected, rtol=0, atol=1e-9)
+
+
 def consume(scene, n=3):
     """Read the first frames of a scene (errors in the data surface only when read)."""
     for k in range(min(scene.n_frames or 1, n)):
@@ -787,7 +798,7 @@ def test_fea_identical_duplicate_node_is_merged(tmp_path):
     rows.append(list(rows[30]))  # the same node, the same temperature: harmless
     path = tmp_path / "dup.csv"
     path.write_text(fea_text(rows))
-    consume(read_fea_nodes(path, dx=1e-6))
+    assert_linear_fea_field(read_fea_nodes(path, dx=1e-6))
 
 
 STRING_NUMBERS = [
@@ -1158,7 +1169,7 @@ def test_cli_exr_missing_unit_names_attribute_file_and_flag(tmp_path, capsys):
 def test_fea_csv_with_byte_order_mark_is_read(tmp_path):
     path = tmp_path / "excel.csv"
     path.write_text(fea_text(fea_rows()), encoding="utf-8-sig")
-    consume(read_fea_nodes(path, dx=1e-6))
+    assert_linear_fea_field(read_fea_nodes(path, dx=1e-6))
 
 
 @pytest.mark.parametrize("variant", ["crlf", "reordered-extra-column", "spaced-capitals"])

@@ -6,6 +6,7 @@ import numpy as np
 import pytest
 
 from radiosim import Camera, Electronics, FrameStack, MovingGaussianBand, UniformBlackbody
+from radiosim.acquisition import is_rolling
 from radiosim.errors import RadiosimError, RadiosimWarning
 from radiosim.radiometry import band_radiance
 from radiosim.spectral import read_spectrum
@@ -205,7 +206,7 @@ def test_a_rolling_shutter_delays_each_row_by_its_row_time():
     for i in (0, 5, 11):
         row = snapshot.measure(band, 5e-6, t_start=10e-6 + i * 2e-6).apparent_temperature[i]
         np.testing.assert_allclose(m.apparent_temperature[i], row, rtol=1e-12)
-    assert rolling.rolling and not snapshot.rolling
+    assert is_rolling(rolling) and not is_rolling(snapshot)
     peak = np.argmax(m.apparent_temperature, axis=1)
     assert peak[-1] > peak[0]  # 11 rows × 2 µs × 2 m/s = 44 µm: the band leans by 11 pixels
 

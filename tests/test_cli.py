@@ -189,6 +189,24 @@ def test_report_prints_progress_per_step_and_none_with_quiet(tmp_path, capsys):
     assert capsys.readouterr().err == ""
 
 
+def test_calibrate_prints_progress_per_step_and_none_with_quiet(tmp_path, capsys):
+    from radiosim import Camera
+
+    t = np.linspace(350.0, 550.0, 6)  # [K]; noise-free counts of nist-ir at 100 µs
+    counts = Camera.preset("nist-ir").calibration(100e-6).counts(t)
+    table = tmp_path / "table.csv"
+    table.write_text("temperature_K,counts\n" + "".join(f"{a},{c}\n" for a, c in zip(t, counts)))
+    argv = ["calibrate", str(table), "--camera", "nist-ir", "--integration-time", "100us"]
+    assert main(argv) == 0
+    captured = capsys.readouterr()
+    # The table read, the camera's response, the fit: 3 steps, on stderr only, plain lines.
+    assert [line.split("]")[0] for line in _progress_lines(captured.err)] == [
+        "[1/3", "[2/3", "[3/3"]
+    assert "\r" not in captured.err and not _progress_lines(captured.out)
+    assert main(argv + ["-q"]) == 0
+    assert capsys.readouterr().err == ""
+
+
 def test_progress_on_a_terminal_is_one_bar_created_before_the_work(capsys):
     import io
 

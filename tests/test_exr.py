@@ -8,6 +8,7 @@ import OpenEXR
 import pytest
 
 from radiosim import Camera, RadiosimWarning
+from radiosim.acquisition import record
 from radiosim.errors import RadiosimError
 from radiosim.io import read_exr, read_exr_sequence, write_exr, write_exr_sequence
 from radiosim.io.exr import CHANNELS
@@ -85,7 +86,7 @@ def test_a_recording_becomes_numbered_files(tmp_path):
     camera = Camera.preset("nist-ir").replace(frame_rate=1e5)  # 10 µs apart
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", RadiosimWarning)
-        frames = camera.record(scene.crop((60, 120), (60, 150)), 2e-6, 3, rng=1)
+        frames = record(camera, scene.crop((60, 120), (60, 150)), 2e-6, 3, rng=1)
     paths = write_exr_sequence(tmp_path / "rec", frames)
     assert [p.name for p in paths] == ["frame_0000.exr", "frame_0001.exr", "frame_0002.exr"]
     back = read_exr_sequence(tmp_path / "rec")

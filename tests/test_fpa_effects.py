@@ -29,7 +29,9 @@ import pytest
 import radiosim
 from radiosim import Camera, FrameStack, UniformBlackbody
 from radiosim.calibration import NonUniformityCorrection, replace_bad_pixels
-from radiosim.characterization import (linearity_error, residual_nonuniformity,
+from radiosim.acquisition import frame_period, record, superframe
+from radiosim.characterization import (flat_field, flat_fields, fit_nuc, linearity_error,
+                                       measurable_range, netd, residual_nonuniformity,
                                        spatial_nonuniformity)
 from radiosim.electronics import Electronics, apply_nonlinearity, invert_nonlinearity
 from radiosim.errors import RadiosimError
@@ -194,8 +196,8 @@ def test_emva_spatial_analysis_recovers_configured_dsnu_and_prnu():
     K, n = el.gain, camera.fpa.shape[0] * camera.fpa.shape[1]
     level = temperature_for_charge(0.5)  # EMVA: the bright level near half saturation
     rng = np.random.default_rng(seed)  # the order radiosim's analysis draws them in
-    dark, _ = camera.flat_fields(None, T_INT, frames, rng)
-    bright, saturated = camera.flat_fields(level, T_INT, frames, rng)
+    dark, _ = flat_fields(camera, None, T_INT, frames, rng)
+    bright, saturated = flat_fields(camera, level, T_INT, frames, rng)
     assert not saturated.any()
     own = emva_spatial(dark, bright, K)
 
@@ -246,7 +248,7 @@ def test_two_point_nuc_leaves_temporal_noise_at_its_points():
     nuc_frames = 4  # few flats, so that their noise shows: √(1 + 1/L) = 1.118
     camera = camera_with(fpa=dict(prnu=0.02, dsnu=3000.0, pattern_seed=5))
     t1, t2 = 500.0, 600.0  # ≈ 20 % and 60 % of the well at 240 µs
-    corrected_camera = camera.fit_nuc([t1, t2], T_INT, frames=nuc_frames, rng=7)
+    corrected_camera = fit_nuc(camera, [t1, t2], T_INT, frames=nuc_frames, rng=7)
     nuc = corrected_camera.nuc
     good = ~nuc.bad
     n = int(good.sum())
@@ -254,7 +256,7 @@ def test_two_point_nuc_leaves_temporal_noise_at_its_points():
     m = 8  # frames for the temporal noise level
     rng = np.random.default_rng(8)  # a stream independent of the NUC's flats (seed 7)
     for t in (t1, t2):
-        raw, saturated = camera.flat_fields(t, T_INT, m, rng)
+        raw, saturated = flat_fields(camera, t, T_INT, m, rng)
         assert not saturated.any()
         corrected = np.stack([nuc.apply(frame) for frame in raw])
         spatial = np.std(corrected[0][good], ddof=1)  # one corrected frame [DN]
@@ -298,7 +300,7 @@ def test_nuc_residual_rises_away_from_its_points_as_the_quadratic_model_predicts
                                   pattern_seed=9),
                          electronics=dict(nonlinearity=0.05))
     t1, t2, nuc_frames, frames = 500.0, 600.0, 16, 16
-    camera = camera.fit_nuc([t1, t2], T_INT, frames=nuc_frames, rng=3)
+    camera = fit_nuc(camera, [t1, t2], T_INT, frames=nuc_frames, rng=3)
     nuc = camera.nuc
     good = ~nuc.bad
     n = int(good.sum())
@@ -417,10 +419,10 @@ def test_linearity_error_of_a_simulated_sweep_is_the_closed_form_curves():
     temperatures = [temperature_for_charge(f) for f in fractions]
     exposure = np.array([own_band().photoelectrons(t, T_INT) for t in temperatures])  # [e⁻]
     rng = np.random.default_rng(12)
-    dark = camera.flat_field(None, T_INT, frames, rng)[0].mean()
+    dark = flat_field(camera, None, T_INT, frames, rng)[0].mean()
     means = []
     for t in temperatures:
-        flat, saturated = camera.flat_field(t, T_INT, frames, rng)
+        flat, saturated = flat_field(camera, t, T_INT, frames, rng)
         assert not saturated.any()
         means.append(flat.mean())
     means = np.array(means)
@@ -473,9 +475,9 @@ def test_netd_is_temporal_noise_over_the_radiometric_slope():
         # 1e-4: our quadrature matches to rounding; the camera differentiates its ln L spline
         # (1e-8 relative) by a central difference of h = 1e-4 T, whose truncation error is
         # h² L'''/(6 L') ≈ h² (b/T²)²/6 ≈ 3e-7 (b = hc/λk ≈ 3300 K).
-        np.testing.assert_allclose(camera.netd(t, t_int), own_netd(camera, t, t_int), rtol=1e-4)
-    low, saturation = camera.measurable_range(T_INT)
-    assert np.isnan(camera.netd(saturation + 1.0, T_INT))  # beyond the range: none
+        np.testing.assert_allclose(netd(camera, t, t_int), own_netd(camera, t, t_int), rtol=1e-4)
+    low, saturation = measurable_range(camera, T_INT)
+    assert np.isnan(netd(camera, saturation + 1.0, T_INT))  # beyond the range: none
 
 
 @ignore_saturation
@@ -497,14 +499,14 @@ def test_netd_monte_carlo(beta, temperature):
     expected = own_netd(camera, temperature, T_INT, beta)
     assert np.std(readings, ddof=1) == pytest.approx(expected, rel=K_SIGMA / math.sqrt(2 * (n - 1)))
     if beta == 0:
-        assert camera.netd(temperature, T_INT) == pytest.approx(expected, rel=1e-4)
+        assert netd(camera, temperature, T_INT) == pytest.approx(expected, rel=1e-4)
 
 
 def test_netd_of_a_nonlinear_camera():
     t = np.array([450.0, 550.0, 600.0, 635.0, 650.0])
     for beta in (0.05, 0.3):
         camera = camera_with(electronics=dict(nonlinearity=beta))
-        np.testing.assert_allclose(camera.netd(t, T_INT), own_netd(camera, t, T_INT, beta),
+        np.testing.assert_allclose(netd(camera, t, T_INT), own_netd(camera, t, T_INT, beta),
                                    rtol=1e-4)
 
 
@@ -555,7 +557,7 @@ def test_superframe_merges_the_longest_valid_subframe(timing):
     starts = np.concatenate([[0.0], np.cumsum([periods(t) for t in times[:-1]])])
     rng = np.random.default_rng(31)
     subframes = [camera.measure(scene, t, s, rng) for t, s in zip(times, starts)]
-    merged = camera.superframe(scene, times, t_start=0.0, rng=np.random.default_rng(31))
+    merged = superframe(camera, scene, times, t_start=0.0, rng=np.random.default_rng(31))
 
     np.testing.assert_allclose(merged.subframe_starts, starts, rtol=1e-12, atol=0)
     assert merged.subframe_times == tuple(times) and merged.integration_time == max(times)
@@ -593,7 +595,7 @@ def test_superframe_of_a_uniform_blackbody_takes_the_longest_unsaturated_time():
     times = [20e-6, 80e-6, 320e-6, 1280e-6]  # 600 K saturates at 1280 µs (from ≈ 494 K)
     rng = np.random.default_rng(5)
     subframes = [camera.measure(scene, t, i / 600, rng) for i, t in enumerate(times)]
-    merged = camera.superframe(scene, times, t_start=0.0, rng=5)
+    merged = superframe(camera, scene, times, t_start=0.0, rng=5)
     assert subframes[3].saturated.all() and subframes[2].valid.all()
     assert (merged.subframe == 2).all()
     np.testing.assert_array_equal(merged.apparent_temperature, subframes[2].apparent_temperature)
@@ -612,10 +614,10 @@ def test_frame_period_is_integration_and_readout():
         assert camera.fpa.readout_time((120, 160)) == pytest.approx(readout, rel=1e-12)
         for t in (100e-6, 482e-6, 900e-6):
             own = t + readout if mode == "itr" else max(t, readout)
-            assert camera.frame_period(t) == pytest.approx(own, rel=1e-12)
+            assert frame_period(camera, t) == pytest.approx(own, rel=1e-12)
         # A slower frame rate sets the period.
         slow = camera.replace(frame_rate=600.0)
-        assert slow.frame_period(100e-6) == pytest.approx(max(1 / 600, 100e-6 + readout)
+        assert frame_period(slow, 100e-6) == pytest.approx(max(1 / 600, 100e-6 + readout)
                                                           if mode == "itr" else 1 / 600,
                                                           rel=1e-12)
     fpa = FocalPlaneArray(6e-6, row_time=10e-6, readout_overhead=100e-6)  # no shape given
@@ -628,7 +630,7 @@ def test_record_spaces_windows_by_the_real_frame_period():
     t_int = 200e-6
     period = t_int + 120 * 10e-6 + 100e-6  # 1.5 ms
     scene = UniformBlackbody(500.0, shape=(240, 320), dx=3e-6, dt=1e-4)
-    frames = camera.record(scene, t_int, 4, t_start=0.0, rng=np.random.default_rng(2))
+    frames = record(camera, scene, t_int, 4, t_start=0.0, rng=np.random.default_rng(2))
     np.testing.assert_allclose([m.t_start for m in frames], period * np.arange(4), rtol=1e-12,
                                atol=1e-18)
     rng = np.random.default_rng(2)  # the same frames measured one by one
@@ -637,7 +639,7 @@ def test_record_spaces_windows_by_the_real_frame_period():
         np.testing.assert_array_equal(m.counts, again.counts)
     # iwr: the readout (1.3 ms) hides the integration.
     iwr = camera_with(base=camera, fpa=dict(readout="iwr"))
-    starts = [m.t_start for m in iwr.record(scene, t_int, 3, t_start=0.0, rng=0)]
+    starts = [m.t_start for m in record(iwr, scene, t_int, 3, t_start=0.0, rng=0)]
     np.testing.assert_allclose(starts, 1.3e-3 * np.arange(3), rtol=1e-12, atol=1e-18)
 
 
@@ -650,7 +652,7 @@ def test_integration_whose_readout_exceeds_the_frame_period_is_refused():
     with pytest.raises(RadiosimError, match=r"with its readout .*exceeds the frame period"):
         camera.measure(scene, 400e-6, 0.0, rng=0)
     with pytest.raises(RadiosimError, match="exceeds the frame period"):
-        camera.superframe(scene, [20e-6, 400e-6], t_start=0.0, rng=0)
+        superframe(camera, scene, [20e-6, 400e-6], t_start=0.0, rng=0)
     # Integrating while reading, 400 µs fits (the period is the 1300 µs readout).
     camera_with(base=camera, fpa=dict(readout="iwr")).measure(scene, 400e-6, 0.0, rng=0)
 
@@ -730,7 +732,7 @@ def test_pattern_file_is_used(tmp_path):
     np.testing.assert_array_equal(pattern.gain, 1 + prnu[:120, :160])
     np.testing.assert_array_equal(pattern.dark, dsnu[:120, :160])
     el = camera.electronics
-    flat, saturated = camera.flat_field(550.0, T_INT, frames=1, rng=0)
+    flat, saturated = flat_field(camera, 550.0, T_INT, frames=1, rng=0)
     x = camera.calibration(T_INT).photoelectrons(550.0)  # the forward model's photo-charge
     e = np.where(dead[:120, :160], 0.0, x * (1 + prnu[:120, :160])) + el.dark_current * T_INT \
         + dsnu[:120, :160]
@@ -770,7 +772,7 @@ def test_dead_pixels_read_dark_hot_pixels_saturate_and_the_nuc_replaces_them():
     lit = ~(pattern.dead | pattern.hot)
     assert m.valid[lit].all()
 
-    corrected_camera = camera.fit_nuc([500.0, 600.0], T_INT, frames=8, rng=41)
+    corrected_camera = fit_nuc(camera, [500.0, 600.0], T_INT, frames=8, rng=41)
     nuc = corrected_camera.nuc
     assert nuc.bad[pattern.dead | pattern.hot].all()
     assert nuc.bad.sum() == (pattern.dead | pattern.hot).sum()  # and no lit pixel
@@ -857,9 +859,9 @@ def test_report_writes_the_datasheet(tmp_path, capsys):
     netd_temperatures = np.linspace(calibration.lowest_measurable_temperature(),
                                     calibration.saturation_temperature, 12, endpoint=False)
     netd_rows = [float(r["value"]) for r in rows if r["quantity"] == "NETD"]
-    np.testing.assert_allclose(netd_rows, camera.netd(netd_temperatures, T_INT), rtol=5e-6)
+    np.testing.assert_allclose(netd_rows, netd(camera, netd_temperatures, T_INT), rtol=5e-6)
     times = np.geomspace(1e-6, 1 / camera.frame_rate, 13)
-    limits = np.array([camera.measurable_range(t) for t in times])
+    limits = np.array([measurable_range(camera, t) for t in times])
     for column, quantity in enumerate(("lowest measurable temperature",
                                        "saturation temperature")):
         got = [float(r["value"]) for r in rows if r["quantity"] == quantity]
@@ -904,6 +906,6 @@ def test_bad_inputs_are_refused_clearly():
     with pytest.raises(RadiosimError, match=r"NUC temperatures must increase"):
         NonUniformityCorrection.from_flat_fields(flats, [600.0, 500.0], T_INT)
     with pytest.raises(RadiosimError, match=r"NUC temperatures must increase"):
-        nist().fit_nuc([600.0, 500.0], T_INT, frames=2, rng=0)
+        fit_nuc(nist(), [600.0, 500.0], T_INT, frames=2, rng=0)
     with pytest.raises(RadiosimError, match="pattern file .* cannot read|cannot read the pattern"):
         dataclasses.replace(fpa, pattern_file="/nonexistent/pattern.npz").pattern((120, 160))

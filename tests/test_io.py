@@ -193,7 +193,7 @@ def test_a_measurement_survives_xarray_and_netcdf_losslessly(tmp_path):
                                              10e-6, rng=0)
     assert m.saturated.any()  # flags and NaN readings are in the round trip
     ds = m.to_xarray()
-    assert ds.saturated.dtype == bool and ds.counts.units == "DN" and ds.y.units == "m"
+    assert ds.saturated.dtype == bool and ds.counts.units == "1" and "DN" in ds.counts.long_name and ds.y.units == "m"
     back = read_netcdf(write_netcdf(tmp_path / "m.nc", m))
     for name in m.ARRAYS:
         assert np.array_equal(getattr(m, name), getattr(back, name), equal_nan=True), name
@@ -215,7 +215,7 @@ def test_netcdf_errors_are_one_line(tmp_path):
         read_netcdf(tmp_path / "missing.nc")
 
 
-def test_study_results_are_one_dataset_with_the_sweeps_as_dimensions(tmp_path):
+def test_study_results_are_one_record_per_measurement(tmp_path):
     import xarray as xr
     from conftest import frames_study
 
@@ -227,10 +227,10 @@ def test_study_results_are_one_dataset_with_the_sweeps_as_dimensions(tmp_path):
                  "--format", "netcdf", "--no-figures", "-q"]) == 0
 
     with xr.open_dataset(tmp_path / "out" / "results.nc", engine="h5netcdf") as ds:
-        assert set(ds.dims) == {"sweep", "camera", "response", "alignment",
-                                "integration_time_us", "pixel_pitch_um"}
-        assert ds.integration_time_us.values.tolist() == [1.0, 2.0, 3.0]
-        np.testing.assert_allclose(ds.peak_C.values.ravel(), 650.0 - 273.15)
+        assert set(ds.dims) == {"measurement"}
+        assert ds.integration_time.units == "s"
+        assert ds.integration_time.values.tolist() == [1e-06, 2e-06, 3e-06]
+        np.testing.assert_allclose(ds.peak_C.values, 650.0 - 273.15)
 
 
 # -- the nodal CSV's column names --------------------------------------------------------------
@@ -267,3 +267,82 @@ def test_a_column_mapping_names_a_solvers_columns(tmp_path):
     path.write_text("time_us,x_um,y_mm,temperature_C\n" + "\n".join(_nodal_rows()) + "\n")
     with pytest.raises(RadiosimError, match="two length units"):
         read_fea_nodes(path, dx=1e-6)
+
+
+# -- read_scene: a scene file by its suffix (the registry of scene types) --------------------
+
+
+def _nodes_csv(path, header="# units: time=us, length=um, temperature=C"):
+    rows = [f"{x},{y},{t},{20.0 + x}" for t in (0, 1) for x, y in ((0, 0), (4, 0), (0, 4),
+                                                                       (4, 4))]
+    path.write_text("\n".join(([header] if header else []) + ["x,y,time,temperature", *rows])
+                    + "\n")
+    return path
+
+
+def test_read_scene_reads_each_suffix_with_its_reader(tmp_path, stack):
+    from radiosim.io import read_scene
+    from radiosim.scenes import ExrSequence, FeaNodes, FrameStack
+
+    np.save(tmp_path / "s.npy", stack)
+    scene = read_scene(tmp_path / "s.npy", dt=1e-6, dx=2e-6, units="C")
+    assert isinstance(scene, FrameStack) and scene.dt == 1e-6 and scene.dx == 2e-6
+    np.testing.assert_allclose(scene.frame(1), stack[1] + 273.15, rtol=1e-6)
+    np.savez(tmp_path / "s.npz", t=stack)
+    assert read_scene(str(tmp_path / "s.npz"), dt=1e-6, dx=2e-6, units="K").n_frames == 5
+    (tmp_path / "exr").mkdir()
+    for k in range(2):
+        write_exr(tmp_path / "exr" / f"f{k}.exr", stack[k], temperature_unit="K", dt_s=1e-6,
+                  dx_m=2e-6)
+    scene = read_scene(tmp_path / "exr")
+    assert isinstance(scene, ExrSequence) and scene.n_frames == 2
+    assert isinstance(read_scene(str(tmp_path / "exr" / "f*.exr")), ExrSequence)
+    scene = read_scene(_nodes_csv(tmp_path / "n.csv"), dx=1e-6)
+    assert isinstance(scene, FeaNodes) and scene.dt == 1e-6  # the file's step, 1 µs
+    # no header: the units as keywords; fill (20 °C by default) applies outside the mesh
+    bare = _nodes_csv(tmp_path / "bare.csv", header=None)
+    scene = read_scene(bare, dx=1e-6, units="C", time_unit="us", length_unit="um",
+                       fill=250.0)
+    assert scene.dt == 1e-6 and scene.fill == 250.0
+    assert read_scene(bare, dx=1e-6, units="C", time_unit="us", length_unit="um").fill == 293.15
+
+
+@pytest.mark.parametrize("name,kwargs,reason,keywords", [
+    ("s.npy", {"dx": 1e-6}, "missing", ("dt", "units")),
+    ("s.npy", {"dt": 1e-6, "dx": 1e-6}, "missing", ("units",)),
+    ("s.npy", {"dt": 1e-6, "dx": 1e-6, "units": "K", "fill": 300.0}, "not-taken", ("fill",)),
+    ("s.npy", {"dt": 1e-6, "dx": 1e-6, "units": "K", "time_unit": "us", "length_unit": "mm"},
+     "not-taken", ("time_unit", "length_unit")),
+    ("exr", {"length_unit": "mm"}, "not-taken", ("length_unit",)),
+    ("case.vtu", {"dx": 1e-6}, "mesh", ()),
+    ("n.csv", {}, "missing", ("dx",)),
+    ("bare.csv", {"dx": 1e-6}, "units", ("time_unit", "length_unit", "units")),
+])
+def test_read_scene_refusals_name_the_keywords(tmp_path, stack, name, kwargs, reason,
+                                               keywords):
+    from radiosim.io import SceneArgumentError, read_scene
+
+    np.save(tmp_path / "s.npy", stack)
+    (tmp_path / "exr").mkdir()
+    (tmp_path / "case.vtu").write_text("")
+    _nodes_csv(tmp_path / "n.csv")
+    _nodes_csv(tmp_path / "bare.csv", header=None)
+    with pytest.raises(SceneArgumentError) as info:
+        read_scene(tmp_path / name, **kwargs)
+    error = info.value
+    assert (error.reason, error.keywords, error.path) == (reason, keywords, tmp_path / name)
+    assert str(tmp_path / name) in str(error) and "\n" not in str(error)
+    assert all(k in str(error) for k in keywords)
+    assert "--" not in str(error)  # the library names keywords, not the command's options
+    if reason == "mesh":
+        assert "read_fea_mesh" in str(error)
+
+
+def test_read_scene_of_a_missing_file(tmp_path):
+    from radiosim.io import SceneArgumentError, read_scene
+
+    with pytest.raises(RadiosimError, match="does not exist") as info:
+        read_scene(tmp_path / "gone.npy", dt=1e-6, dx=1e-6, units="K")
+    assert not isinstance(info.value, SceneArgumentError)
+    with pytest.raises(RadiosimError, match="no frames found"):  # a glob: the reader says
+        read_scene(str(tmp_path / "*.exr"))

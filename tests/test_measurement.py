@@ -5,11 +5,13 @@ construction, so the expected numbers are written in the test, not computed by t
 """
 
 import math
+import re
 
 import numpy as np
 import pytest
 
 from radiosim import Camera
+from radiosim.errors import RadiosimError
 from radiosim.measurement import Measurement
 from radiosim.paper import column_index, column_summary
 from radiosim.scenes import SegmentedChip
@@ -90,6 +92,53 @@ def test_repr_without_valid_pixels(camera):
     m = make(camera, [[1.0, 2.0]], [[3.0, 4.0]], under_range=[[True, True]])
     text = repr(m)
     assert len(text) < 300 and "no valid pixel" in text and "2 under range" in text
+
+
+# -- the one table of fields and units -----------------------------------------------------
+
+#: The EXR channels and the units their header states, as radiosim has always written them.
+EXR_CHANNELS = {"apparent_temperature": "K", "counts": "DN", "electrons": "e-",
+                "saturated": "1", "under_range": "1", "over_range": "1", "peak_error": "K",
+                "uncertainty": "K", "tensor_max": "K", "tensor_mean": "K", "signal_mean": None}
+
+
+def test_one_table_of_fields_feeds_the_measurement_exr_and_netcdf(camera):
+    import radiosim.io.exr as exr
+    from radiosim.measurement import FIELDS, field_attributes
+
+    assert list(Measurement.ARRAYS) == [  # the NetCDF variables, in this order
+        "apparent_temperature", "counts", "electrons", "saturated", "under_range",
+        "over_range", "tensor_max", "tensor_mean", "tensor_std", "signal_mean"]
+    assert exr.CHANNELS == EXR_CHANNELS and list(exr.CHANNELS) == list(EXR_CHANNELS)
+    assert Measurement.UNITS["counts"] == "DN" and Measurement.UNITS["t_start"] == "s"
+    for f in FIELDS:  # every field is something a measurement has
+        assert hasattr(make(camera, [[1.0]], [[1.0]]), f.name), f.name
+    udunits = {"K", "1", "s"}
+    assert {f.udunits for f in FIELDS if f.udunits is not None} <= udunits
+    assert field_attributes("electrons") == {
+        "units": "1", "long_name": "charge in the well at the end of integration (electrons)"}
+    flag = field_attributes("over_range")
+    assert flag["standard_name"] == "status_flag" and "units" not in flag
+    assert flag["flag_values"].tolist() == [0, 1]
+    assert flag["flag_meanings"] == "not_over_range over_range"
+    with pytest.raises(RadiosimError, match="'volts' is not a field"):
+        field_attributes("volts")
+    # The EXR module's table of channels says the same units as the header.
+    for name, unit in EXR_CHANNELS.items():
+        assert re.search(rf"``{name}``\s+.*\[{re.escape(unit or '``radiosim:signal_unit``')}\]",
+                         exr.__doc__), name
+
+
+def test_to_xarray_carries_the_cf_attributes_of_the_table(camera):
+    m = make(camera, [[500.0, 600.0]], [[510.0, 620.0]], saturated=[[False, True]])
+    ds = m.to_xarray(history="made by hand")
+    assert ds.attrs["Conventions"] == "CF-1.8" and ds.attrs["history"].endswith("made by hand")
+    assert ds.attrs["title"] == "radiosim measurement: camera linear-ideal, 1e-05 s from 0 s"
+    assert ds.apparent_temperature.attrs["units"] == "K"
+    assert ds.counts.attrs["units"] == "1" and ds.signal_mean.attrs["units"] == "K"
+    assert ds.saturated.dtype == bool and ds.saturated.values.tolist() == [[False, True]]
+    assert "units" not in ds.saturated.attrs
+    assert ds.attrs["scene_type"] == "hand-built" and ds.x.attrs["long_name"]
 
 
 # -- study.summarise -----------------------------------------------------------------------

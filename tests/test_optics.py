@@ -53,9 +53,28 @@ def test_nist_ir_preset_is_a_plausible_microscope():
     assert el.saturation_charge == pytest.approx(el.full_well, rel=1e-12)
 
 
-def test_collect_is_signal_times_rate_times_time():
-    signal = np.array([[1.0e20, 2.0e20]])
-    assert collect(signal, 3e-12, 1e-5).tolist() == (signal * 3e-12 * 1e-5).tolist()
+def test_photoelectrons_of_a_blackbody_match_planck_quadrature_times_etendue_and_time():
+    # Independent of the chain: N_e = ∫ L_q(λ, T) dλ · A_active · π/(4N² + 1) · t, with the
+    # photon Planck law written out (SI 2019 constants) and integrated by adaptive quadrature.
+    from scipy.integrate import quad
+
+    from radiosim.electronics import Electronics
+    from radiosim.scenes import UniformBlackbody
+
+    h, c, k = 6.62607015e-34, 299792458.0, 1.380649e-23
+    temperature, f_number, t_int = 900.0, 2.0, 10e-6
+    camera = Camera(fpa=FocalPlaneArray(pixel_pitch=6e-6, shape=(4, 4), fill_factor=0.8),
+                    optics=Optics(f_number=f_number, transmission=1.0),
+                    electronics=Electronics.ideal(), response="planck")
+    electrons = camera.measure(UniformBlackbody(temperature), t_int).electrons
+    radiance = quad(lambda lam: 2 * c / lam**4 / math.expm1(h * c / (lam * k * temperature)),
+                    3.8e-6, 5.1e-6, epsabs=0, epsrel=1e-12)[0]
+    expected = radiance * (6e-6) ** 2 * 0.8 * math.pi / (4 * f_number**2 + 1) * t_int
+    # The response's radiance table is within 1e-7 of quadrature (response.py); nothing else
+    # in a noise-free ideal chain approximates.
+    np.testing.assert_allclose(electrons, expected, rtol=1e-7)
+    # collect is that product: mean signal × rate per signal × time.
+    assert collect(radiance, camera.rate_per_signal, t_int) == pytest.approx(expected, rel=1e-7)
 
 
 @pytest.mark.parametrize("bad", [dict(objective_na=1.2), dict(objective_na=0.0),

@@ -146,3 +146,44 @@ def test_frame_stack_blocks_are_views_of_the_stored_frames(tmp_path):
     for start, stop in ((3, 3), (4, 6), (-1, 2)):
         with pytest.raises(RadiosimError, match="frame"):
             scene.block_unchecked(start, stop)
+
+
+# -- the registry of scene types (radiosim.io.scenes) -----------------------------------------
+
+
+def test_every_scene_type_is_registered_with_what_it_reads():
+    import radiosim.scenes as scenes
+    from radiosim.io import SCENE_TYPES
+    from radiosim.io.scenes import scene_type, scene_type_of
+    from radiosim.scenes.base import Scene
+
+    built = {t.scene for t in SCENE_TYPES.values()}
+    public = {getattr(scenes, n) for n in scenes.__all__ if isinstance(getattr(scenes, n), type)
+              and issubclass(getattr(scenes, n), Scene) and n not in ("Scene", "CroppedScene")}
+    assert built == public  # a scene class without a record (or the reverse) fails here
+    for name, entry in SCENE_TYPES.items():
+        assert entry.name == name and entry.reads
+        assert bool(entry.suffixes) == (entry.reader is not None)
+    assert scene_type("fea").suffixes == (".csv",)
+    assert {scene_type_of(f"x{s}").name for s in (".npy", ".NPZ")} == {"frames"}
+    assert scene_type_of("run/frame_*.exr").name == "exr-sequence"
+    assert scene_type_of("case.vtu").name == "fea-mesh"
+    with pytest.raises(RadiosimError, match="unknown scene type 'fea-node'.*fea-mesh"):
+        scene_type("fea-node")
+
+
+def test_a_study_scene_table_is_built_by_its_registered_type(tmp_path):
+    from radiosim.io import SCENE_TYPES
+    from radiosim.study_spec import SCENE_KEYS, scene_from_table
+
+    assert SCENE_KEYS["fea"] == ("type", "path", "dx_um", "dt_us", "units", "fill_K",
+                                 "emissivity")
+    assert {t.table for t in SCENE_TYPES.values() if t.table} == set(SCENE_KEYS)
+    np.save(tmp_path / "s.npy", np.full((3, 4, 5), 400.0))
+    scene = scene_from_table({"type": "frames", "path": "s.npy", "dt_us": 0.5, "dx_um": 2,
+                              "units": "K", "path_transmission": 0.5,
+                              "path_temperature_K": 300.0}, tmp_path)
+    assert (scene.dt, scene.dx, scene.n_frames) == (0.5e-6, 2e-6, 3)
+    assert scene.path_transmission == 0.5
+    with pytest.raises(RadiosimError, match="is not segmented-chip, frames or fea"):
+        scene_from_table({"type": "uniform-blackbody"}, tmp_path)

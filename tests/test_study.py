@@ -150,3 +150,15 @@ def test_bad_scene_environments_are_named(tmp_path, line, message):
     (tmp_path / "s.toml").write_text(text)
     with pytest.raises(RadiosimError, match=message):
         Study.from_toml(tmp_path / "s.toml").scene
+
+
+def test_the_plan_is_named_records():
+    from radiosim.study import Planned
+
+    study = Study.preset("msec2009")
+    first = next(study.plan())
+    assert isinstance(first, Planned)
+    assert first._fields == ("sweep", "camera_name", "camera", "integration_time", "alignment")
+    assert (first.sweep.name, first.camera_name, first.integration_time,
+            first.alignment) == ("integration-time", "linear", 1e-6, "centred")
+    assert first.camera is study.cameras["linear"]  # no override: the study's own camera

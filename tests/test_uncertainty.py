@@ -234,3 +234,20 @@ def test_inputs_that_could_draw_invalid_values_are_refused_before_any_draw():
     again = propagate(ideal_planck(), scene, 1e-6, {"emissivity": Uniform(0.2, 0.4)},
                       draws=4, rng=sequence, budget_draws=2)
     assert np.array_equal(first.mean, again.mean)
+
+
+def test_each_input_states_its_domain_as_a_record():
+    import types
+
+    from radiosim.uncertainty import INPUTS, Domain
+
+    model = types.SimpleNamespace(t_start=2e-6, integration_time=5e-6,
+                                  camera=types.SimpleNamespace(fpa=types.SimpleNamespace(
+                                      origin=(3e-6, 4e-6))))
+    domains = {name: record.domain(model) for name, record in INPUTS.items()}
+    assert all(isinstance(d, Domain) for d in domains.values())
+    assert domains["emissivity"] == Domain(0.0, 1.0, False)
+    assert domains["assumed_emissivity"].open_low
+    assert domains["t_start"] == Domain(-2e-6, float("inf"), False)
+    assert domains["integration_time"] == Domain(-5e-6, float("inf"), True)
+    assert domains["registration_x"].low == -4e-6 and domains["registration_y"].low == -3e-6

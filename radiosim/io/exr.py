@@ -1,7 +1,9 @@
 """
 Measurements as multi-channel float32 OpenEXR files, with typed metadata.
 
-Channels (all FLOAT, i.e. float32; masks hold 0 or 1; NaN where a pixel has no reading):
+Channels (all FLOAT, i.e. float32; masks hold 0 or 1; NaN where a pixel has no reading), from
+the table of fields :data:`radiosim.measurement.FIELDS` (:data:`CHANNELS`; the units as the
+header writes them: counts in ``DN``, charge in ``e-``, where NetCDF says ``1``):
 
 =========================  ==========================================================
 channel                    content [unit]
@@ -37,25 +39,17 @@ import numpy as np
 
 from radiosim.errors import RadiosimError
 from radiosim.files import atomic_path, native_output_silenced
-from radiosim.measurement import Measurement
+from radiosim.measurement import FIELDS, Measurement
 
 __all__ = ["CHANNELS", "write_exr", "read_exr", "write_exr_sequence", "read_exr_sequence",
            "write_channels", "UNCERTAINTY_CHANNELS", "write_uncertainty_exr"]
 
-#: Channel name → unit (``signal_mean``'s unit is the measurement's ``signal_unit``).
-CHANNELS = {
-    "apparent_temperature": "K",
-    "counts": "DN",
-    "electrons": "e-",
-    "saturated": "1",
-    "under_range": "1",
-    "over_range": "1",
-    "peak_error": "K",
-    "uncertainty": "K",
-    "tensor_max": "K",
-    "tensor_mean": "K",
-    "signal_mean": None,
-}
+#: Channel name → unit as the header states it (``signal_mean``'s unit is the measurement's
+#: ``signal_unit``), from the one table of fields :data:`radiosim.measurement.FIELDS`.
+CHANNELS = {f.channel: f.unit for f in FIELDS if f.channel is not None}
+
+#: Channel name → the measurement's field it holds.
+_FIELD_OF = {f.channel: f.name for f in FIELDS if f.channel is not None}
 _PREFIX = "radiosim:"
 
 
@@ -102,7 +96,7 @@ def write_exr(path, measurement: Measurement) -> Path:
     m = measurement
     channels = {}
     for name in CHANNELS:
-        values = getattr(m, name)
+        values = getattr(m, _FIELD_OF[name])
         channels[name] = np.ascontiguousarray(values, dtype=np.float32)
     header = {
         _PREFIX + "version": __version__,

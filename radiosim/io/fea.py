@@ -25,7 +25,7 @@ import numpy as np
 from radiosim.checks import check_positive
 from radiosim.errors import RadiosimError
 from radiosim.scenes.fea_nodes import INTERPOLATIONS, FeaMesh, FeaNodes, triangulate
-from radiosim.units import TEMPERATURE_OFFSETS, UNITS, to_kelvin
+from radiosim.units import AMBIENT_TEMPERATURE, TEMPERATURE_OFFSETS, UNITS, to_kelvin
 
 __all__ = ["read_fea_nodes", "FeaNodes", "read_fea_mesh", "FeaMesh"]
 
@@ -251,8 +251,8 @@ def _canonical(key: str, unit: str) -> str:
     return unit
 
 
-def read_fea_nodes(path, dx, dt=None, units=None, fill=293.15, bounds=None, max_edge=None,
-                   emissivity=1.0, columns=None, interpolation="hold") -> FeaNodes:
+def read_fea_nodes(path, dx, dt=None, units=None, fill=AMBIENT_TEMPERATURE, bounds=None,
+                   max_edge=None, emissivity=1.0, columns=None, interpolation="hold") -> FeaNodes:
     """
     Read an FEA nodal CSV (time, x, y, temperature) and resample it onto a regular grid.
 
@@ -272,7 +272,8 @@ def read_fea_nodes(path, dx, dt=None, units=None, fill=293.15, bounds=None, max_
         temperature=…`` or the columns' unit suffixes; a unit stated nowhere is an error, and
         so is a unit given here that contradicts the file's.
     fill
-        Temperature outside the mesh [K] (e.g. the ambient 293.15 K).
+        Temperature outside the mesh [K] (default the ambient 293.15 K,
+        :data:`~radiosim.units.AMBIENT_TEMPERATURE`).
     bounds
         (x_min, x_max, y_min, y_max) of the grid [m]; ``None``: the nodes' extent over all
         steps. Row 0 of the frames is the top (y_max).
@@ -460,7 +461,7 @@ def _temperature_unit(field: str, units: dict, where: str) -> str:
 
 
 def read_fea_mesh(source, dx, times=None, field: str = "temperature", units=None,
-                  fill=293.15, bounds=None, emissivity=1.0, interpolation="hold",
+                  fill=AMBIENT_TEMPERATURE, bounds=None, emissivity=1.0, interpolation="hold",
                   dt=None) -> FeaMesh:
     """
     Read a time series of FEA meshes (meshio: VTU, VTK, XDMF, Exodus, …) and resample it onto a

@@ -109,7 +109,7 @@ def _natural_key(path: Path):
 
 #: Formats whose frame interval is a number of seconds with no time axis of its own: a
 #: time unit (the command's --time-unit, for FEA files) means nothing for them.
-NO_TIME_UNIT = (".npy", ".npz", ".exr")
+NO_TIME_UNIT = (*FrameStack.SUFFIXES, *ExrSequence.SUFFIXES)
 
 
 def read_frames(path, dt=None, dx=None, units=None, key=None, channel=None, emissivity=1.0,
@@ -148,11 +148,12 @@ def read_frames(path, dt=None, dx=None, units=None, key=None, channel=None, emis
     for value, flag, axis, instead in ((time_unit, "--time-unit", "time", "--dt 0.2us"),
                                        (length_unit, "--length-unit", "length", "--dx 0.5um")):
         if value is not None:
-            kind = "a NumPy stack" if path.suffix.lower() in (".npy", ".npz") else "EXR frames"
+            kind = ("a NumPy stack" if path.suffix.lower() in FrameStack.SUFFIXES
+                    else "EXR frames")
             raise RadiosimError(f"{text}: {flag} {value} means nothing for {kind}: it has no "
                                 f"{axis} axis whose unit could be stated; drop {flag} and give "
                                 f"{instead.split()[0]} with its unit (e.g. {instead})")
-    if path.suffix.lower() in (".npy", ".npz"):
+    if path.suffix.lower() in FrameStack.SUFFIXES:
         if not path.is_file():
             raise RadiosimError(f"{path} is a folder, not a {path.suffix} file" if path.is_dir()
                                 else f"{path} does not exist")
@@ -174,13 +175,14 @@ def read_frames(path, dt=None, dx=None, units=None, key=None, channel=None, emis
         except RadiosimError as exc:
             raise RadiosimError(f"{path}: {exc}") from None
     if path.is_dir():
-        files = sorted(path.glob("*.exr"), key=_natural_key)
+        files = sorted((f for suffix in ExrSequence.SUFFIXES for f in path.glob(f"*{suffix}")),
+                       key=_natural_key)
     else:
         files = sorted((Path(p) for p in glob.glob(text)), key=_natural_key)
     if not files:
         raise RadiosimError(f"no frames found at {text} (expected .npy, .npz, a folder of .exr "
                             "files or a glob pattern)")
-    if any(f.suffix.lower() != ".exr" for f in files):
+    if any(f.suffix.lower() not in ExrSequence.SUFFIXES for f in files):
         raise RadiosimError(f"{text}: mixed file types; expected only .exr frames")
     return ExrSequence(files, dt=dt, dx=dx, units=units, channel=channel, emissivity=emissivity,
                        event_time=event_time)

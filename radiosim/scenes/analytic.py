@@ -15,6 +15,7 @@ from scipy.special import erf
 
 from radiosim.errors import RadiosimError
 from radiosim.scenes.base import Region, Scene, check_emissivity, check_grid, check_positive
+from radiosim.units import AMBIENT_TEMPERATURE
 
 __all__ = ["UniformBlackbody", "MovingGaussianBand", "StepEdge"]
 
@@ -106,7 +107,7 @@ class MovingGaussianBand(Scene):
     797.5
     """
 
-    def __init__(self, background=293.15, amplitude=500.0, sigma=5e-6, velocity=4.1667,
+    def __init__(self, background=AMBIENT_TEMPERATURE, amplitude=500.0, sigma=5e-6, velocity=4.1667,
                  x0=0.0, shape=(64, 256), dx=1e-6, dt=0.2e-6, emissivity=1.0, n_frames=None,
                  event_time=None):
         self.background = check_positive(background, "background", "K")
@@ -192,8 +193,8 @@ class StepEdge(Scene):
     [1000.0, 1000.0, 650.0, 300.0, 300.0]
     """
 
-    def __init__(self, hot=1000.0, cold=293.15, edge=32e-6, shape=(64, 64), dx=1e-6, dt=1e-6,
-                 emissivity=1.0, n_frames=None):
+    def __init__(self, hot=1000.0, cold=AMBIENT_TEMPERATURE, edge=32e-6, shape=(64, 64), dx=1e-6,
+                 dt=1e-6, emissivity=1.0, n_frames=None):
         self.hot = check_positive(hot, "hot", "K")
         self.cold = check_positive(cold, "cold", "K")
         self.edge = float(edge)

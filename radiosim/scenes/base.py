@@ -20,6 +20,8 @@ import numpy as np
 from radiosim.checks import check_frame, check_positive
 from radiosim.errors import RadiosimError
 from radiosim.spectral import as_spectrum, is_spectrum
+# AMBIENT_TEMPERATURE is defined in radiosim.units; importable from here, as before.
+from radiosim.units import AMBIENT_TEMPERATURE
 
 if TYPE_CHECKING:  # colour-science is imported when a curve is built
     from colour import SpectralDistribution
@@ -104,10 +106,6 @@ def _check_temperature_field(value, what: str) -> np.ndarray:
     return values
 
 
-#: Temperature of a scene's surroundings when none is stated [K]: a laboratory at 20 °C.
-AMBIENT_TEMPERATURE = 293.15
-
-
 class Scene(ABC):
     """
     Temperature frames [K] on a regular grid, streamed one frame at a time.
@@ -136,7 +134,8 @@ class Scene(ABC):
         set-up): transmission [1] and temperature [K]; by default none (1, ``None``).
     surroundings_temperature : float
         Temperature [K] of the blackbody surroundings beyond the frame's edges, whose light a
-        point-spread function's wings carry into the image (default 293.15 K).
+        point-spread function's wings carry into the image (default
+        :data:`~radiosim.units.AMBIENT_TEMPERATURE`, 293.15 K).
 
     Notes
     -----

@@ -154,6 +154,9 @@ class ExrSequence(Scene):
         As for :class:`~radiosim.FrameStack`.
     """
 
+    #: The files it is read from (:func:`radiosim.io.read_frames`: a folder or glob of them).
+    SUFFIXES = (".exr",)
+
     def __init__(self, paths, dt=None, dx=None, units=None, channel=None, emissivity=1.0,
                  event_time=None):
         import OpenEXR  # optional at import time of radiosim; required here

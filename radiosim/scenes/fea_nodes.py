@@ -152,6 +152,9 @@ class FeaNodes(_Snapshots):
     of the last two steps are kept), so memory holds the nodes, not a gridded stack.
     """
 
+    #: The files it is read from (:func:`radiosim.io.read_fea_nodes`): a nodal CSV.
+    SUFFIXES = (".csv",)
+
     def __init__(self, steps, times, dx, origin, shape, fill, max_edge, emissivity, source,
                  dt=None, interpolation="hold"):
         self._steps = steps  # list of (points [m], temperature [K])
@@ -214,6 +217,10 @@ class FeaMesh(_Snapshots):
     temperature [K] per node or per triangle; a sample at a triangle's inside takes the
     triangle's linear interpolation (or its cell's value), elsewhere ``fill``.
     """
+
+    #: The mesh files it is read from, through meshio (:func:`radiosim.io.read_fea_mesh`): a
+    #: ParaView collection, VTK, XDMF, Exodus and Gmsh files.
+    SUFFIXES = (".pvd", ".vtu", ".vtk", ".xdmf", ".xmf", ".exo", ".e", ".msh")
 
     def __init__(self, steps, times, dt, dx, origin, shape, fill, emissivity, source,
                  interpolation="hold"):

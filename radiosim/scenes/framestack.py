@@ -52,6 +52,9 @@ class FrameStack(Scene):
     ((4, 6), 10, 2e-06)
     """
 
+    #: The files it is read from (:func:`radiosim.io.read_frames`): NumPy stacks.
+    SUFFIXES = (".npy", ".npz")
+
     def __init__(self, temperature, dt, dx, emissivity=1.0, event_time=None, units="K",
                  description=None):
         if not hasattr(temperature, "ndim") or not hasattr(temperature, "dtype"):

@@ -21,11 +21,13 @@ from dataclasses import dataclass
 from radiosim.config import build_from_toml, dumps_toml, edge_field, from_table, to_table
 from radiosim.errors import RadiosimError
 from radiosim.files import write_text
-from radiosim.units import CELSIUS_OFFSET
+from radiosim.checks import check_count
+from radiosim.units import AMBIENT_TEMPERATURE, CELSIUS_OFFSET, MICRO
 
 __all__ = ["ChipParameters"]
 
-_UM, _US = 1e-6, 1e-6
+#: µm² per µs in SI: 1e-12 m² / 1e-6 s [m² s⁻¹] (the diffusivities' TOML unit).
+_UM2_PER_US = MICRO
 
 
 def _param(default, toml_key, scale=1.0, offset=0.0, doc=""):
@@ -50,58 +52,58 @@ class ChipParameters:
     # Process and frame
     cutting_speed: float = _param(250 / 60, "cutting_speed_m_per_min", 1 / 60,
                                   doc="workpiece speed V [m/s]")
-    uncut_thickness: float = _param(300e-6, "uncut_thickness_um", _UM, doc="h [m]")
-    initial_temperature: float = _param(293.15, "initial_temperature_C", 1.0, CELSIUS_OFFSET,
-                                        doc="T₀ [K]")
-    ambient_temperature: float = _param(293.15, "ambient_temperature_C", 1.0, CELSIUS_OFFSET,
-                                        doc="air [K]")
+    uncut_thickness: float = _param(300e-6, "uncut_thickness_um", MICRO, doc="h [m]")
+    initial_temperature: float = _param(AMBIENT_TEMPERATURE, "initial_temperature_C", 1.0,
+                                        CELSIUS_OFFSET, doc="T₀ [K]")
+    ambient_temperature: float = _param(AMBIENT_TEMPERATURE, "ambient_temperature_C", 1.0,
+                                        CELSIUS_OFFSET, doc="air [K]")
     rake_angle: float = _param(math.radians(-7), "rake_angle_deg", math.pi / 180, doc="α [rad]")
     clearance_angle: float = _param(math.radians(7), "clearance_angle_deg", math.pi / 180,
                                     doc="γ [rad]")
-    edge_radius: float = _param(20e-6, "edge_radius_um", _UM, doc="r_e [m]")
-    field_width: float = _param(960e-6, "field_width_um", _UM, doc="width of the field of view [m]")
-    field_height: float = _param(742e-6, "field_height_um", _UM,
+    edge_radius: float = _param(20e-6, "edge_radius_um", MICRO, doc="r_e [m]")
+    field_width: float = _param(960e-6, "field_width_um", MICRO, doc="width of the field of view [m]")
+    field_height: float = _param(742e-6, "field_height_um", MICRO,
                                  doc="height of the field of view [m]")
-    tool_tip_x: float = _param(700e-6, "tool_tip_x_um", _UM, doc="tool tip x [m]")
-    tool_tip_y: float = _param(250e-6, "tool_tip_y_um", _UM, doc="tool tip y [m]")
+    tool_tip_x: float = _param(700e-6, "tool_tip_x_um", MICRO, doc="tool tip x [m]")
+    tool_tip_y: float = _param(250e-6, "tool_tip_y_um", MICRO, doc="tool tip y [m]")
     # Segmentation
-    period: float = _param(90e-6, "period_us", _US, doc="segmentation period P [s]")
+    period: float = _param(90e-6, "period_us", MICRO, doc="segmentation period P [s]")
     chip_ratio: float = _param(0.55, "chip_ratio", doc="r = h/h_c")
     segmentation_degree: float = _param(0.23, "segmentation_degree", doc="G_s")
     slip_fraction: float = _param(0.5026, "slip_fraction", doc="ε of the stick–slip")
-    slip_time: float = _param(6e-6, "slip_time_us", _US, doc="τ_s [s]")
+    slip_time: float = _param(6e-6, "slip_time_us", MICRO, doc="τ_s [s]")
     # Primary zone
     primary_rise: float = _param(213.1, "primary_rise_K", doc="ΔT_p [K]")
-    primary_width: float = _param(12e-6, "primary_width_um", _UM, doc="w_p [m]")
-    primary_offset: float = _param(-1.5e-6, "primary_offset_um", _UM, doc="ξ_off [m]")
+    primary_width: float = _param(12e-6, "primary_width_um", MICRO, doc="w_p [m]")
+    primary_offset: float = _param(-1.5e-6, "primary_offset_um", MICRO, doc="ξ_off [m]")
     # Shear bands
     band_amplitude: float = _param(408.3, "band_amplitude_K", doc="A [K]")
-    band_width: float = _param(16.27e-6, "band_width_um", _UM, doc="σ_rel [m]")
-    band_initial_width: float = _param(21.07e-6, "band_initial_width_um", _UM, doc="σ_init [m]")
+    band_width: float = _param(16.27e-6, "band_width_um", MICRO, doc="σ_rel [m]")
+    band_initial_width: float = _param(21.07e-6, "band_initial_width_um", MICRO, doc="σ_init [m]")
     band_exponent_tip: float = _param(0.35, "band_exponent_tip", doc="m at the tool tip")
     band_exponent_reach: float = _param(0.6, "band_exponent_reach",
                                         doc="m reaches 1 at this fraction of h_c")
-    chip_diffusivity: float = _param(4.635e-6, "chip_diffusivity_um2_per_us", 1e-6,
+    chip_diffusivity: float = _param(4.635e-6, "chip_diffusivity_um2_per_us", _UM2_PER_US,
                                      doc="a_c [m²/s]")
     released_bands: int = _param(6, "released_bands", doc="bands k = 0 … N−1")
-    rake_fade: float = _param(2e-6, "rake_fade_um", _UM, doc="band fade at the rake face [m]")
+    rake_fade: float = _param(2e-6, "rake_fade_um", MICRO, doc="band fade at the rake face [m]")
     # Secondary (friction) zone
     secondary_rise: float = _param(343.4, "secondary_rise_K", doc="ΔT_s [K]")
-    contact_length: float = _param(450e-6, "contact_length_um", _UM, doc="L_c [m]")
+    contact_length: float = _param(450e-6, "contact_length_um", MICRO, doc="L_c [m]")
     full_flux_fraction: float = _param(0.55, "full_flux_fraction", doc="q = 1 up to this × L_c")
-    secondary_diffusivity: float = _param(6.5e-6, "secondary_diffusivity_um2_per_us", 1e-6,
+    secondary_diffusivity: float = _param(6.5e-6, "secondary_diffusivity_um2_per_us", _UM2_PER_US,
                                           doc="a_s [m²/s]")
     tool_sink: float = _param(0.2, "tool_sink", doc="κ")
-    tool_sink_depth: float = _param(4e-6, "tool_sink_depth_um", _UM, doc="λ [m]")
+    tool_sink_depth: float = _param(4e-6, "tool_sink_depth_um", MICRO, doc="λ [m]")
     modulation: float = _param(0.2645, "modulation", doc="a")
     modulation_phase: float = _param(0.10, "modulation_phase", doc="θ_m")
     # Tool and workpiece
-    tool_conduction_length: float = _param(100e-6, "tool_conduction_length_um", _UM,
+    tool_conduction_length: float = _param(100e-6, "tool_conduction_length_um", MICRO,
                                            doc="L_t [m]")
-    tool_periodic_depth: float = _param(25e-6, "tool_periodic_depth_um", _UM, doc="δ_ω [m]")
+    tool_periodic_depth: float = _param(25e-6, "tool_periodic_depth_um", MICRO, doc="δ_ω [m]")
     surface_rise: float = _param(200.0, "surface_rise_K", doc="A_ms [K]")
-    surface_width: float = _param(5e-6, "surface_width_um", _UM, doc="σ₀ [m]")
-    workpiece_diffusivity: float = _param(11e-6, "workpiece_diffusivity_um2_per_us", 1e-6,
+    surface_width: float = _param(5e-6, "surface_width_um", MICRO, doc="σ₀ [m]")
+    workpiece_diffusivity: float = _param(11e-6, "workpiece_diffusivity_um2_per_us", _UM2_PER_US,
                                           doc="a_w [m²/s]")
 
     def __post_init__(self):
@@ -133,9 +135,7 @@ class ChipParameters:
                 f"(got α = {math.degrees(self.rake_angle):g}°, "
                 f"γ = {math.degrees(self.clearance_angle):g}°)"
             )
-        if int(self.released_bands) != self.released_bands or self.released_bands < 1:
-            raise RadiosimError(f"released_bands must be a whole number ≥ 1, got "
-                                f"{self.released_bands!r}")
+        check_count(self.released_bands, "released_bands")
 
     # -- derived quantities ---------------------------------------------------------------
 

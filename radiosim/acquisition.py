@@ -1,0 +1,393 @@
+"""
+Acquisition: how a camera takes its frames — the stages of one measurement after the scene, and
+the modes that chain measurements in time.
+
+Functions taking the camera first, beside the thin :class:`~radiosim.camera.Camera` (as pvlib
+keeps its models as functions beside ``ModelChain``). :meth:`Camera.measure
+<radiosim.camera.Camera.measure>` and :func:`measure_many` share the same stages:
+
+1. :func:`check_measurable`: refuse an integration time at which nothing reads;
+2. :func:`tensor_statistics`: the noise-free part — each pixel's mean signal over its footprint ×
+   window with the scene-truth statistics of the same tensor (one pass over the scene's frames
+   for every snapshot camera; a rolling shutter's rows in a pass of their own, one window per
+   row; the optics' image where the camera forms one);
+3. :func:`read_out`: the optics (:func:`photoelectrons`), the electronics and the calibration
+   turn those statistics into a :class:`~radiosim.measurement.Measurement`.
+
+Timing and modes: :func:`readout_shape`, :func:`frame_period`, :func:`record` (frames spaced by
+the real frame period) and :func:`superframe` (cycled integration times merged per pixel).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import warnings
+
+import numpy as np
+
+from radiosim.checks import check_positive, check_rng
+from radiosim.errors import RadiosimError, RadiosimWarning
+from radiosim import integrator as _integrator  # its integrate_many looked up per call
+from radiosim.integrator import Job, TensorStatistics, Window, stack_rows
+from radiosim.measurement import Measurement
+from radiosim.optics import collect
+from radiosim.scenes.base import Scene
+
+__all__ = ["readout_shape", "frame_period", "check_frame_period", "check_measurable", "frame_dtype", "is_rolling",
+           "instrument_signal", "photoelectrons", "tensor_statistics", "rolling_statistics",
+           "read_out", "measure_many", "measure_many_statistics", "record", "superframe"]
+
+
+# -- timing -------------------------------------------------------------------------------------
+
+
+def readout_shape(camera) -> tuple[int, int]:
+    """The window ``camera``'s array reads, as its number of rows and columns: the array's
+    shape, or one pixel if it has none."""
+    return tuple(camera.fpa.shape) if camera.fpa.shape is not None else (1, 1)
+
+
+def frame_period(camera, integration_time: float) -> float:
+    """
+    ``camera``'s frame period [s] at ``integration_time`` [s]: the array's own (integration
+    and readout, :meth:`~radiosim.fpa.FocalPlaneArray.frame_period`), or the frame rate's if
+    that is slower. A camera with neither a frame rate nor a readout time has none.
+    """
+    own = camera.fpa.frame_period(integration_time, readout_shape(camera))
+    if camera.frame_rate is not None:
+        return max(1.0 / camera.frame_rate, own)
+    if camera.fpa.readout_time(readout_shape(camera)) == 0:
+        raise RadiosimError(f"{camera.name} has no frame rate nor readout time; set "
+                            "frame_rate_hz or the [fpa] readout times")
+    return own
+
+
+def check_frame_period(camera, integration_time: float, what: str | None = None):
+    """
+    Refuse (:class:`RadiosimError`) an ``integration_time`` [s] that, with its readout, does not
+    fit in ``camera``'s frame period (a camera without a frame rate takes any). ``what``: how
+    the caller names the integration time in the message (e.g. a command's option and the
+    value as typed); default ``integration time … s``.
+    """
+    if camera.frame_rate is None:
+        return
+    needed = camera.fpa.frame_period(integration_time, readout_shape(camera))  # [s]
+    period = 1.0 / camera.frame_rate  # [s]
+    if needed > period * (1 + 1e-12):
+        raise RadiosimError(
+            (what or f"integration time {integration_time:g} s")
+            + (f" with its readout ({needed * 1e6:g} µs)" if needed != integration_time else "")
+            + f" exceeds the frame period of {camera.name} ({period * 1e6:g} µs at "
+            f"{camera.frame_rate:g} Hz); expected at most "
+            f"{(period - (needed - integration_time)) * 1e6:g} µs")
+
+
+def check_measurable(camera, integration_time: float):
+    """Refuse (:class:`RadiosimError`, naming the camera, the integration time and the
+    limits) an integration time [s] at which no temperature of ``camera``'s calibration range
+    gives a reading (:meth:`~radiosim.calibration.Calibration.check_measurable`)."""
+    camera.calibration(integration_time).check_measurable(camera.name)
+
+
+def frame_dtype(scene: Scene):
+    """The dtype in which the kernels read ``scene``'s frames (float32 stays float32; a
+    scene that makes its frames: float64)."""
+    try:
+        block = scene.block_unchecked(0, 1, tuple(slice(0, n) for n in scene.shape))
+    except Exception:  # noqa: BLE001 — a scene that makes its frames has no stored block
+        block = None
+    return "float64" if block is None else block.dtype
+
+
+def is_rolling(camera) -> bool:
+    """Whether ``camera``'s rows integrate over staggered windows (a rolling shutter)."""
+    return camera.fpa.shutter == "rolling" and camera.fpa.row_time > 0
+
+
+# -- the optics: signal → photo-electrons -------------------------------------------------------
+
+
+def instrument_signal(camera, temperature: float | None = None) -> float:
+    """The optics' own emission into one of ``camera``'s pixels [signal unit] at
+    ``temperature`` [K] (default the optics' instrument temperature); 0 for the linear
+    response."""
+    if not camera.response_model.radiometric:
+        return 0.0
+    return camera.optics.emitted_radiance(camera.fpa.quantum_efficiency, temperature)
+
+
+def photoelectrons(camera, signal_mean, integration_time: float):
+    """Mean photo-electrons [e⁻] of ``camera``'s pixels from their mean signal ``signal_mean``
+    [signal unit] over ``integration_time`` [s]: the signal plus the optics' own emission
+    (:func:`instrument_signal`), through the étendue (:func:`radiosim.optics.collect`)."""
+    return collect(signal_mean + instrument_signal(camera), camera.rate_per_signal,
+                   integration_time)
+
+
+# -- the noise-free stage: tensor statistics ----------------------------------------------------
+
+
+def _passes(progress, n: int):
+    """Per-pass callbacks reporting ``progress(done, total)`` over ``n`` passes of about the
+    same number of frames each (pass k's frame j counts as k·total + j of n·total)."""
+    if progress is None:
+        return [None] * n
+    return [lambda done, total, k=k: progress(k * total + done, n * total) for k in range(n)]
+
+
+def rolling_statistics(camera, scene: Scene, window: Window, progress=None
+                       ) -> TensorStatistics:
+    """A rolling shutter's statistics: pixel row i integrates over ``window`` delayed by
+    i·row_time, all rows in one pass over the frames (``progress(done, total)`` after each)."""
+    if camera.forms_image(scene):
+        raise RadiosimError(
+            f"{camera.name}: a rolling shutter with a PSF, reflections or a path would need "
+            "one image per row; measure with shutter = 'snapshot' or without them")
+    integrator = camera.integrator(scene)
+    delays = camera.fpa.row_delays(integrator.shape[0])  # [s]
+    last = window.start + window.duration + delays[-1]
+    if scene.duration is not None and last > scene.duration * (1 + 1e-12):
+        raise RadiosimError(
+            f"the rolling shutter's last row integrates until {last:.6g} s, past the "
+            f"scene's end at {scene.duration:.6g} s (row time {camera.fpa.row_time:g} s × "
+            f"{integrator.shape[0] - 1} rows)")
+    jobs = [Job(integrator.pixel_rows(i, i + 1),
+                Window(window.start + delay, window.duration, window.alignment),
+                camera.response_model) for i, delay in enumerate(delays)]
+    return stack_rows(_integrator.integrate_many(scene, jobs, progress))
+
+
+def tensor_statistics(scene: Scene, windowed, progress=None) -> list[TensorStatistics]:
+    """
+    The noise-free stage of each ``(camera, window)`` pair of ``windowed`` on ``scene``: the
+    scene frames (T [K], ε) → the response's signal per sample → its mean per pixel over
+    footprint × window [signal unit], with the tensor's T statistics [K].
+
+    Snapshot cameras share one pass over the frames (cameras with the same footprints share
+    them); a rolling shutter takes a pass of its own (:func:`rolling_statistics`). Where the
+    camera forms an image (a PSF, or reflections or a path a radiometric response sees), the
+    statistics stay scene truth and the signal is the image's
+    (:meth:`~radiosim.camera.Camera.image`), one more pass.
+
+    Parameters
+    ----------
+    scene
+        The scene.
+    windowed
+        ``(camera, window)`` pairs.
+    progress
+        Called as ``progress(done, total)`` after each frame of each pass, counted over all
+        passes (frame j of pass k of n as k·total + j of n·total).
+
+    Returns
+    -------
+    list of TensorStatistics
+        In the order of ``windowed``.
+    """
+    windowed = list(windowed)
+    snapshot = [i for i, (camera, _) in enumerate(windowed) if not is_rolling(camera)]
+    imaged = [i for i in snapshot if windowed[i][0].forms_image(scene)]
+    rolling = [i for i in range(len(windowed)) if i not in snapshot]
+    passes = iter(_passes(progress, (1 if snapshot else 0) + len(rolling) + len(imaged)))
+    statistics = {}
+    if snapshot:
+        integrators, jobs = {}, []
+        for camera, window in (windowed[i] for i in snapshot):
+            fpa = camera.fpa
+            key = (fpa.pixel_pitch, fpa.fill_factor, fpa.shape, fpa.origin)
+            if key not in integrators:  # cameras with the same footprints share them
+                integrators[key] = camera.integrator(scene)
+            jobs.append(Job(integrators[key], window, camera.response_model))
+        # Reflections, where the scene has them, are the image stage's: below.
+        statistics = dict(zip(snapshot, _integrator.integrate_many(
+            scene, jobs, next(passes), emission_only=True)))
+    for i in rolling:  # its own pass, one job per row
+        camera, window = windowed[i]
+        statistics[i] = rolling_statistics(camera, scene, window, next(passes))
+    for i in imaged:
+        camera, window = windowed[i]
+        statistics[i] = dataclasses.replace(
+            statistics[i], signal_mean=camera.image(scene, window, next(passes)))
+    return [statistics[i] for i in range(len(windowed))]
+
+
+# -- after the integrator: optics, electronics, calibration ------------------------------------
+
+
+def read_out(camera, stats: TensorStatistics, window: Window, scene: Scene,
+             rng=None) -> Measurement:
+    """
+    The stages after the integrator: the optics, the electronics and the calibration of
+    ``camera`` turn a window's tensor statistics into a :class:`Measurement`, drawing shot
+    and read noise from ``rng`` (seed or :class:`numpy.random.Generator`).
+    """
+    calibration = camera.calibration(window.duration)
+    calibration.check_resolution(stacklevel=3)
+    # Optics: mean signal and the optics' emission → mean photo-electrons [e⁻] through the
+    # étendue.
+    photo = photoelectrons(camera, stats.signal_mean, window.duration)
+    # Electronics: the fixed pattern, dark charge, shot noise, full well, non-linearity,
+    # read noise, ADC → counts [DN].
+    pattern = camera.fpa.pattern(photo.shape)
+    exposure = camera.electronics.expose(photo, window.duration, rng, pattern)
+    if camera.nuc is not None:  # the NUC: counts [DN] → corrected counts [DN]; its bad
+        # pixels take their neighbours' values, and their own flags no longer apply
+        good = ~camera.nuc.bad[:exposure.counts.shape[0], :exposure.counts.shape[1]]
+        exposure = dataclasses.replace(
+            exposure, counts=camera.nuc.apply(exposure.counts),
+            saturated=exposure.saturated & good, adc_floor=exposure.adc_floor & good)
+    # Calibration: counts [DN] → apparent temperature [K] and flags.
+    reading = calibration.read(exposure)
+    if reading.saturated.any():
+        warnings.warn(
+            f"{camera.name}: {int(reading.saturated.sum())} of {reading.saturated.size} pixels "
+            f"saturated at {window.duration:g} s integration; their apparent temperature is "
+            "NaN", RadiosimWarning, stacklevel=3)
+    return Measurement(
+        apparent_temperature=reading.apparent_temperature, counts=exposure.counts,
+        electrons=exposure.electrons, saturated=reading.saturated,
+        under_range=reading.under_range, over_range=reading.over_range,
+        tensor_max=stats.max, tensor_mean=stats.mean,
+        tensor_std=stats.std, signal_mean=stats.signal_mean,
+        signal_unit=camera.response_model.unit, camera=camera,
+        integration_time=window.duration, t_start=window.start, n_frames=stats.n_frames,
+        scene=scene.describe(), alignment=window.alignment,
+    )
+
+
+# -- several measurements of one scene ----------------------------------------------------------
+
+
+def measure_many(scene: Scene, cases, rng=None, progress=None) -> list[Measurement]:
+    """
+    Several measurements of one scene in one pass over its frames.
+
+    Each frame any window touches is read (or generated) once and feeds every measurement
+    (:func:`~radiosim.integrator.integrate_many`); the read-outs then follow in the order of
+    ``cases``, drawing their noise from one generator, so the result equals calling
+    :meth:`Camera.measure <radiosim.camera.Camera.measure>` on each case in turn with that
+    generator, bit for bit.
+
+    Parameters
+    ----------
+    scene
+        The scene.
+    cases
+        ``(camera, integration_time [s], t_start [s] or None)`` triples.
+    rng
+        Seed or :class:`numpy.random.Generator`.
+    progress
+        Called as ``progress(done, total)`` after each frame (:func:`tensor_statistics`).
+    """
+    rng = check_rng(rng)
+    cases = list(cases)
+    return [read_out(camera, stats, window, scene, rng)
+            for (camera, _, _), (window, stats) in zip(
+                cases, measure_many_statistics(scene, cases, progress))]
+
+
+def measure_many_statistics(scene: Scene, cases, progress=None) -> list:
+    """
+    The noise-free part of :func:`measure_many`: each case's window, checked
+    (:func:`check_measurable`), and tensor statistics (:func:`tensor_statistics`) from one
+    pass over the scene's frames. A read-out (:func:`read_out`) with any generator turns each
+    into a measurement, so callers can give each case its own seed.
+
+    Returns
+    -------
+    list of (Window, TensorStatistics)
+        In the order of ``cases``.
+    """
+    cases = list(cases)
+    windows = [camera.window(scene, t_int, t_start) for camera, t_int, t_start in cases]
+    for (camera, _, _), window in zip(cases, windows):
+        check_measurable(camera, window.duration)
+    statistics = tensor_statistics(
+        scene, [(camera, window) for (camera, _, _), window in zip(cases, windows)], progress)
+    return list(zip(windows, statistics))
+
+
+# -- modes: frames in time ----------------------------------------------------------------------
+
+
+def record(camera, scene: Scene, integration_time: float, n_frames: int,
+           t_start: float | None = None, rng=None) -> list[Measurement]:
+    """
+    Record ``n_frames`` frames of ``scene`` with ``camera``'s real timing.
+
+    Frame i integrates over [t_start + i·P, … + integration_time] with P the frame period
+    (:func:`frame_period`: the readout's, or the frame rate's if slower); ``t_start``
+    defaults to the start that centres the first frame's window on the scene's event.
+    One generator drives the noise of all frames.
+    """
+    if isinstance(n_frames, bool) or int(n_frames) != n_frames or n_frames < 1:
+        raise RadiosimError(f"n_frames must be a whole number ≥ 1, got {n_frames!r}")
+    period = frame_period(camera, integration_time)
+    rng = check_rng(rng)
+    first = camera.window(scene, integration_time, t_start)
+    return [camera.measure(scene, integration_time, first.start + i * period, rng)
+            for i in range(int(n_frames))]
+
+
+def superframe(camera, scene: Scene, integration_times, t_start: float | None = None,
+               rng=None) -> Measurement:
+    """
+    Superframing: integrate subframes of ``integration_times`` [s] in sequence with
+    ``camera``'s real timing (each starts one frame period after the previous one's start),
+    calibrate each with its own calibration, and merge them per pixel: the longest subframe
+    whose reading is valid (neither saturated, under nor over range); a pixel with no valid
+    subframe keeps the flags of its shortest subframe if any is saturated, else of its
+    longest. The scene moves between subframes, and the merged frame shows it.
+
+    Parameters
+    ----------
+    camera
+        The camera.
+    scene
+        The scene.
+    integration_times
+        The subframes' integration times [s], in the order the camera cycles them.
+    t_start
+        Start of the first subframe [s]; ``None``: as :meth:`Camera.window
+        <radiosim.camera.Camera.window>` chooses.
+    rng
+        Seed or generator; the subframes draw their noise from it in turn.
+
+    Returns
+    -------
+    Measurement
+        Per-pixel fields from each pixel's subframe; ``subframe`` says which;
+        ``integration_time`` is the longest subframe's, ``t_start`` the first's.
+    """
+    times = [check_positive(t, "integration time", "s") for t in integration_times]
+    if not times:
+        raise RadiosimError("a superframe needs at least one integration time")
+    rng = check_rng(rng)
+    start = camera.window(scene, times[0], t_start).start
+    timed = camera.frame_rate is not None or camera.fpa.readout_time(readout_shape(camera)) > 0
+    subframes = []
+    for t_int in times:
+        subframes.append(camera.measure(scene, t_int, start, rng))
+        start += frame_period(camera, t_int) if timed else t_int
+    order = np.argsort(times, kind="stable")  # shortest first
+    shape = subframes[0].shape
+    chosen = np.full(shape, -1)
+    for j in order:  # longer valid subframes overwrite shorter ones
+        chosen = np.where(subframes[j].valid, j, chosen)
+    none = chosen < 0
+    any_saturated = np.any([m.saturated for m in subframes], axis=0)
+    chosen = np.where(none & any_saturated, order[0], np.where(none, order[-1], chosen))
+
+    def pick(name):
+        stack = np.stack([getattr(m, name) for m in subframes])
+        return np.take_along_axis(stack, chosen[None], 0)[0]
+
+    first = subframes[0]
+    return Measurement(
+        **{name: pick(name) for name in (
+            "apparent_temperature", "counts", "electrons", "saturated", "under_range",
+            "over_range", "tensor_max", "tensor_mean", "tensor_std", "signal_mean")},
+        signal_unit=first.signal_unit, camera=camera, integration_time=max(times),
+        t_start=first.t_start, n_frames=sum(m.n_frames for m in subframes),
+        scene=first.scene, alignment=first.alignment, subframe=chosen,
+        subframe_times=tuple(times), subframe_starts=tuple(m.t_start for m in subframes))

@@ -1,0 +1,206 @@
+"""
+Calibrating a camera from a measured table: a CSV of blackbody temperatures against mean counts
+(:func:`read_calibration_table`, which refuses a table whose columns contradict each other), and
+the fit of the camera's gain and offset to it (:func:`calibrate_from_table`, what ``radiosim
+calibrate`` does, through :func:`radiosim.calibration.fit_calibration`).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from radiosim.calibration import fit_calibration
+from radiosim.checks import check_count, check_time
+from radiosim.errors import RadiosimError
+from radiosim.units import to_celsius, to_kelvin
+
+__all__ = ["CalibrationTable", "read_calibration_table", "calibrate_from_table"]
+
+
+@dataclass(frozen=True)
+class CalibrationTable:
+    """
+    A measured calibration table, read and checked (:func:`read_calibration_table`).
+
+    Attributes
+    ----------
+    temperature : numpy.ndarray
+        Blackbody temperatures [K].
+    counts : numpy.ndarray
+        Mean counts [DN].
+    instrument_temperature : numpy.ndarray or None
+        Instrument temperatures [K] of each row, if the table gives them.
+    """
+
+    temperature: np.ndarray
+    counts: np.ndarray
+    instrument_temperature: np.ndarray | None = None
+
+
+def _column(path, rows, name, line_of) -> np.ndarray:
+    values = []
+    for k, row in enumerate(rows):
+        text = row.get(name)
+        try:
+            values.append(float(text))
+        except (TypeError, ValueError):
+            raise RadiosimError(f"{path}: line {line_of[k]}, column {name} = {text!r}: "
+                                "expected a number") from None
+    values = np.array(values)
+    if not np.all(np.isfinite(values)):
+        k = int(np.argmax(~np.isfinite(values)))
+        raise RadiosimError(f"{path}: line {line_of[k]}, column {name} = {values[k]}: expected "
+                            "a finite number")
+    return values
+
+
+def _temperature(path, rows, columns, stem, line_of, stated):
+    """A temperature column [K] given as ``stem_K`` and/or ``stem_C``; both must agree, and
+    with the unit a ``# units:`` line states."""
+    found = {u: to_kelvin(_column(path, rows, f"{stem}_{u}", line_of), u)
+             for u in ("K", "C") if f"{stem}_{u}" in columns}
+    if not found:
+        return None
+    if stated is not None and stated not in found:
+        given = next(iter(found))
+        raise RadiosimError(f"{path}: column {stem}_{given} is in {given}, but the file's units "
+                            f"line says {stem.split('_')[0]}={stated}")
+    if len(found) == 2:
+        differ = ~np.isclose(found["K"], found["C"], rtol=0, atol=0.01)
+        if differ.any():
+            k = int(np.argmax(differ))
+            raise RadiosimError(
+                f"{path}: columns {stem}_K and {stem}_C disagree at line {line_of[k]}: "
+                f"{found['K'][k]:g} K against {to_celsius(found['C'][k]):g} °C = "
+                f"{found['C'][k]:g} K")
+    return found["K"] if "K" in found else found["C"]
+
+
+def read_calibration_table(path) -> CalibrationTable:
+    """
+    Read a calibration table: a CSV with ``temperature_K`` (or ``temperature_C``) and
+    ``counts`` columns, optionally ``instrument_temperature_K`` (or ``_C``); ``#`` lines are
+    comments, and a ``# units: temperature=C`` line states units the columns must agree with.
+    A table whose columns contradict each other is refused naming the file and the column:
+    a column given twice, a temperature in both units that disagree, a units line that
+    disagrees with a column's suffix, a value that is not a number, or counts that fall as
+    the temperature rises.
+    """
+    import csv
+    import re
+    from pathlib import Path
+
+    from radiosim.errors import RadiosimIOError
+
+    path = Path(path)
+    if not path.is_file():
+        raise RadiosimError(f"{path} does not exist (expected a CSV of temperature_K or "
+                            "temperature_C, and counts)")
+    try:
+        text = path.read_text(encoding="utf-8-sig")
+    except UnicodeDecodeError as exc:
+        raise RadiosimError(f"cannot read {path}: not UTF-8 text ({exc.reason})") from None
+    except OSError as exc:
+        raise RadiosimIOError(f"cannot read {path}: {exc.strerror or exc}") from None
+    lines = text.splitlines()
+    stated = {}
+    data_lines = []
+    for number, line in enumerate(lines, start=1):
+        if line.lstrip().startswith("#"):
+            match = re.match(r"#\s*units?\s*:\s*(.*)$", line.strip(), re.IGNORECASE)
+            for item in re.split(r"[,;\s]+", match.group(1)) if match else ():
+                if "=" in item:
+                    key, _, unit = item.partition("=")
+                    unit = unit.strip().upper().replace("°", "")
+                    stated[key.strip().lower()] = unit
+        elif line.strip():
+            data_lines.append((number, line))
+    if not data_lines:
+        raise RadiosimError(f"{path}: no header and no rows (expected columns temperature_K or "
+                            "temperature_C, and counts)")
+    try:
+        parsed = list(csv.reader([line for _, line in data_lines]))
+    except csv.Error as exc:
+        raise RadiosimError(f"{path}: not a valid CSV: {exc}") from None
+    header = [h.strip() for h in parsed[0]]
+    duplicate = sorted({h for h in header if header.count(h) > 1})
+    if duplicate:
+        raise RadiosimError(f"{path}: column {duplicate[0]} appears {header.count(duplicate[0])} "
+                            "times in the header; give each column once")
+    rows, line_of = [], []
+    for (number, _), values in zip(data_lines[1:], parsed[1:]):
+        if len(values) != len(header):
+            raise RadiosimError(f"{path}: line {number} has {len(values)} values for "
+                                f"{len(header)} columns ({', '.join(header)})")
+        rows.append(dict(zip(header, values)))
+        line_of.append(number)
+    columns = set(header)
+    for stem in ("temperature", "instrument_temperature"):
+        unit = stated.get(stem)
+        if unit is not None and unit not in ("K", "C"):
+            raise RadiosimError(f"{path}: units line gives {stem}={unit}; expected K or C")
+    temperature = _temperature(path, rows, columns, "temperature", line_of,
+                               stated.get("temperature"))
+    if temperature is None or "counts" not in columns:
+        raise RadiosimError(f"{path}: needs columns temperature_K (or temperature_C) and "
+                            f"counts, found {', '.join(header)}")
+    if not rows:
+        raise RadiosimError(f"{path}: the table has a header but no rows")
+    counts = _column(path, rows, "counts", line_of)
+    instrument = _temperature(path, rows, columns, "instrument_temperature", line_of,
+                              stated.get("instrument_temperature"))
+    if np.any(temperature <= 0):
+        k = int(np.argmax(temperature <= 0))
+        raise RadiosimError(f"{path}: line {line_of[k]}: temperature {temperature[k]:g} K is not "
+                            "above 0 K (°C in a temperature_K column?)")
+    if instrument is None:
+        order = np.argsort(temperature, kind="stable")
+        ts, ys = temperature[order], counts[order]
+        fall = (np.diff(ts) > 0) & (np.diff(ys) < 0)
+        if fall.any():
+            j = int(np.argmax(fall))
+            a, b = line_of[order[j]], line_of[order[j + 1]]
+            raise RadiosimError(
+                f"{path}: column counts is not monotonic in temperature: {ys[j]:g} DN at "
+                f"{ts[j]:g} K (line {a}) but {ys[j + 1]:g} DN at {ts[j + 1]:g} K (line {b})")
+    return CalibrationTable(temperature, counts, instrument)
+
+
+def calibrate_from_table(camera, path, integration_time: float, frames: int = 1,
+                         exclude_unusable: bool = False, fit_full_well: bool = False,
+                         progress=None):
+    """
+    What ``radiosim calibrate`` does: read and check the table at ``path``
+    (:func:`read_calibration_table`), check ``integration_time`` [s] and ``frames`` (a whole
+    number ≥ 1 of read-outs averaged in each counts value), and fit the camera
+    (:func:`~radiosim.calibration.fit_calibration`); errors name the file. ``progress``, if
+    given, is called as ``progress(done, total, label)`` after each of the three steps (the
+    table read, the camera's response built, the fit).
+
+    Returns
+    -------
+    camera, residuals, table
+        The fitted camera, measured minus fitted counts [DN], the :class:`CalibrationTable`.
+    """
+    frames = check_count(frames, "frames (read-outs averaged per counts value)")
+    t_int = check_time(integration_time, "integration_time")
+
+    def step(done, label):
+        if progress is not None:
+            progress(done, 3, label)
+
+    table = read_calibration_table(path)
+    step(1, f"read {len(table.temperature)} points")
+    camera.response_model  # the response (for Planck, its radiance table), built once
+    step(2, "the camera's response")
+    try:
+        fitted, residuals = fit_calibration(
+            camera, table.temperature, table.counts, t_int, frames,
+            instrument_temperatures=table.instrument_temperature,
+            exclude_unusable=exclude_unusable, fit_full_well=fit_full_well)
+    except RadiosimError as exc:
+        raise RadiosimError(f"{path}: {exc}") from None
+    step(3, "fitted gain and offset")
+    return fitted, residuals, table
