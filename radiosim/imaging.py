@@ -119,7 +119,7 @@ def sample_signals(scene: Scene, window: Window, responses: list[Response],
         reflection = (None if frame.reflected_temperature is None
                       else _reflection(frame, complement))
         for n, response in enumerate(responses):
-            table = response.kernel_table(frame)
+            table = response.signal_table(frame)
             if table is None:  # the signal is T: its mean is the first moment about 0
                 accumulate(frame.temperature, rows, cols, weight, zero, out[n], sq, t_max,
                            frame_index=frame.index)
@@ -128,7 +128,7 @@ def sample_signals(scene: Scene, window: Window, responses: list[Response],
                        table, frame_index=frame.index)
             if reflection is not None and response.radiometric:
                 accumulate(reflection.temperature, rows, cols, weight, zero, dev, sq, t_max,
-                           out[n], response.kernel_table(reflection), frame_index=frame.index)
+                           out[n], response.signal_table(reflection), frame_index=frame.index)
         if progress is not None:
             progress(done, weights.size)
     return out

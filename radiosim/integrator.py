@@ -37,9 +37,10 @@ from dataclasses import dataclass
 import numpy as np
 
 from radiosim.errors import RadiosimError
-from radiosim.kernels import Members
 from radiosim.kernels.engines import ENGINES as _ENGINES
-from radiosim.kernels.engines import Engine, get_engine
+from radiosim.kernels.engines import get_engine
+from radiosim.kernels.merging import FRAME_BLOCK, FootprintGroup, crop
+from radiosim.kernels.merging import frame_runs as _runs
 from radiosim.response import Response
 from radiosim.scenes.base import Region, Scene, SceneFrame
 
@@ -583,7 +584,7 @@ def integrate_many(scene: Scene, jobs: list[Job], progress=None,
     # caller forms the reflected light itself (the camera's image stage: ``emission_only``).
     reflects = not emission_only and scene.reflected_temperature is not None and any(
         a.job.response.radiometric for a in accumulators)
-    if not engine.reference and not reflects and all(a.job.response.has_kernel
+    if not engine.reference and not reflects and all(a.job.response.has_table
                                                      for a in accumulators):
         return _integrate_compiled(scene, accumulators, frames, region, progress, engine)
     for done, frame in enumerate(_prefetched(scene, frames, region), start=1):
@@ -603,103 +604,6 @@ def integrate_many(scene: Scene, jobs: list[Job], progress=None,
         if progress is not None:
             progress(done, len(frames))
     return [acc.statistics() for acc in accumulators]
-
-
-class _Group:
-    """Jobs that share footprints: one reference, one kernel pass per frame and response, and
-    their accumulators stacked (:class:`radiosim.kernels.Members`) so the kernel merges the
-    frame into every job itself."""
-
-    def __init__(self, integrator: FootprintIntegrator, engine: Engine):
-        self.integrator = integrator
-        self.engine = engine
-        self.members: list = []
-        self.reference = None
-        self.state = None
-
-    def start(self):
-        self.state = Members(len(self.members), self.integrator.shape)
-        for b, m in enumerate(self.members):
-            m.group, m.slot = self, b
-        self.first = min(m.first for m in self.members)
-        self.stop = max(m.stop for m in self.members)
-
-    def passes(self, start: int, stop: int) -> tuple[np.ndarray, list, np.ndarray]:
-        """For frames start … stop − 1: the members' time weights (frames × members, 0 when
-        inactive); per distinct response of the members active in any of those frames (in
-        order of appearance), the response and those members; and which frames any member's
-        window holds."""
-        weight = np.zeros((stop - start, len(self.members)))
-        active = np.zeros(stop - start, dtype=bool)
-        by_response: dict[int, list] = {}
-        for b, m in enumerate(self.members):
-            first, last = max(start, m.first), min(stop, m.stop)
-            if first < last:
-                weight[first - start:last - start, b] = m.weights[first - m.first:last - m.first]
-                active[first - start:last - start] = True
-                by_response.setdefault(id(m.job.response), [m.job.response, []])[1].append(b)
-        return weight, list(by_response.values()), active
-
-    def merge(self, temperature: np.ndarray, sample: SceneFrame, start: int):
-        """Merge frames ``start``, ``start + 1``, … (``temperature``: one 2-D frame over the
-        group's region, or a 3-D block of consecutive frames; ``sample``: the first one's
-        scene frame, for its emissivity) into the members active in them: one kernel pass per
-        distinct response (the first also forms the moments). Frames no member's window holds
-        are skipped (neither read nor checked, as frame by frame); with more than one pass,
-        frames go one at a time, so that an error names the earliest bad frame of any pass."""
-        block = temperature if temperature.ndim == 3 else temperature[None]
-        n = block.shape[0]
-        _, passes, active = self.passes(start, start + n)
-        step = n if len(passes) == 1 else 1
-        f = 0
-        while f < n:
-            if not active[f]:
-                f += 1
-                continue
-            g = f + 1
-            while g < n and active[g] and g - f < step:
-                g += 1
-            self._merge_run(block[f:g] if g - f > 1 else block[f], sample, start + f)
-            f = g
-
-    def _merge_run(self, temperature: np.ndarray, sample: SceneFrame, start: int):
-        """:meth:`merge` of consecutive frames that members' windows hold."""
-        n = 1 if temperature.ndim == 2 else temperature.shape[0]
-        weight, passes, _ = self.passes(start, start + n)
-        rows, cols = self.integrator.rows, self.integrator.cols
-        if self.reference is None:  # [K] per pixel: the first frame's means
-            first = temperature if temperature.ndim == 2 else temperature[0]
-            self.reference = self.engine.pixel_mean(first, rows, cols, frame_index=start)
-        moments_done = False
-        for response, members in passes:
-            table = response.kernel_table(sample)
-            if table is None and moments_done:
-                continue  # the signal is T: its statistics are formed once
-            signal_weight = np.zeros(weight.shape)
-            if table is not None:
-                signal_weight[:, members] = weight[:, members]
-                for b in members:
-                    self.members[b].has_signal = True
-            self.engine.accumulate_merged(temperature, rows, cols, self.reference,
-                                          self.state, weight, signal_weight, table,
-                                          moments=not moments_done, frame_index=start)
-            moments_done = True
-
-
-#: Consecutive frames one kernel call takes from a scene that holds its frames as one array
-#: (:meth:`~radiosim.scenes.base.Scene.block_unchecked`).
-FRAME_BLOCK = 128
-
-
-def _runs(indices: list[int], size: int) -> list[tuple[int, int]]:
-    """Sorted frame indices as (start, stop) runs of consecutive frames, each ≤ ``size``."""
-    runs = []
-    for k in indices:
-        if runs and runs[-1][1] == k and k - runs[-1][0] < size:
-            runs[-1][1] = k + 1
-        else:
-            runs.append([k, k + 1])
-    return [tuple(r) for r in runs]
 
 
 def _frames_inline_or_prefetched(scene, indices, region):
@@ -730,11 +634,11 @@ def _integrate_compiled(scene, accumulators, frames, region, progress, engine):
     Golub & LeVeque (1979): δ = m_k − mean, mean += δ·w_k/n', M2 += w_k·v_k + δ²·n·w_k/n'. A
     pixel that does not change keeps an exactly zero spread.
     """
-    groups: dict[int, _Group] = {}
+    groups: dict[int, FootprintGroup] = {}
     merged = [_Merged(acc) for acc in accumulators]
     for m in merged:
         groups.setdefault(id(m.job.integrator),
-                         _Group(m.job.integrator, engine)).members.append(m)
+                         FootprintGroup(m.job.integrator, engine)).members.append(m)
     for group in groups.values():
         group.start()
     active = list(groups.values())
@@ -744,7 +648,7 @@ def _integrate_compiled(scene, accumulators, frames, region, progress, engine):
             first, last = max(start, group.first), min(stop, group.stop)
             if first < last:
                 inner = group.integrator.region
-                mine = _crop(temperature, region, inner)
+                mine = crop(temperature, region, inner)
                 if mine.ndim == 3:
                     mine = mine[first - start:last - start]
                 group.merge(mine, _within(sample, region, inner), first)
@@ -766,13 +670,6 @@ def _integrate_compiled(scene, accumulators, frames, region, progress, engine):
         if progress is not None:
             progress(done, len(frames))
     return [m.statistics() for m in merged]
-
-
-def _crop(values: np.ndarray, outer: Region, inner: Region) -> np.ndarray:
-    """The part of a frame, or of a block of frames, read over ``outer`` that covers ``inner``
-    (a view)."""
-    return values[..., inner[0].start - outer[0].start:inner[0].stop - outer[0].start,
-                 inner[1].start - outer[1].start:inner[1].stop - outer[1].start]
 
 
 class _Merged:

@@ -16,7 +16,8 @@ import numpy as np
 
 from radiosim.errors import RadiosimError, RadiosimIOError
 
-__all__ = ["DPI", "figure", "markdown_table", "load_results", "select", "plot_versus", "save_figure"]
+__all__ = ["DPI", "figure", "fixed_axes", "few_ticks", "wrap_text", "title_block",
+           "markdown_table", "load_results", "select", "plot_versus", "save_figure"]
 
 
 #: Resolution of the PNG files [dots per inch]. Figures are created at it, so the layout computed
@@ -24,19 +25,116 @@ __all__ = ["DPI", "figure", "markdown_table", "load_results", "select", "plot_ve
 DPI = 110
 
 
-def figure(width, height, dpi: float = DPI):
+def figure(width, height, dpi: float = DPI, layout: str | None = "constrained"):
     """
-    A figure of ``width`` × ``height`` inches at ``dpi``, with constrained layout, drawn by Agg.
+    A figure of ``width`` × ``height`` inches at ``dpi``, drawn by Agg.
 
-    It does not import pyplot and does not depend on the active backend: the canvas is Agg's
-    (which also displays inline in notebooks), created with the figure.
+    ``layout`` is matplotlib's layout engine: ``"constrained"`` (the default) places titles,
+    labels and colorbars by measuring every text (it costs a draw's worth of text layout);
+    ``None`` leaves the axes where they are put, e.g. by :func:`fixed_axes` (the paper's
+    figures, drawn once). It does not import pyplot and does not depend on the active backend:
+    the canvas is Agg's (which also displays inline in notebooks), created with the figure.
     """
     from matplotlib.backends.backend_agg import FigureCanvasAgg
     from matplotlib.figure import Figure
 
-    fig = Figure(figsize=(width, height), dpi=dpi, layout="constrained")
+    fig = Figure(figsize=(width, height), dpi=dpi, layout=layout)
     FigureCanvasAgg(fig)
     return fig
+
+
+def fixed_axes(fig, nrows: int, ncols: int, left: float, right: float, bottom: float,
+               top: float, wspace: float = 0.0, hspace: float = 0.0, **subplots):
+    """
+    ``nrows`` × ``ncols`` axes on ``fig`` at fixed places: margins ``left``, ``right``,
+    ``bottom``, ``top`` and the gaps between axes ``wspace``, ``hspace``, all in inches [in].
+    No layout engine measures them afterwards, so the figure is drawn once. ``subplots`` go to
+    :meth:`matplotlib.gridspec.GridSpec.subplots` (``sharex``, ``sharey``, ``squeeze``).
+    """
+    width, height = fig.get_size_inches()
+    cell_w = (width - left - right - (ncols - 1) * wspace) / ncols
+    cell_h = (height - bottom - top - (nrows - 1) * hspace) / nrows
+    if cell_w <= 0 or cell_h <= 0:
+        raise RadiosimError(f"a figure of {width:g} × {height:g} in has no room for {nrows} × "
+                            f"{ncols} axes within margins of {left:g}, {right:g}, {bottom:g}, "
+                            f"{top:g} in")
+    grid = fig.add_gridspec(nrows, ncols, left=left / width, right=1 - right / width,
+                            bottom=bottom / height, top=1 - top / height,
+                            wspace=wspace / cell_w, hspace=hspace / cell_h)
+    return grid.subplots(**subplots)
+
+
+def few_ticks(ax, x: int = 5, y: int = 6):
+    """At most about ``x`` and ``y`` intervals between major ticks on ``ax``'s axes, at round
+    steps (1, 2, 2.5, 5 × 10ⁿ): a tick and its label cost a good part of a figure's drawing."""
+    from matplotlib.ticker import MaxNLocator
+
+    steps = [1, 2, 2.5, 5, 10]
+    ax.xaxis.set_major_locator(MaxNLocator(nbins=x, steps=steps))
+    ax.yaxis.set_major_locator(MaxNLocator(nbins=y, steps=steps))
+    return ax
+
+
+def _text_width(fig, text: str, fontsize: float) -> float:
+    """Width [in] of one line of ``text`` at ``fontsize`` [pt], as Agg draws it on ``fig``."""
+    from matplotlib.font_manager import FontProperties
+
+    renderer = fig.canvas.get_renderer()
+    width, _, _ = renderer.get_text_width_height_descent(text, FontProperties(size=fontsize),
+                                                         ismath=False)
+    return width / fig.dpi
+
+
+def wrap_text(fig, text: str, width: float, fontsize: float) -> str:
+    """
+    ``text`` broken at spaces into lines no wider than ``width`` [in] at ``fontsize`` [pt], as
+    measured by the renderer that draws ``fig`` (a word longer than a line stays whole).
+
+    Examples
+    --------
+    >>> fig = figure(4, 1, layout=None)
+    >>> len(wrap_text(fig, "a title that does not fit on one short line", 1.5, 10).splitlines()) > 1
+    True
+    """
+    import textwrap
+
+    # Text is measured once, then each line it is broken into once: shaping a line of text
+    # costs about a millisecond, so a width per word tried would cost a title tens of them.
+    out: list[str] = []
+    for paragraph in text.split("\n"):
+        whole = _text_width(fig, paragraph, fontsize)
+        chars = max(1, int(len(paragraph) * width / whole)) if whole > width else len(paragraph)
+        while True:
+            lines = textwrap.wrap(paragraph, chars, break_long_words=False,
+                                  break_on_hyphens=False) or [""]
+            if chars == 1 or all(" " not in line or _text_width(fig, line, fontsize) <= width
+                                 for line in lines):
+                break
+            chars = max(1, int(chars * 0.95))
+        out += lines
+    return "\n".join(out)
+
+
+def _lines_height(lines: int, fontsize: float) -> float:
+    """Height [in] of ``lines`` lines of text at ``fontsize`` [pt] (matplotlib's line spacing,
+    1.2, and the descent of the last line)."""
+    return (1.2 * lines + 0.1) * fontsize / 72
+
+
+def title_block(fig, text: str, fontsize: float = 9, pad: float = 0.06,
+                side: float = 0.2) -> float:
+    """
+    The figure's title: ``text`` wrapped to the figure's width less ``side`` [in] each side
+    and held ``pad`` [in] below its top edge (also if the figure is resized afterwards);
+    returns the height it takes from the top [in], padding included, for the axes' top margin.
+    """
+    from matplotlib.transforms import ScaledTranslation
+
+    width = fig.get_size_inches()[0]
+    wrapped = wrap_text(fig, text, width - 2 * side, fontsize)
+    title = fig.suptitle(wrapped, fontsize=fontsize, y=1.0, va="top")
+    title.set_transform(fig.transSubfigure + ScaledTranslation(0, -pad, fig.dpi_scale_trans))
+    return pad + _lines_height(wrapped.count("\n") + 1, fontsize)
 
 
 def markdown_table(rows: list[dict], formats: dict | None = None) -> str:
@@ -109,27 +207,46 @@ def _label(camera: str, response: str) -> str:
     return camera if camera == response else f"{camera} ({response} response)"
 
 
-def plot_versus(fig, rows, x_key, y_key, err_key, scene_key, xlabel, title, ylabel=None):
+#: How the lines of :func:`plot_versus` differ besides colour, so that lines that coincide
+#: stay visible: (marker, marker face filled, line style, marker size [pt], cap size [pt]).
+_STYLES = (("o", True, "-", 7, 3), ("s", False, "--", 9, 6), ("^", False, "-.", 9, 5),
+           ("D", False, ":", 7, 4), ("v", False, (0, (5, 1, 1, 1)), 9, 5))
+
+
+def plot_versus(target, rows, x_key, y_key, err_key, scene_key, xlabel, title, ylabel=None,
+                title_width=None):
     """
     Reading ±1σ against a sweep parameter, one line per camera (response named where it differs
     from the camera's name), the scene's value as a dashed line; returns the axes.
+
+    ``target`` is the axes to draw on, or a figure (or subfigure) that gets one. The lines
+    differ in marker, fill and line style as well as colour, the first drawn on top, so that
+    cameras that read alike do not hide one another. ``title_width`` [in]: wrap the title to
+    it (default: on one line).
     """
-    ax = fig.add_subplot()
+    ax = target.add_subplot() if hasattr(target, "add_subplot") else target
     groups = sorted({(r["camera"], r["response"]) for r in rows})
-    for camera, response in groups:
+    for n, (camera, response) in enumerate(groups):
         mine = sorted((r for r in rows if (r["camera"], r["response"]) == (camera, response)),
                       key=lambda r: r[x_key])
         x = [r[x_key] for r in mine]
-        ax.errorbar(x, [r[y_key] for r in mine], yerr=[r[err_key] for r in mine], marker="o",
-                    capsize=3, label=_label(camera, response))
+        marker, filled, style, size, cap = _STYLES[n % len(_STYLES)]
+        lines = ax.errorbar(x, [r[y_key] for r in mine], yerr=[r[err_key] for r in mine],
+                            marker=marker, markersize=size, ls=style, capsize=cap,
+                            zorder=3 + len(groups) - n, label=_label(camera, response))
+        if not filled:
+            lines[0].set_markerfacecolor("none")
+            lines[0].set_markeredgewidth(1.5)
     scene = [r[scene_key] for r in rows if np.isfinite(r[scene_key])]
     if scene:
         ax.axhline(max(scene), color="black", ls="--", lw=1, label="scene peak")
     ax.set_xlabel(xlabel)
     ax.set_ylabel(ylabel or "temperature [°C]")
-    ax.set_title(title, fontsize=10)
+    if title_width is not None:
+        title = wrap_text(ax.figure, title, title_width, 10)
+    ax.set_title(title, fontsize=10, y=1.0)  # placed, not measured against the ticks
     ax.legend(fontsize=8)
-    return ax
+    return few_ticks(ax)
 
 
 @contextmanager

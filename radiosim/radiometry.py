@@ -41,7 +41,7 @@ from scipy.interpolate import CubicSpline
 from scipy.special import bernoulli, factorial
 
 from radiosim.errors import RadiosimError
-from radiosim.spectral import as_spectrum, colour_science, is_spectrum
+from radiosim.spectral import as_spectrum, is_spectrum
 
 if TYPE_CHECKING:  # colour-science is imported when a curve is built
     from colour import SpectralDistribution
@@ -154,12 +154,13 @@ def planck_spectral_radiance(wavelength, temperature, quantity: str = "energy") 
     t = _check_temperature(temperature)
     if np.any(wl <= 0) or not np.all(np.isfinite(wl)):
         raise RadiosimError("wavelength must be finite and > 0 [m]")
-    # colour's planck_law returns L_λ = c1 / (π λ⁵ (exp(c2/λT) − 1)) for every (λ, T) pair;
-    # exp overflows to inf far in the Wien tail, where the radiance is correctly 0.
+    # L_λ = c1 / (π λ⁵ (exp(c2/λT) − 1)) for every (λ, T) pair, in the operations' order of
+    # colour-science's planck_law (CIE 015:2004; the tests compare the two), without importing
+    # colour (seconds: its plotting package) for a law of one line. exp overflows to inf far
+    # in the Wien tail, where the radiance is correctly 0.
+    lam, temp = wl.ravel()[:, None], t.ravel()[None, :]
     with np.errstate(over="ignore"):
-        radiance = np.reshape(
-            colour_science().colorimetry.planck_law(wl.ravel(), t.ravel(), c1=PLANCK_C1, c2=PLANCK_C2), (wl.size, t.size)
-        ).T
+        radiance = (((PLANCK_C1 * lam**-5) / np.pi) * (1 / np.expm1(PLANCK_C2 / (lam * temp)))).T
     if quantity == "photon":
         radiance = radiance * (wl.ravel() / (sc.h * sc.c))
     return radiance.reshape(t.shape + wl.shape)

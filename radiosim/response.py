@@ -30,7 +30,7 @@ import numpy as np
 
 from radiosim.checks import check_positive
 from radiosim.errors import RadiosimError
-from radiosim.kernels import RadianceKernelTable
+from radiosim.kernels import SignalTable
 from radiosim.radiometry import QUANTITIES, BandRadianceTable, band_radiance
 from radiosim.scenes.base import SceneFrame
 from radiosim.spectral import is_spectrum
@@ -99,9 +99,10 @@ class Response(ABC):
     #: Name (``"linear"`` or ``"planck"``) and unit of the signal.
     name: str
     unit: str
-    #: Whether :meth:`kernel_table` describes the signal to the compiled kernels; responses
-    #: that do not are integrated by the numpy engine.
-    has_kernel: bool = False
+    #: Whether :meth:`signal_table` describes the signal to the engines (the linear
+    #: response's is ``None``: the signal is T); responses that do not are integrated by the
+    #: numpy engine's reference arithmetic.
+    has_table: bool = False
     #: Whether the signal is a radiance, so that reflections, paths and the optics' emission add
     #: to it (the linear response's signal is the temperature itself: the paper's ideal).
     radiometric: bool = False
@@ -118,11 +119,14 @@ class Response(ABC):
     def temperature(self, signal, emissivity: float = 1.0) -> np.ndarray:
         """The temperature [K] of a grey body with this signal (NaN where there is none)."""
 
-    def kernel_table(self, frame: SceneFrame):
+    def signal_table(self, frame: SceneFrame):
         """
-        The compiled kernels' form of this response for ``frame``
-        (:class:`~radiosim.kernels.RadianceKernelTable` with the frame's emissivity maps), or
-        ``None`` when the signal is the temperature itself (see :attr:`has_kernel`).
+        This response's signal on ``frame`` as tables, engine-neutral
+        (:class:`~radiosim.kernels.SignalTable`: each entry's radiance table, its temperature
+        grid [K] and cubic coefficients [signal unit K⁻ᵏ], the exact radiance below it, the
+        entries' grey factors and the frame's emissivity maps; each engine packs it into its
+        own format), or ``None`` when the signal is the temperature itself (see
+        :attr:`has_table`).
         """
         return None
 
@@ -168,7 +172,7 @@ class LinearResponse(Response):
 
     name = "linear"
     unit = "K"
-    has_kernel = True
+    has_table = True
 
     def __init__(self, responsivity: float = 1e6):
         self.responsivity = check_positive(responsivity, "linear responsivity", "e⁻ s⁻¹ K⁻¹")
@@ -207,7 +211,7 @@ class PlanckResponse(Response):
 
     name = "planck"
     unit = QUANTITIES["photon"]
-    has_kernel = True
+    has_table = True
 
     radiometric = True
 
@@ -216,7 +220,7 @@ class PlanckResponse(Response):
         self.responsivity = responsivity
         self.temperature_range = tuple(float(t) for t in temperature_range)
         self._tables: dict[int, tuple[SpectralDistribution | None, BandRadianceTable]] = {}
-        self._kernel_tables: dict[tuple, RadianceKernelTable] = {}
+        self._signal_tables: dict[tuple, SignalTable] = {}
         self._split: dict[int, list] = {}
 
     def sub_bands(self, n: int) -> list:
@@ -299,13 +303,14 @@ class PlanckResponse(Response):
     def grey_signal(self, temperature, emissivity: float = 1.0) -> np.ndarray:
         return self._grey_or_curve(np.asarray(temperature, dtype=float), emissivity)
 
-    def _packed(self, entries: tuple) -> RadianceKernelTable:
-        """The tables of ``entries`` (grey scalars or curves) packed for the kernels, cached."""
+    def _entries_table(self, entries: tuple) -> SignalTable:
+        """The signal table of ``entries`` (grey scalars or curves), cached (its copies with
+        each frame's maps share the engines' packed forms)."""
         key = tuple(id(e) if is_spectrum(e) else float(e) for e in entries)
-        packed = self._kernel_tables.get(key)
-        if packed is None and len(self._kernel_tables) >= _CACHED_TABLES:
-            self._kernel_tables.pop(next(iter(self._kernel_tables)))  # the oldest: bounded
-        if packed is None:
+        table = self._signal_tables.get(key)
+        if table is None and len(self._signal_tables) >= _CACHED_TABLES:
+            self._signal_tables.pop(next(iter(self._signal_tables)))  # the oldest: bounded
+        if table is None:
             tables, exact, grey = [], [], []
             for value in entries:
                 curve = value if is_spectrum(value) else None
@@ -314,21 +319,20 @@ class PlanckResponse(Response):
                                   responsivity=self.responsivity,
                                   emissivity=1.0 if curve is None else curve))
                 grey.append(1.0 if curve is not None else float(value))
-            packed = self._kernel_tables[key] = RadianceKernelTable(tables, exact,
-                                                                    entry_grey=grey)
-        return packed
+            table = self._signal_tables[key] = SignalTable(tables, exact, entry_grey=grey)
+        return table
 
-    def kernel_table(self, frame: SceneFrame) -> RadianceKernelTable:
+    def signal_table(self, frame: SceneFrame) -> SignalTable:
         if frame.regions is not None:
             codes = sorted(frame.region_emissivity)
             if codes != list(range(len(codes))) or len(codes) > 255:
                 raise RadiosimError(f"region codes must be 0, 1, … (fewer than 256), got {codes}")
-            packed = self._packed(tuple(frame.region_emissivity[c] for c in codes))
-            return packed.with_maps(grey=1.0, index=frame.regions.astype(np.uint8, copy=False))
+            table = self._entries_table(tuple(frame.region_emissivity[c] for c in codes))
+            return table.with_maps(grey=1.0, index=frame.regions.astype(np.uint8, copy=False))
         emissivity = frame.emissivity
         if isinstance(emissivity, np.ndarray):
-            return self._packed((1.0,)).with_maps(grey=emissivity, index=None)
-        return self._packed((emissivity,)).with_maps(grey=1.0, index=None)
+            return self._entries_table((1.0,)).with_maps(grey=emissivity, index=None)
+        return self._entries_table((emissivity,)).with_maps(grey=1.0, index=None)
 
     def temperature(self, signal, emissivity: float = 1.0) -> np.ndarray:
         """Temperature [K] of a grey emitter of ``emissivity`` with this signal (NaN outside

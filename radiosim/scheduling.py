@@ -25,7 +25,8 @@ from radiosim.checks import check_positive, check_rng
 from radiosim.errors import RadiosimError, RadiosimWarning
 
 __all__ = ["connect", "SCHEDULER_TIMEOUT", "recorded_warnings", "recording_run",
-           "seed_sequence", "spawn_seeds", "recorded_call", "with_eta"]
+           "seed_sequence", "spawn_seeds", "recorded_call", "with_eta", "CLUSTER_START_SECONDS",
+           "CLUSTER_TASK_FACTOR", "SECONDS_PER_SAMPLE", "cluster_overhead", "worth_a_cluster", "local_workers"]
 
 
 class _quiet:
@@ -101,6 +102,120 @@ def _probe(address: str, timeout: float) -> None:
                             f"{timeout:g} s (is a Dask scheduler listening there?)")
     raise RadiosimError(f"cannot reach the Dask scheduler at {address}: "
                         f"{getattr(error, 'strerror', None) or error}")
+
+
+#: Seconds a local cluster costs before and after its work, measured on 2 cores
+#: (``benchmarks/bench_cli.py``'s host, warm numba cache): starting a ``LocalCluster`` of 2
+#: single-threaded worker processes and its client (3.6 s), shipping the segmented-chip scene
+#: with the first task (each worker imports radiosim to unpickle it: 3-8 s), each worker's
+#: first measurement building what the process running alone built once (the scene's
+#: geometry, the compiled kernels loaded from the cache: 2-8 s) and closing it (2.6 s). The
+#: lower ends, on a quiet host; a loaded one doubles them.
+CLUSTER_START_SECONDS = 10.0
+
+#: Work of a measurement run as its own task, over the same measurement in one process: a task
+#: makes the scene frames of its own window, where the process measures the cases of a scene
+#: in one pass over their frames (``radiosim.camera.measure_many_statistics``).
+CLUSTER_TASK_FACTOR = 1.5
+
+#: Seconds [s] a measurement spends per sample it reads and frame of its window in this
+#: process, warm, on 2 cores: the paper's study (44 measurements reading 5.0e9 sample-frames in
+#: all, the field sweeps' whole chip and the pixel sweep's footprints) took 13.8 s. The
+#: estimate :meth:`radiosim.study.Study.run` gives :func:`local_workers`.
+SECONDS_PER_SAMPLE = 2.8e-9
+
+
+def _cores() -> int:
+    """The cores this process may run on."""
+    try:
+        return len(os.sched_getaffinity(0))
+    except (AttributeError, OSError):
+        return os.cpu_count() or 1
+
+
+def cluster_overhead(workers: int, cores: int | None = None) -> float:
+    """Seconds [s] a local cluster of ``workers`` processes adds to the work: start, shipping,
+    warm-up and close (:data:`CLUSTER_START_SECONDS`, measured with 2 workers on 2 cores),
+    longer where more workers than ``cores`` (default: this process's) warm up on them."""
+    cores = _cores() if cores is None else int(cores)
+    return CLUSTER_START_SECONDS * max(1.0, workers / max(1, cores))
+
+
+def _seconds(value: float) -> str:
+    return f"{value:.2g}" if value < 10 else f"{value:.0f}"
+
+
+def worth_a_cluster(n_measurements: int, seconds_per_measurement: float, workers: int,
+                    cores: int | None = None) -> tuple[bool, str]:
+    """
+    Whether a local cluster of ``workers`` processes finishes ``n_measurements`` sooner than
+    this process alone, and why, in one line.
+
+    In this process the work takes ``n_measurements × seconds_per_measurement`` [s]; on the
+    cluster, :func:`cluster_overhead` plus that work times :data:`CLUSTER_TASK_FACTOR`, shared
+    by ``min(workers, cores, n_measurements)`` processes. The cluster is chosen only if it
+    saves at least 10 % of the time.
+
+    Parameters
+    ----------
+    n_measurements
+        Tasks to run (measurements, or batches of draws).
+    seconds_per_measurement
+        Estimated seconds [s] of one in this process (warm).
+    workers
+        Worker processes asked for.
+    cores
+        Cores to share (default: those this process may run on).
+
+    Returns
+    -------
+    (bool, str)
+        The choice and the reason, e.g. ``(False, "2 workers: a local cluster would take
+        about 20 s against 13 s in this process (44 measurements of about 0.3 s on 2 cores;
+        starting it costs 10 s); measuring in this process")``.
+
+    Examples
+    --------
+    >>> worth_a_cluster(44, 0.3, 2, cores=2)[0]
+    False
+    >>> worth_a_cluster(400, 2.0, 2, cores=2)[0]
+    True
+    """
+    if isinstance(workers, bool) or int(workers) != workers or workers < 1:
+        raise RadiosimError(f"workers must be a whole number ≥ 1, got {workers!r}")
+    if not (seconds_per_measurement >= 0):  # NaN too
+        raise RadiosimError(f"seconds_per_measurement must be ≥ 0 [s], got "
+                            f"{seconds_per_measurement!r}")
+    n = int(n_measurements)
+    cores = _cores() if cores is None else int(cores)
+    alone = n * seconds_per_measurement
+    share = max(1, min(int(workers), cores, n))
+    overhead = cluster_overhead(workers, cores)
+    cluster = overhead + alone * CLUSTER_TASK_FACTOR / share
+    what = (f"{int(workers)} workers: a local cluster would take about {_seconds(cluster)} s "
+            f"against {_seconds(alone)} s in this process ({n} measurement"
+            f"{'' if n == 1 else 's'} of about {_seconds(seconds_per_measurement)} s on "
+            f"{cores} core{'' if cores == 1 else 's'}; starting it costs "
+            f"{_seconds(overhead)} s)")
+    if cluster <= 0.9 * alone:
+        return True, f"{what}; starting it"
+    return False, f"{what}; measuring in this process"
+
+
+def local_workers(workers: int | None, n_measurements: int, seconds_per_measurement: float,
+                  cores: int | None = None) -> int | None:
+    """
+    ``workers`` if a local cluster of them pays (:func:`worth_a_cluster`), else ``None`` (run
+    in this process), the reason logged as one warning line either way it declines.
+    """
+    if workers is None:
+        return None
+    gain, reason = worth_a_cluster(n_measurements, seconds_per_measurement, workers, cores)
+    if not gain:
+        logging.getLogger(__name__).warning(reason)
+        return None
+    logging.getLogger(__name__).info(reason)
+    return workers
 
 
 def connect(scheduler=None, workers: int | None = None, timeout: float | None = None):

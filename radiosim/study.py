@@ -55,7 +55,8 @@ from radiosim.errors import RadiosimError, RadiosimIOError, RadiosimWarning
 from radiosim.files import OutputFolder, atomic_write, check_name, is_staging, safe_name
 from radiosim.measurement import Measurement
 from radiosim.scenes.base import Scene
-from radiosim.scheduling import connect, recorded_call, spawn_seeds
+from radiosim.scheduling import (SECONDS_PER_SAMPLE, connect, local_workers, recorded_call,
+                                 spawn_seeds)
 from radiosim.study_spec import (ALIGNMENTS, CAMERA_KEYS, ENVIRONMENT_KEYS, HOOKS,
                                  SCENE_KEYS, STUDY_KEYS, SWEEP_KEYS, UNCERTAINTY_KEYS, Sweep,
                                  UncertaintySpec, camera_from_table, exr_name, load_hook,
@@ -310,6 +311,20 @@ class Study:
                     camera = camera.with_pixel_pitch(pitch)
                 yield Planned(sweep, name, camera, t_int, alignment)
 
+    def _seconds_per_measurement(self, plan) -> float:
+        """Estimated seconds [s] of one of ``plan``'s measurements in this process, warm:
+        the mean over the plan of the samples it reads per frame (the whole scene for a field
+        sweep, one pixel's footprint for a pixel sweep) × the frames of its window × the
+        measured cost of one (:data:`radiosim.scheduling.SECONDS_PER_SAMPLE`)."""
+        if not plan:
+            return 0.0
+        scene = self.scene
+        whole = scene.shape[0] * scene.shape[1]
+        footprint = [math.ceil(p.camera.fpa.pixel_pitch / scene.dx - 1e-9) ** 2 for p in plan]
+        work = [(f if p.sweep.kind == "pixel" else whole) * (p.integration_time / scene.dt + 1.0)
+                for f, p in zip(footprint, plan)]
+        return SECONDS_PER_SAMPLE * float(np.mean(work))
+
     def _window_start(self, t_int: float, alignment: str) -> float | None:
         scene = self.scene
         if alignment == "centred" or scene.event_time is None:
@@ -363,7 +378,8 @@ class Study:
 
     def run(self, out=None, rng=0, write_exr: bool = True,
             progress: Callable[[int, int, str], None] | None = None, scheduler=None,
-            workers: int | None = None, overwrite: bool = False) -> StudyResult:
+            workers: int | None = None, overwrite: bool = False,
+            cluster: str = "auto") -> StudyResult:
         """
         Run every measurement of the study.
 
@@ -392,6 +408,11 @@ class Study:
             Run on Dask (:func:`radiosim.uncertainty.connect`): every measurement is a task,
             the scene travels as its recipe. Without them, the measurements of a scene share
             one pass over its frames in this process.
+        cluster
+            With ``workers`` (and no ``scheduler``): ``"auto"`` starts the local cluster only
+            where it pays (:func:`radiosim.scheduling.local_workers`: a study too small to gain
+            runs in this process, the reason logged as one warning line); ``"always"`` starts
+            it regardless.
         overwrite
             Allow ``out`` to hold radiosim's own earlier results (see above).
 
@@ -400,6 +421,10 @@ class Study:
         """
         seeds = spawn_seeds(rng, scheduler is not None or workers is not None)
         plan = list(self.plan())
+        if cluster not in ("auto", "always"):
+            raise RadiosimError(f"cluster must be 'auto' or 'always', got {cluster!r}")
+        if scheduler is None and workers is not None and cluster == "auto":
+            workers = local_workers(workers, len(plan), self._seconds_per_measurement(plan))
         summary, pick_pixel = self.hook("summary"), self.hook("pixel")
         columns = self.columns()
         folder = None

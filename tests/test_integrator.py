@@ -139,7 +139,7 @@ class Square(LinearResponse):
     """A response whose signal is T² [K²]: not the temperature, so accumulated on its own
     (a response without a kernel form: the numpy engine integrates it)."""
 
-    has_kernel = False
+    has_table = False
 
     def signal(self, frame):
         return frame.temperature**2

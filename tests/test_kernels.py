@@ -11,7 +11,7 @@ import pytest
 from radiosim import kernels
 from radiosim.errors import RadiosimError
 from radiosim.integrator import AxisFootprints, axis_footprints
-from radiosim.kernels import layout, radiance
+from radiosim.kernels import layout, packing, radiance
 from radiosim.kernels import (
     STATUS_BELOW_TABLE,
     STATUS_OK,
@@ -317,10 +317,11 @@ def test_table_packing(tables):
     # The blackbody table is packed once: two tables of 32 intervals per octave, over
     # 200–3000 K 125 intervals (200–3008 K), plus 12 past each end (grid 152–3776 K).
     assert [t.intervals for t in tables.tables] == [149, 149, 149]
-    assert tables.coefficients.shape == (2 * 149 * 4,)
-    assert tables.offset.tolist() == [0, 149]
-    assert tables.entry_table.tolist() == [0, 0, 1]
-    assert tables.entry_grey.tolist() == [1.0, 0.6, 1.0]
+    packed = packing.pack(tables)  # the compiled engine's format of the signal table
+    assert packed.coef.shape == (2 * 149 * 4,)
+    assert packed.offset.tolist() == [0, 149]
+    assert packed.entry_table.tolist() == [0, 0, 1]
+    assert packed.entry_grey.tolist() == [1.0, 0.6, 1.0]
     table = BandRadianceTable(temperature_range=RANGE, per_octave=PER_OCTAVE)
     rows, cols = footprints(9.0, 1.0, 0.0)
     frames = scene_frames(np.float64)
@@ -397,6 +398,28 @@ def test_openmp_threads_spin_briefly_between_frames(environment, expected):
     unchanged, *seen = out.stdout.split()
     assert unchanged == "True"
     assert tuple(None if v == "None" else v for v in seen) == expected
+
+
+def test_thread_settings_precede_numba_threading_layer():
+    # libgomp reads GOMP_SPINCOUNT once, when numba loads its threading layer; asking numba for
+    # its thread count loads it, so radiosim asks through thread_count (the chip scene's row
+    # blocks did not, and a run whose first kernel was the chip's kept OpenMP's long spin).
+    env = {k: v for k, v in os.environ.items()
+           if k not in ("OMP_WAIT_POLICY", "GOMP_SPINCOUNT")}
+    code = (
+        "import os\n"
+        "from numba.np.ufunc import parallel\n"
+        "seen, original = [], parallel._launch_threads\n"
+        "def launch():\n"
+        "    seen.append(os.environ.get('GOMP_SPINCOUNT'))\n"
+        "    original()\n"
+        "parallel._launch_threads = launch\n"
+        "import radiosim.kernels\n"
+        "threads = radiosim.kernels.thread_count()\n"
+        "print(seen[0], parallel._is_initialized, threads >= 1)")
+    out = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True,
+                         check=True)
+    assert out.stdout.split() == ["3000", "True", "True"]
 
 
 def test_cubic_rows_match_numpy_horner():

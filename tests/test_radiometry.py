@@ -9,6 +9,7 @@ from scipy.integrate import quad
 
 from radiosim.errors import RadiosimError
 from radiosim.radiometry import (
+    PLANCK_C1,
     PLANCK_C2,
     TABLE_C_DU,
     BandRadianceTable,
@@ -96,6 +97,20 @@ def test_wien_displacement():
     wl = np.linspace(2.5e-6, 3.3e-6, 80001)
     peak = wl[np.argmax(planck_spectral_radiance(wl, temperature))]
     assert peak * temperature == pytest.approx(sc.Wien, abs=2e-11 * temperature)
+
+
+def test_planck_law_agrees_with_colour_science_and_hand_written_planck():
+    # Two independent implementations: colour-science's CIE 015:2004 planck_law (with the
+    # CODATA radiation constants passed in) and Planck's law written here from h, c, k.
+    from colour.colorimetry import planck_law
+
+    wl = np.linspace(1e-6, 20e-6, 97)
+    t = np.array([150.0, 293.15, 800.0, 3000.0])
+    ours = planck_spectral_radiance(wl, t)
+    theirs = planck_law(wl, t, c1=PLANCK_C1, c2=PLANCK_C2).T
+    np.testing.assert_array_equal(ours, theirs)  # same formula, same operations: same bits
+    by_hand = 2 * sc.h * sc.c**2 / wl**5 / np.expm1(sc.h * sc.c / (wl * sc.k * t[:, None]))
+    np.testing.assert_allclose(ours, by_hand, rtol=1e-13)
 
 
 def test_planck_spectral_radiance_shapes():

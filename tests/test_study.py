@@ -162,3 +162,22 @@ def test_the_plan_is_named_records():
     assert (first.sweep.name, first.camera_name, first.integration_time,
             first.alignment) == ("integration-time", "linear", 1e-6, "centred")
     assert first.camera is study.cameras["linear"]  # no override: the study's own camera
+
+
+def test_a_local_cluster_only_where_it_pays(caplog):
+    # The paper's study: 44 measurements of about 0.3 s each (14 s) against a cluster's 10 s
+    # start plus 1.5× the work shared by 2 processes (20 s): it runs in this process, saying
+    # why; a plan a hundred times the work would take the cluster.
+    from radiosim.scheduling import SECONDS_PER_SAMPLE, worth_a_cluster
+
+    study = Study.preset("msec2009")
+    plan = list(study.plan())
+    each = study._seconds_per_measurement(plan)
+    # Independent count: 28 field measurements over the whole 1113 × 1440 chip, windows of
+    # 1, 10, … µs at 0.2 µs (t/dt + 1 frames), and 16 pixel measurements of 9 × 9 samples.
+    field = 1113 * 1440 * (2 * sum(t / 0.2 + 1 for t in (1, 10, 25, 45, 60, 75, 90)) + 14 * 2)
+    pixel = 81 * sum(t / 0.2 + 1 for t in (1, 5, 10, 25, 45, 60, 75, 90, 135, 180, 270, 360,
+                                           450, 540, 630, 725))
+    assert each == pytest.approx(SECONDS_PER_SAMPLE * (field + pixel) / 44, rel=1e-9)
+    assert not worth_a_cluster(44, each, 2, cores=2)[0]
+    assert worth_a_cluster(44, 100 * each, 2, cores=2)[0]

@@ -169,7 +169,7 @@ def test_a_study_on_two_workers_equals_the_same_study_run_synchronously(tmp_path
     (tmp_path / "s.toml").write_text(text)
     study = Study.from_toml(tmp_path / "s.toml")
     local = study.run(None, rng=7, scheduler="synchronous").rows
-    cluster = study.run(None, rng=7, workers=2).rows
+    cluster = study.run(None, rng=7, workers=2, cluster="always").rows
     assert len(local) == 5
     assert local == cluster
     assert {r["sweep"] for r in local} == {"t", "r"}

@@ -60,16 +60,21 @@ How the kernels are fast (see ``benchmarks/bench_kernels.py``):
     the same order, so the two agree to a few units in the last place inside the table.
 
 Nothing is compiled at import (importing costs numba's own import). The first call with a new
-frame dtype (float32, float64) or index-map dtype (uint8, intp) compiles the one kernel that
-serves linear, Planck and every emissivity form (about 35 s on a 2-core machine, most of it
-the twelve generated sweeps) and caches it on disk
-(``cache=True``, in ``radiosim/__pycache__`` or ``NUMBA_CACHE_DIR``); later processes load it in
-about 0.3 s. :func:`warmup` (``radiosim warmup``) compiles every variant ahead of time, and
-:func:`compile_pending` tells, from the cache's index file, whether a launch would compile.
+frame dtype (float32, float64) compiles the one kernel that serves linear, Planck and every
+emissivity form (index maps are passed as uint8: other integer maps are converted, for tables
+of up to 255 entries) and caches it on disk (``cache=True``, in ``radiosim/__pycache__`` or
+``NUMBA_CACHE_DIR``); later processes load it in about 0.3 s. Compiling takes minutes on a
+2-core machine (``benchmarks/bench_compile.py`` lists it per function: most of it is LLVM
+optimising the parallel kernel and its row pass, into which the twelve generated sweeps are
+inlined, once per frame dtype). :func:`warmup` (``radiosim warmup``) compiles every variant
+ahead of time, and :func:`compile_pending` tells, from the cache's index file, whether a
+launch would compile.
 
 The package, one concept per module (imports flow down this list):
 
 -   :mod:`~radiosim.kernels.codes`: status bits and signal modes;
+-   :mod:`~radiosim.kernels.bundles`: the named bundles the kernel takes (frames, axes,
+    accumulators, merging, packed tables, emissivity, thread buffers);
 -   :mod:`~radiosim.kernels.intrinsics`: LLVM intrinsics (fused multiply-add, the eight-sample
     cubics by shuffles) and :data:`fast_exp`;
 -   :mod:`~radiosim.kernels.sweeps`: the generated row sweeps;
@@ -77,13 +82,17 @@ The package, one concept per module (imports flow down this list):
 -   :mod:`~radiosim.kernels.rows`: the parallel kernel (pixel rows, reduction to pixels,
     commit or merge);
 -   :mod:`~radiosim.kernels.layout`: footprint layouts and frame views;
--   :mod:`~radiosim.kernels.table`: :class:`RadianceKernelTable`;
+-   :mod:`~radiosim.kernels.table`: :class:`SignalTable`, the response's signal as tables
+    (engine-neutral; :class:`RadianceKernelTable` is its former name);
+-   :mod:`~radiosim.kernels.packing`: the compiled engine's format of a :class:`SignalTable`;
 -   :mod:`~radiosim.kernels.messages`: the errors of a flagged frame;
 -   :mod:`~radiosim.kernels.reference`: the numpy oracles;
 -   :mod:`~radiosim.kernels.launch`: the entry points, buffers, thread settings;
 -   :mod:`~radiosim.kernels.engines`: the engines (compiled, numpy) and the choice between
     them. A GPU engine goes there: one new module and one entry in
-    :data:`~radiosim.kernels.engines.ENGINES`.
+    :data:`~radiosim.kernels.engines.ENGINES`;
+-   :mod:`~radiosim.kernels.merging`: jobs sharing footprints, merged frame by frame (or block
+    by block) through an engine (the integrator's compiled path).
 
 numba's on-disk cache tracks each compiled function's own file only; :mod:`~radiosim.kernels.cache`
 stamps every kernel with all the kernel sources instead, so editing ``intrinsics.py``,
@@ -101,15 +110,16 @@ from radiosim.kernels.engines import ENGINES, Engine, compiled_selected, get_eng
 from radiosim.kernels.intrinsics import fast_exp
 from radiosim.kernels.launch import (accumulate, accumulate_merged, apply_thread_settings,
                                      cache_location, compile_pending, parallel_launch,
-                                     pixel_mean, warmup)
+                                     pixel_mean, thread_count, warmup)
 from radiosim.kernels.reference import (Members, accumulate_merged_reference,
                                         accumulate_reference, pixel_mean_reference)
-from radiosim.kernels.table import RadianceKernelTable
+from radiosim.kernels.table import RadianceKernelTable, SignalTable
 
 __all__ = [
     "fast_exp",
     "parallel_launch",
     "apply_thread_settings",
+    "thread_count",
     "STATUS_OK",
     "STATUS_BAD_SAMPLE",
     "STATUS_BELOW_TABLE",
@@ -119,6 +129,7 @@ __all__ = [
     "SIGNAL_SCALAR",
     "SIGNAL_MAP",
     "SIGNAL_INDEX",
+    "SignalTable",
     "RadianceKernelTable",
     "pixel_mean",
     "pixel_mean_reference",

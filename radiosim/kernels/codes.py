@@ -1,6 +1,6 @@
 """
 The codes the compiled kernels and their Python side share: the status bits a launch returns
-and the signal modes of a :class:`~radiosim.kernels.table.RadianceKernelTable`. Inside the
+and the signal modes of a :class:`~radiosim.kernels.table.SignalTable`. Inside the
 compiled functions they are compile-time constants (numba freezes module globals).
 """
 
@@ -16,7 +16,7 @@ STATUS_BAD_SAMPLE = 1
 STATUS_BELOW_TABLE = 2
 #: A sample is above its radiance table: :func:`accumulate` raises, naming value and range.
 STATUS_ABOVE_TABLE = 4
-#: A table-index map value is not an entry of the :class:`RadianceKernelTable`: raises.
+#: A table-index map value is not an entry of the :class:`~radiosim.kernels.table.SignalTable`: raises.
 STATUS_BAD_INDEX = 8
 
 #: Signal modes of the kernel: no signal (the linear response: the signal is T), one grey

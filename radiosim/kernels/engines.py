@@ -16,9 +16,34 @@ stage), else the process setting (:func:`set_engine`), else the environment vari
 ``RADIOSIM_ENGINE``, else ``"compiled"``. :func:`compiled_selected` answers the scenes'
 question, whether their own compiled terms should run.
 
-A new engine (a GPU one, say) is one module beside this one implementing the three operations
-on the same arguments (its arrays may live on the device between calls), plus one entry in
-:data:`ENGINES`; nothing else in the chain changes.
+Adding an engine (a GPU one, say)
+---------------------------------
+It is one new module beside this one, ``radiosim/kernels/<engine>.py``, and one entry in
+:data:`ENGINES` here; nothing else in the chain changes (the integrator, the image stage and
+the chip scene reach engines only through :func:`get_engine` and :func:`compiled_selected`).
+The module implements the three operations with the arguments, checks, errors and return
+values of :mod:`radiosim.kernels.launch`:
+
+-   ``pixel_mean(frame, rows, cols, *, frame_index=0, threads=None)``;
+-   ``accumulate(frame, rows, cols, time_weight, reference, dev, sq, tmax, signal_acc=None,
+    response=None, *, frame_index=0, threads=None)``;
+-   ``accumulate_merged(frame, rows, cols, reference, members, weight, signal_weight,
+    response=None, *, moments=True, frame_index=0, threads=None)``.
+
+What it receives is engine-neutral: frames as numpy arrays (float32 or float64, possibly memory
+maps), footprints as :class:`~radiosim.kernels.layout.KernelAxis` (from
+:func:`~radiosim.kernels.layout.kernel_axis`), per-pixel float64 arrays, and the response's
+signal as a :class:`~radiosim.kernels.table.SignalTable` (the radiance tables' temperature
+grids [K] and cubic coefficients, the exact radiance below them, grey factors, grey and index
+maps) or ``None`` (the signal is T). It packs the table into its own format (as
+:func:`radiosim.kernels.packing.pack` does for the CPU kernels) and may keep that, e.g. on the
+device, in ``table.engine_data[<engine>]``, which the table's per-frame copies share. The
+argument checks are shared (:func:`~radiosim.kernels.layout.merged_arguments`,
+:func:`~radiosim.kernels.reference.checked_arguments`), and so is the treatment of a flagged
+frame (:mod:`radiosim.kernels.messages`: the errors; samples below the table redone by
+:func:`~radiosim.kernels.reference.accumulate_numpy`). Its tests compare it with the numpy
+engine (:mod:`radiosim.kernels.reference`, the oracle), as ``tests/test_kernels.py`` does for
+the compiled one.
 """
 
 from __future__ import annotations

@@ -3,12 +3,37 @@ Launching the compiled kernel: the public entry points :func:`pixel_mean`, :func
 and :func:`accumulate_merged` (argument checks, the table's arrays, per-thread buffers, blocks
 of pixel rows, several frames per call), the handling of a flagged frame (raise with the
 sample's message, or redo the rows below the table in numpy), and the process-wide settings of
-the parallel layer (:func:`apply_thread_settings`, :func:`parallel_launch`).
+the parallel layer (:func:`apply_thread_settings`, :func:`thread_count`, :func:`parallel_launch`).
+
+Thread settings
+---------------
+The compiled kernels run one short parallel region per call, many calls per second. numba runs
+them on its *threading layer*, chosen once per process when it first loads (numba's order: TBB
+if its library is installed, else OpenMP, else its own ``workqueue``; ``NUMBA_THREADING_LAYER``
+chooses). With OpenMP (GNU libgomp, the usual layer on Linux) idle threads spin about 300 000
+turns (milliseconds) after each region before they sleep; on a 2-core machine they then take
+the core of the thread that prepares the next frame. radiosim bounds the spin to
+``GOMP_SPINCOUNT=3000`` (about 0.05 ms: it covers the gap between two frames' regions).
+
+libgomp reads ``GOMP_SPINCOUNT`` and ``OMP_WAIT_POLICY`` once, when it is loaded, and numba
+loads it (its ``omppool`` layer) at the first of: a parallel kernel's compilation or load
+from the cache, its first call, or ``numba.get_num_threads()`` / ``numba.set_num_threads()``.
+``import radiosim`` (and ``import radiosim.kernels``) leaves ``os.environ`` unchanged, so the
+setting is made by :func:`apply_thread_settings`, which every radiosim path that can load the
+layer calls first: the launch functions here, :func:`thread_count` (radiosim's only way of
+asking numba for its thread count) and :func:`parallel_launch` (the chip scene's kernel). An
+explicit ``GOMP_SPINCOUNT`` or ``OMP_WAIT_POLICY`` in the environment wins (it is left as it
+is). If the layer was loaded before radiosim's first launch (by the user's own numba code, or
+another library that loaded libgomp), the setting cannot take effect any more; this is logged
+(``logging.INFO``), and ``GOMP_SPINCOUNT=3000`` set before Python starts gives the same result.
+With the TBB or workqueue layers the setting does nothing (they do not spin this way);
+workqueue launches are serialised (:func:`parallel_launch`).
 """
 
 from __future__ import annotations
 
 import contextlib
+import logging
 import os
 import threading
 
@@ -16,20 +41,25 @@ import numba
 import numpy as np
 
 from radiosim.errors import RadiosimError
-from radiosim.kernels.codes import (SIGNAL_MAP, SIGNAL_NONE, SIGNAL_SCALAR, STATUS_ABOVE_TABLE,
-                                    STATUS_BAD_INDEX, STATUS_BAD_SAMPLE, STATUS_BELOW_TABLE,
-                                    STATUS_OK)
-from radiosim.kernels.layout import (KernelAxis, frame_block, frames_of, kernel_axis,
-                                     read_only, rows_of)
+from radiosim.kernels.bundles import (Accumulators, FrameBlock, Merging, RowPieces,
+                                      ThreadBuffers)
+from radiosim.kernels.codes import (STATUS_ABOVE_TABLE, STATUS_BAD_INDEX, STATUS_BAD_SAMPLE,
+                                    STATUS_BELOW_TABLE, STATUS_OK)
+from radiosim.kernels.layout import (KernelAxis, frames_of, kernel_axis, merged_arguments,
+                                     read_only)
 from radiosim.kernels.messages import raise_above_table, raise_bad_index, raise_bad_sample
+from radiosim.kernels.packing import NO_TABLES, emissivity, pack
 from radiosim.kernels.reference import (Members, accumulate_numpy, checked_arguments,
-                                        merge_numpy, per_frame)
+                                        merge_numpy)
 from radiosim.kernels.rows import accumulate_kernel
 from radiosim.kernels.sweeps import MAX_ROWS
-from radiosim.kernels.table import RadianceKernelTable
+from radiosim.kernels.table import SignalTable
 
-__all__ = ["apply_thread_settings", "parallel_launch", "pixel_mean", "accumulate", "Members",
-           "accumulate_merged", "warmup", "compile_pending", "cache_location"]
+__all__ = ["apply_thread_settings", "thread_count", "parallel_launch", "pixel_mean",
+           "accumulate", "Members", "accumulate_merged", "warmup", "compile_pending",
+           "cache_location"]
+
+_LOG = logging.getLogger(__name__)
 
 _SETTINGS = threading.Lock()
 _SETTINGS_APPLIED = False
@@ -37,29 +67,48 @@ _SETTINGS_APPLIED = False
 
 def apply_thread_settings() -> None:
     """
-    Bound OpenMP's spin-wait between parallel regions, once per process, before the first
-    parallel kernel runs (every public launch function calls it first; idempotent).
+    Bound OpenMP's spin-wait between parallel regions (``GOMP_SPINCOUNT=3000`` unless the
+    environment sets ``GOMP_SPINCOUNT`` or ``OMP_WAIT_POLICY``), once per process, before
+    numba's threading layer loads (see the module's notes; idempotent, cheap after the first
+    call). Every radiosim path that may load the layer calls it first.
 
-    The compiled kernels run one short parallel region per frame. OpenMP's default waiting
+    The compiled kernels run one short parallel region per call. OpenMP's default waiting
     spins idle threads for about 300 000 turns (milliseconds) between regions; on a 2-core
     machine they then compete with the thread that prepares the next frame, and a region can
     stall for milliseconds (measured: 8 ms per launch). Sleeping at once
     (OMP_WAIT_POLICY=PASSIVE) costs a wake-up per region instead (measured: 0.05 ms per launch,
     10 % of a paper-sized frame). A short spin (GOMP_SPINCOUNT=3000, about 0.05 ms here) covers
-    the gap between two frames' regions and then sleeps: 0.005 ms per launch. It must be set
-    before numba loads its OpenMP layer (at the first compilation or cache load of a parallel
-    function, i.e. the first launch), which is why it is applied here and not at import
-    (``import radiosim`` leaves ``os.environ`` as it is); an explicit OMP_WAIT_POLICY or
-    GOMP_SPINCOUNT in the environment wins.
+    the gap between two frames' regions and then sleeps: 0.005 ms per launch.
     """
     global _SETTINGS_APPLIED
     if _SETTINGS_APPLIED:
         return
     with _SETTINGS:
         if not _SETTINGS_APPLIED:
-            if "OMP_WAIT_POLICY" not in os.environ:
-                os.environ.setdefault("GOMP_SPINCOUNT", "3000")
+            if "OMP_WAIT_POLICY" not in os.environ and "GOMP_SPINCOUNT" not in os.environ:
+                if _layer_loaded():
+                    _LOG.info("numba's threading layer was loaded before radiosim's first "
+                              "kernel launch: GOMP_SPINCOUNT=3000 cannot take effect (set it "
+                              "in the environment before Python starts)")
+                os.environ["GOMP_SPINCOUNT"] = "3000"
             _SETTINGS_APPLIED = True
+
+
+def _layer_loaded() -> bool:
+    """Whether numba's threading layer is loaded already (numba's private flag; False if it
+    moved)."""
+    try:
+        from numba.np.ufunc import parallel
+        return bool(parallel._is_initialized)
+    except (ImportError, AttributeError):
+        return False
+
+
+def thread_count() -> int:
+    """numba's current number of threads, after :func:`apply_thread_settings` (asking numba
+    loads its threading layer). radiosim asks through this function only."""
+    apply_thread_settings()
+    return numba.get_num_threads()
 
 
 _LAUNCH = threading.Lock()
@@ -85,24 +134,16 @@ def parallel_launch():
         yield
 
 
-_DUMMY_MAP = read_only(np.zeros(1))
-_DUMMY_INDEX = read_only(np.zeros(1, dtype=np.uint8))
 _DUMMY_SIGNAL = np.zeros((1, 1))
-# Table arguments of the kernel without a response (flat coefficients, k₀, shift, last interval,
-# row offset, T_min, T_max, entry tables, entry grey factors).
-_NO_TABLE = (np.zeros(4), np.zeros(1, dtype=np.int64), np.zeros(1, dtype=np.uint64),
-             np.zeros(1, dtype=np.intp),
-             np.zeros(1, dtype=np.uint64), np.zeros(1), np.full(1, np.inf),
-             np.zeros(1, dtype=np.intp), np.ones(1))
 
 
 _BUFFERS = threading.local()
 
 
-def _buffers(n_blocks: int, size: int, n_slots: int, dtype, index_dtype) -> tuple:
-    """Per-thread buffers for the duplicate slots' samples (frame rows, grey map row, index map
-    row), each as a writeable array and a read-only view of it, and the running maximum and
-    minimum of every slot (frame dtype)."""
+def _buffers(n_blocks: int, size: int, n_slots: int, dtype, index_dtype) -> ThreadBuffers:
+    """Per-thread buffers (:class:`~radiosim.kernels.bundles.ThreadBuffers`) for the duplicate
+    slots' samples (frame rows, grey map row, index map row), each as a writeable array and a
+    read-only view of it, and the running maximum and minimum of every slot (frame dtype)."""
     key = (n_blocks, size, n_slots, np.dtype(dtype), np.dtype(index_dtype))
     cache = _BUFFERS.__dict__.setdefault("cache", {})  # per calling thread
     cached = cache.get(key)
@@ -110,10 +151,9 @@ def _buffers(n_blocks: int, size: int, n_slots: int, dtype, index_dtype) -> tupl
         rows = np.empty((n_blocks, MAX_ROWS, size), dtype=dtype)
         grey = np.empty((n_blocks, size))
         index = np.empty((n_blocks, size), dtype=index_dtype)
-        extremes = (np.empty((n_blocks, n_slots), dtype=dtype),
-                    np.empty((n_blocks, n_slots), dtype=dtype))
-        cached = (rows, read_only(rows), grey, read_only(grey), index, read_only(index),
-                  *extremes)
+        cached = ThreadBuffers(rows, read_only(rows), grey, read_only(grey), index,
+                               read_only(index), np.empty((n_blocks, n_slots), dtype=dtype),
+                               np.empty((n_blocks, n_slots), dtype=dtype))
         if len(cache) > 8:
             cache.clear()
         cache[key] = cached
@@ -123,7 +163,7 @@ def _buffers(n_blocks: int, size: int, n_slots: int, dtype, index_dtype) -> tupl
 def _blocks(n_rows: int, threads: int | None = None) -> int:
     """Blocks of pixel rows: one per thread."""
     if threads is None:
-        threads = numba.get_num_threads()
+        threads = thread_count()
     elif not 1 <= int(threads) <= numba.config.NUMBA_NUM_THREADS:
         raise RadiosimError(f"threads must be in 1–{numba.config.NUMBA_NUM_THREADS}, got "
                             f"{threads!r}")
@@ -165,17 +205,6 @@ def pixel_mean(frame, rows, cols, *, frame_index: int = 0,
 
 
 _ZEROS: dict[tuple[int, int], np.ndarray] = {}
-_ONES: dict[int, np.ndarray] = {}
-
-
-def _ones(n: int) -> np.ndarray:
-    """A read-only row of n ones (the grey map row of a scalar grey factor)."""
-    ones = _ONES.get(n)
-    if ones is None:
-        _ONES.clear()
-        ones = _ONES[n] = read_only(np.ones(n))
-    return ones
-
 
 
 def _zeros(shape: tuple[int, int]) -> np.ndarray:
@@ -189,7 +218,7 @@ def _zeros(shape: tuple[int, int]) -> np.ndarray:
 
 def accumulate(frame, rows, cols, time_weight: float, reference: np.ndarray, dev: np.ndarray,
                sq: np.ndarray, tmax: np.ndarray, signal_acc: np.ndarray | None = None,
-               response: RadianceKernelTable | None = None, *, frame_index: int = 0,
+               response: SignalTable | None = None, *, frame_index: int = 0,
                threads: int | None = None) -> int:
     """
     Accumulate one frame into the per-pixel tensor statistics, in one pass over its pieces.
@@ -212,8 +241,8 @@ def accumulate(frame, rows, cols, time_weight: float, reference: np.ndarray, dev
         Per-pixel accumulators, float64 C-contiguous (pixel rows, pixel columns), updated in
         place; ``signal_acc`` only with a ``response``.
     response
-        :class:`RadianceKernelTable` (with the frame's emissivity maps), or ``None`` for no
-        signal (the linear response: the signal is T).
+        :class:`~radiosim.kernels.table.SignalTable` (with the frame's emissivity maps), or
+        ``None`` for no signal (the linear response: the signal is T).
     frame_index
         Frame index k, for error messages.
     threads
@@ -251,7 +280,7 @@ def accumulate(frame, rows, cols, time_weight: float, reference: np.ndarray, dev
 
 def accumulate_merged(frame, rows, cols, reference: np.ndarray, members: Members,
                       weight: np.ndarray, signal_weight: np.ndarray,
-                      response: RadianceKernelTable | None = None, *, moments: bool = True,
+                      response: SignalTable | None = None, *, moments: bool = True,
                       frame_index: int = 0, threads: int | None = None) -> int:
     """
     One frame into the accumulators of several jobs on the same footprints, in one pass: the
@@ -269,21 +298,14 @@ def accumulate_merged(frame, rows, cols, reference: np.ndarray, members: Members
     (no per-frame Python or thread start-up).
     """
     apply_thread_settings()  # before numba's parallel layer loads
-    rows, cols = kernel_axis(rows, "row"), kernel_axis(cols, "column")
-    block = frame_block(frame, rows, cols)
-    n_frames, n_jobs = block.shape[0], members.count.size
-    weight = per_frame(weight, n_frames, n_jobs, "weight")
-    signal_weight = per_frame(signal_weight, n_frames, n_jobs, "signal_weight")
-    if not moments:
-        weight = np.zeros_like(weight)
-    # n_b before each frame, and after the last, added up frame by frame.
-    counts = np.cumsum(np.vstack([members.count[None], weight]), axis=0)
-    merged = (True, bool(moments), weight, counts[:-1], signal_weight, members.mean,
-              members.m2, members.max, members.signal)
+    rows, cols, block, weight, signal_weight, counts = merged_arguments(
+        frame, rows, cols, members, weight, signal_weight, moments)
+    merged = Merging(True, bool(moments), weight, counts[:-1], signal_weight, members.mean,
+                     members.m2, members.max, members.signal)
 
     def handle(f, launched):
-        one = (True, bool(moments), weight[f], counts[f], signal_weight[f], members.mean,
-               members.m2, members.max, members.signal)
+        one = (bool(moments), weight[f], counts[f], signal_weight[f], members.mean, members.m2,
+               members.max, members.signal)
         return _finish(launched, block[f], rows, cols, frame_index + f, response, 1.0,
                        reference, None, None, None, None, (one, members))
 
@@ -295,9 +317,9 @@ def accumulate_merged(frame, rows, cols, reference: np.ndarray, members: Members
     return status
 
 
-_NO_MEMBERS = (False, False, np.zeros((1, 1)), np.zeros((1, 1)), np.zeros((1, 1)),
-               np.zeros((1, 1, 1)), np.zeros((1, 1, 1)), np.zeros((1, 1, 1)),
-               np.zeros((1, 1, 1)))
+_NO_MEMBERS = Merging(False, False, np.zeros((1, 1)), np.zeros((1, 1)), np.zeros((1, 1)),
+                      np.zeros((1, 1, 1)), np.zeros((1, 1, 1)), np.zeros((1, 1, 1)),
+                      np.zeros((1, 1, 1)))
 
 
 _SCRATCH: dict = {}
@@ -321,48 +343,26 @@ def _launch(block, rows: KernelAxis, cols: KernelAxis, time_weight, reference, d
     pixel rows that saw it; in frame order, ``handle(f, (OR of its rows' bits, the rows'
     status array, the table))`` deals with it (raises, or redoes the flagged rows) and returns
     a status, and those blocks go on from the next frame. Returns the OR of the handled
-    statuses (STATUS_OK if none)."""
+    statuses (STATUS_OK if none). The kernel's arguments travel in the named bundles of
+    :mod:`radiosim.kernels.bundles`."""
     shape = (rows.n_pixels, cols.n_pixels)
     base, row_length, frame_stride = frames_of(block)
-    frame_shape = block.shape[1:]
-    if response is None:
-        mode, signal, table = SIGNAL_NONE, _DUMMY_SIGNAL, None
-        grey_map, index_map, map_length, use_map, grey = _DUMMY_MAP, _DUMMY_INDEX, 0, False, 1.0
-        coef, key0, shift, last, offset, t_min, t_max, entry_table, entry_grey = _NO_TABLE
-    else:
-        if not isinstance(response, RadianceKernelTable):
-            raise RadiosimError(f"response must be a RadianceKernelTable or None, got "
-                                f"{type(response).__name__}")
-        signal = signal_acc if signal_acc is not None else _scratch(shape, 3)
-        response._check_maps(frame_shape)
-        mode = response._mode()
-        table = response
-        use_map = response.grey_scalar is None
-        # The kernel's grey factor: S = L · grey (SIGNAL_SCALAR), L · (grey · map) (SIGNAL_MAP),
-        # L · grey_e · grey or L · grey_e · map (SIGNAL_INDEX), as RadianceKernelTable.signal.
-        if mode == SIGNAL_SCALAR:
-            grey = response.entry_grey[0] * response.grey_scalar
-        elif mode == SIGNAL_MAP:
-            grey = response.entry_grey[0]
-        else:
-            grey = 1.0 if use_map else response.grey_scalar
-        grey_map, map_length = (rows_of(response.grey) if use_map
-                                else (_ones(frame_shape[1]), 0))
-        if response.index is not None:
-            index_map, map_length = rows_of(response.index)
-        else:
-            index_map = _DUMMY_INDEX
-        coef, key0, shift, last, offset = (response.coefficients, response.key0,
-                                           response.shift, response.last, response.offset)
-        t_min, t_max = response.t_min, response.t_max
-        entry_table, entry_grey = response.entry_table, response.entry_grey
     n_frames = block.shape[0]
+    frames = FrameBlock(base, row_length, frame_stride, n_frames)
+    if response is None:
+        signal, tables = _DUMMY_SIGNAL, NO_TABLES
+    else:
+        tables = pack(response)  # the engine's own format of the response's tables
+        signal = signal_acc if signal_acc is not None else _scratch(shape, 3)
+    signs = emissivity(response, block.shape[1:])
+    acc = Accumulators(time_weight, reference, dev, sq, tmax, signal)
     status = np.zeros((n_frames, rows.n_pixels), dtype=np.int64)
-    slot_runs, slot_weight, slot_of_piece, dup_source, col_bounds, layout = cols.slots
+    slots = cols.slots
     n_blocks = _blocks(rows.n_pixels, threads)
-    buffers = _buffers(n_blocks, max(1, dup_source.size), slot_weight.size, base.dtype,
-                       index_map.dtype)
+    buffers = _buffers(n_blocks, max(1, slots.dup_source.size), slots.weight.size, base.dtype,
+                       signs.index_map.dtype)
     members = merged if merged is not None else _NO_MEMBERS
+    row_pieces = RowPieces(rows.source, rows.weight, rows.bounds)
     start = np.zeros(n_blocks, dtype=np.int64)
     pending = np.full(n_blocks, -1, dtype=np.int64)  # a frame whose status awaits handling
     handled = STATUS_OK
@@ -373,13 +373,8 @@ def _launch(block, rows: KernelAxis, cols: KernelAxis, time_weight, reference, d
         while True:
             run = np.where(pending >= 0, n_frames, start)
             with parallel_launch():
-                stopped = accumulate_kernel(
-                    n_blocks, run, n_frames, frame_stride, base, row_length, rows.source,
-                    rows.weight, rows.bounds, cols.extent, slot_runs, slot_weight,
-                    slot_of_piece, dup_source, col_bounds, layout, time_weight, reference, dev,
-                    sq, tmax, signal, *members, mode, coef, key0, shift, last, offset, t_min,
-                    t_max, entry_table, entry_grey, float(grey), grey_map, index_map,
-                    map_length, use_map, *buffers, status)
+                stopped = accumulate_kernel(n_blocks, run, frames, row_pieces, slots, acc,
+                                            members, tables, signs, buffers, status)
             ran = run < n_frames
             pending[ran & (stopped < n_frames)] = stopped[ran & (stopped < n_frames)]
             start[ran] = np.minimum(stopped[ran] + 1, n_frames)
@@ -389,7 +384,7 @@ def _launch(block, rows: KernelAxis, cols: KernelAxis, time_weight, reference, d
             # stopped at or after it, so its flagged rows are handled in frame order.
             f = int(pending[pending >= 0].min())
             result = int(np.bitwise_or.reduce(status[f]))
-            handled |= handle(f, (result, status[f], table))
+            handled |= handle(f, (result, status[f], response))
             pending[pending == f] = -1
     finally:
         if numba.get_num_threads() != previous:
@@ -424,7 +419,7 @@ def _finish(launched, frame2d, rows: KernelAxis, cols: KernelAxis, frame_index, 
         signal_acc[flagged] += part_signal[local]
         tmax[flagged] = np.maximum(tmax[flagged], part_max[local])
         return STATUS_BELOW_TABLE
-    (_, moments, weight, count, signal_weight, mean, m2, peak, signal), _ = merged
+    (moments, weight, count, signal_weight, mean, m2, peak, signal), _ = merged
     merge_numpy(flagged, part_dev[local], part_sq[local], part_max[local], part_signal[local],
                 reference, moments, weight, count, signal_weight, mean, m2, peak, signal)
     return STATUS_BELOW_TABLE
@@ -452,12 +447,14 @@ def compile_pending(frame_dtypes=("float64",), index_dtypes=("uint8",), also=())
     files, compiles nothing): the command uses it to say, once, that a first run compiles.
     """
     names = accumulate_kernel.py_func.__code__.co_varnames
-    base, index = names.index("base"), names.index("index_map")
+    frames, signs = names.index("frames"), names.index("emissivity")
     cached = set()
     for signature in _fresh_signatures(accumulate_kernel):
-        try:
-            cached.add((str(signature[base].dtype), str(signature[index].dtype)))
-        except (AttributeError, IndexError, TypeError):
+        try:  # the bundles' numba types: named tuples with their fields' types
+            base = signature[frames].types[signature[frames].fields.index("base")]
+            index = signature[signs].types[signature[signs].fields.index("index_map")]
+            cached.add((str(base.dtype), str(index.dtype)))
+        except (AttributeError, IndexError, TypeError, ValueError):
             continue
     wanted = {(str(np.dtype(f)), str(np.dtype(i))) for f in frame_dtypes for i in index_dtypes}
     return not wanted <= cached or not all(_fresh_signatures(d) for d in also)
@@ -493,7 +490,8 @@ def warmup(progress=None, memmap_dir=None) -> dict:
     Compile (or load from numba's on-disk cache) every variant of the streaming kernel a
     measurement can launch, on tiny frames: float32 and float64 frames, in memory and as
     read-only numpy memory maps; no response (linear), and the radiance table (Planck) with a
-    grey scalar, a grey map, and emissivity index maps of uint8 and intp; through
+    grey scalar, a grey map, and emissivity index maps of uint8 and intp (converted to uint8:
+    one variant); through
     :func:`pixel_mean`, :func:`accumulate` and :func:`accumulate_merged`. Later processes load
     the compiled code from the cache (:func:`cache_location`) in well under a second.
 
@@ -524,12 +522,12 @@ def warmup(progress=None, memmap_dir=None) -> dict:
     table = BandRadianceTable(temperature_range=(200.0, 800.0), per_octave=16)
     grey_map = np.full(shape, 0.9)
     responses = [("linear", None),
-                 ("Planck, grey", RadianceKernelTable(table, grey=0.9)),
-                 ("Planck, grey map", RadianceKernelTable(table, grey=grey_map))]
+                 ("Planck, grey", SignalTable(table, grey=0.9)),
+                 ("Planck, grey map", SignalTable(table, grey=grey_map))]
     for name, dtype in (("uint8", np.uint8), ("intp", np.intp)):
         index = (np.arange(shape[0] * shape[1]) % 2).astype(dtype).reshape(shape)
         responses.append((f"Planck, {name} index map",
-                          RadianceKernelTable([table, table], grey=1.0, index=index,
+                          SignalTable([table, table], grey=1.0, index=index,
                                               entry_grey=[1.0, 0.8])))
     frames = np.full((2, *shape), 300.0) + np.arange(shape[1]) * 0.5
     total = 2 * 2 * len(responses)

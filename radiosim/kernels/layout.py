@@ -13,9 +13,10 @@ from dataclasses import dataclass
 import numpy as np
 
 from radiosim.errors import RadiosimError
+from radiosim.kernels.bundles import ColumnSlots
 
 __all__ = ["KernelAxis", "kernel_axis", "rows_of", "frames_of", "frame_region", "frame_block",
-           "per_pixel", "read_only"]
+           "per_pixel", "per_frame", "merged_arguments", "read_only"]
 
 
 @dataclass(frozen=True)
@@ -30,8 +31,9 @@ class KernelAxis:
     identity: bool  # the pieces are the region's samples, in order, each once
 
     @property
-    def slots(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray, int]:
-        """The kernels' column layout (see the comment on the compiled kernels): the runs of
+    def slots(self) -> ColumnSlots:
+        """The kernels' column layout (:class:`~radiosim.kernels.bundles.ColumnSlots`; see the
+        comment on the compiled kernels): the region's samples (the extent), the runs of
         slots of one pixel (start, stop, pixel; slots are the samples 0 … extent − 1, then the
         duplicate pieces), the weight of each slot (0 for a sample no piece reads), the slot of
         each piece, the sample of each duplicate slot, the piece bounds of the pixels (the
@@ -65,9 +67,9 @@ class KernelAxis:
             regular = bool(np.all(np.diff(slot_of_piece.astype(np.int64))[pairs] == 1)
                            and np.all(self.weight[:-1][pairs] == self.weight[1:][pairs]))
             layout = int(self.identity) | (2 if regular else 0)
-            cached = (slot_runs, slot_weight, slot_of_piece,
-                      self.source[duplicate].astype(np.uintp), self.bounds.astype(np.uintp),
-                      layout)
+            cached = ColumnSlots(n, slot_runs, slot_weight, slot_of_piece,
+                                 self.source[duplicate].astype(np.uintp),
+                                 self.bounds.astype(np.uintp), layout)
             object.__setattr__(self, "_slots", cached)
         return cached
 
@@ -211,6 +213,39 @@ def per_pixel(array, shape, name: str):
         raise RadiosimError(f"{name} must be a {'writeable ' if writeable else ''}C-contiguous "
                             f"float64 array of shape {shape} (one value per pixel)")
     return array
+
+
+def per_frame(values, n_frames: int, n_jobs: int, name: str) -> np.ndarray:
+    """Per-frame, per-job weights as a C-contiguous (frames, jobs) float64 array."""
+    try:
+        a = np.asarray(values, dtype=np.float64)
+        got = f"shape {a.shape}"
+    except (TypeError, ValueError):
+        a, got = np.zeros(0), "ragged or non-numeric values"
+    if a.ndim == 1:
+        a = a[None]
+    if a.shape != (n_frames, n_jobs):
+        raise RadiosimError(f"{name} must have shape ({n_jobs},) for one frame or "
+                            f"({n_frames}, {n_jobs}) for {n_frames} frames (one weight per "
+                            f"frame and job), got {got}")
+    return np.ascontiguousarray(a)
+
+
+def merged_arguments(frame, rows, cols, members, weight, signal_weight, moments: bool) -> tuple:
+    """The checked arguments of a merging accumulation (every engine's
+    ``accumulate_merged``): the axes' :class:`KernelAxis`, the 3-D frame block, the
+    (frames, jobs) ``weight`` (zeros without ``moments``) and ``signal_weight``, and the jobs'
+    total weights n_b before each frame and after the last, (frames + 1, jobs)."""
+    rows, cols = kernel_axis(rows, "row"), kernel_axis(cols, "column")
+    block = frame_block(frame, rows, cols)
+    n_frames, n_jobs = block.shape[0], members.count.size
+    weight = per_frame(weight, n_frames, n_jobs, "weight")
+    signal_weight = per_frame(signal_weight, n_frames, n_jobs, "signal_weight")
+    if not moments:
+        weight = np.zeros_like(weight)
+    # n_b before each frame, and after the last, added up frame by frame.
+    counts = np.cumsum(np.vstack([members.count[None], weight]), axis=0)
+    return rows, cols, block, weight, signal_weight, counts
 
 
 def read_only(array: np.ndarray) -> np.ndarray:

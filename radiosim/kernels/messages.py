@@ -11,7 +11,7 @@ import numpy as np
 from radiosim.checks import bad_sample_message
 from radiosim.errors import RadiosimError
 from radiosim.kernels.layout import KernelAxis
-from radiosim.kernels.table import RadianceKernelTable
+from radiosim.kernels.table import SignalTable
 
 __all__ = ["raise_bad_sample", "raise_bad_index", "raise_above_table", "check_samples"]
 
@@ -37,7 +37,7 @@ def raise_bad_sample(frame2d, rows: KernelAxis, cols: KernelAxis, k: int):
                                            int(c[j]) + cols.offset, int(bad.sum())))
 
 
-def _entries(response: RadianceKernelTable, r, c):
+def _entries(response: SignalTable, r, c):
     if response.index is None:
         return np.zeros((r.size, c.size), dtype=np.intp)
     return np.asarray(response.index[np.ix_(r, c)], dtype=np.intp)

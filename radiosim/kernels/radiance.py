@@ -129,8 +129,7 @@ def _signal_two(src, xo, yo, wx, wy, coef, key0, shift, node_mask, last, interva
 
 
 @numba.njit(**JIT)
-def _signal_row(x, g, e, used, w, mode, grey, use_map, coef, key0, shift, last, offset, t_min,
-                t_max, entry_table, entry_grey, interval, u, value, factor, a3):
+def _signal_row(x, g, e, used, w, mode, grey, use_map, tables, interval, u, value, factor, a3):
     """a3 += w · S(T) along one row of pieces ``x`` (grey map row ``g``, index map row ``e``), with
     S = L(T) · grey (SIGNAL_SCALAR), L(T) · (grey · map) (SIGNAL_MAP) or L_e(T) · grey_e (· map)
     with e from the index map (SIGNAL_INDEX); L the cubic of the sample's table (a row of the flat
@@ -140,7 +139,17 @@ def _signal_row(x, g, e, used, w, mode, grey, use_map, coef, key0, shift, last, 
     cubics (:func:`cubic`, eight samples at a time), the accumulation. Returns the status bits of
     the row's per-sample checks (SIGNAL_INDEX: table range and index; SIGNAL_SCALAR and SIGNAL_MAP
     check the range from the row's min and max instead; ``used`` > 0 marks the slots a piece reads,
-    the only ones checked). ``interval``, ``u``, ``value``, ``factor``: scratch."""
+    the only ones checked). ``tables``: :class:`~radiosim.kernels.bundles.PackedTables`;
+    ``interval``, ``u``, ``value``, ``factor``: scratch."""
+    coef = tables.coef
+    key0 = tables.key0
+    shift = tables.shift
+    last = tables.last
+    offset = tables.offset
+    t_min = tables.t_min
+    t_max = tables.t_max
+    entry_table = tables.entry_table
+    entry_grey = tables.entry_grey
     nq = a3.size
     status = 0
     if mode == SIGNAL_SCALAR or mode == SIGNAL_MAP:

@@ -10,11 +10,10 @@ from __future__ import annotations
 import numpy as np
 
 from radiosim.kernels.codes import STATUS_BELOW_TABLE, STATUS_OK
-from radiosim.errors import RadiosimError
-from radiosim.kernels.layout import (KernelAxis, frame_block, frame_region, kernel_axis,
+from radiosim.kernels.layout import (KernelAxis, frame_region, kernel_axis, merged_arguments,
                                      per_pixel)
 from radiosim.kernels.messages import check_samples
-from radiosim.kernels.table import RadianceKernelTable
+from radiosim.kernels.table import SignalTable
 
 __all__ = ["pixel_mean_reference", "accumulate_reference", "Members",
            "accumulate_merged_reference"]
@@ -70,7 +69,7 @@ def checked_arguments(frame, rows, cols, reference, dev, sq, tmax, signal_acc, r
 def accumulate_reference(frame, rows, cols, time_weight: float, reference: np.ndarray,
                          dev: np.ndarray, sq: np.ndarray, tmax: np.ndarray,
                          signal_acc: np.ndarray | None = None,
-                         response: RadianceKernelTable | None = None, *,
+                         response: SignalTable | None = None, *,
                          frame_index: int = 0) -> int:
     """:func:`accumulate` in plain numpy (float64, the integrator's reduceat arithmetic): the
     oracle, and the path for frames with samples below the radiance table. Same arguments,
@@ -78,7 +77,7 @@ def accumulate_reference(frame, rows, cols, time_weight: float, reference: np.nd
     rows, cols, frame2d = checked_arguments(frame, rows, cols, reference, dev, sq, tmax, signal_acc,
                                    response)
     if response is not None:
-        response._check_maps(frame2d.shape)
+        response.check_maps(frame2d.shape)
     below = check_samples(frame2d, rows, cols, frame_index, response)
     accumulate_numpy(frame2d, rows, cols, float(time_weight), reference, dev, sq, tmax,
                       signal_acc, response)
@@ -99,22 +98,6 @@ class Members:
         self.max = np.full((n_jobs, *shape), -np.inf)
         self.signal = np.zeros((n_jobs, *shape))
         self.count = np.zeros(n_jobs)
-
-
-def per_frame(values, n_frames: int, n_jobs: int, name: str) -> np.ndarray:
-    """Per-frame, per-job weights as a C-contiguous (frames, jobs) float64 array."""
-    try:
-        a = np.asarray(values, dtype=np.float64)
-        got = f"shape {a.shape}"
-    except (TypeError, ValueError):
-        a, got = np.zeros(0), "ragged or non-numeric values"
-    if a.ndim == 1:
-        a = a[None]
-    if a.shape != (n_frames, n_jobs):
-        raise RadiosimError(f"{name} must have shape ({n_jobs},) for one frame or "
-                            f"({n_frames}, {n_jobs}) for {n_frames} frames (one weight per "
-                            f"frame and job), got {got}")
-    return np.ascontiguousarray(a)
 
 
 def merge_numpy(rows, d, v1, t_max, s, reference, moments, weight, count, signal_weight, mean,
@@ -144,20 +127,15 @@ def merge_numpy(rows, d, v1, t_max, s, reference, moments, weight, count, signal
 
 def accumulate_merged_reference(frame, rows, cols, reference: np.ndarray, members: Members,
                                 weight: np.ndarray, signal_weight: np.ndarray,
-                                response: RadianceKernelTable | None = None, *,
+                                response: SignalTable | None = None, *,
                                 moments: bool = True, frame_index: int = 0,
                                 threads: int | None = None) -> int:
     """:func:`~radiosim.kernels.launch.accumulate_merged` in plain numpy: each frame's sums by
     :func:`accumulate_reference`, merged by :func:`merge_numpy`. Same arguments (``threads``
     is accepted and unused), checks, errors and return value."""
-    rows, cols = kernel_axis(rows, "row"), kernel_axis(cols, "column")
-    block = frame_block(frame, rows, cols)
-    n_frames, n_jobs = block.shape[0], members.count.size
-    weight = per_frame(weight, n_frames, n_jobs, "weight")
-    signal_weight = per_frame(signal_weight, n_frames, n_jobs, "signal_weight")
-    if not moments:
-        weight = np.zeros_like(weight)
-    counts = np.cumsum(np.vstack([members.count[None], weight]), axis=0)
+    rows, cols, block, weight, signal_weight, counts = merged_arguments(
+        frame, rows, cols, members, weight, signal_weight, moments)
+    n_frames = block.shape[0]
     shape = reference.shape
     every = np.arange(shape[0])
     status = STATUS_OK

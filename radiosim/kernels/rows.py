@@ -13,6 +13,7 @@ import numba
 import numpy as np
 from numba import prange
 
+from radiosim.kernels.bundles import ThreadBuffers
 from radiosim.kernels.codes import SIGNAL_INDEX, SIGNAL_MAP, SIGNAL_NONE, SIGNAL_SCALAR
 from radiosim.kernels.intrinsics import INF, JIT
 from radiosim.kernels.radiance import _signal_row, _signal_rows
@@ -134,25 +135,30 @@ def _pixel_sums_regular(a1, a2, a3, am, an, slot_weight, slot_of_piece, col_boun
 
 
 @numba.njit(**JIT)
-def _commit_row(i, a1, a2, a3, am, an, slot_weight, slot_of_piece, col_bounds, layout,
-                time_weight, with_signal, t_low, t_high, reference, dev, sq, tmax, signal,
-                merge, moments, member_weight, member_count, signal_weight, m_mean, m_m2,
-                m_max, m_signal, s1, s2, s3, sm, status):
+def _commit_row(i, a1, a2, a3, am, an, cols, acc, members, f, with_signal, t_low, t_high, s1,
+                s2, s3, sm, status):
     """Add the pieces to the row's pixels (pixel row ``i``) and check the slots they read (NaN
     propagates into a1, +inf into am, T ≤ 0 and T below the table show in an), in one pass;
     commit them unless the row has a status (``status``: bits found so far). Returns the row's
     status.
-    ``layout``: bit 0, slot q is piece q (the pieces are the samples); bit 1, each pixel's
-    interior pieces (all but its first and last) lie on consecutive slots with one weight
-    (:attr:`KernelAxis.slots`); s1, s2, s3, sm: per-pixel scratch.
+    ``cols``: :class:`~radiosim.kernels.bundles.ColumnSlots` (its ``layout``: bit 0, slot q is
+    piece q; bit 1, each pixel's interior pieces lie on consecutive slots with one weight);
+    s1, s2, s3, sm: per-pixel scratch.
 
-    Without ``merge``: dev, sq, signal += time_weight × the frame's Σ w (T − c), Σ w (T − c)²,
-    Σ w S, and tmax = max(tmax, max T) (row i of the per-pixel accumulators). With ``merge``:
-    the frame's mean m = c + Σ w (T − c) and variance v = max(Σ w (T − c)² − (Σ w (T − c))², 0)
-    are merged into every member job b of weight w_b = member_weight[b] > 0 (Chan et al.:
-    δ = m − mean, M2 += w_b v + δ² n_b w_b / n', mean += δ w_b / n', n' = n_b + w_b; the
-    maximum), unless ``moments`` is off; signals add signal_weight[b] × Σ w S; and the reference
-    row becomes m (the next frame's c)."""
+    Without ``members.merge``: dev, sq, signal += time_weight × the frame's Σ w (T − c),
+    Σ w (T − c)², Σ w S, and tmax = max(tmax, max T) (row i of ``acc``,
+    :class:`~radiosim.kernels.bundles.Accumulators`). With it
+    (:class:`~radiosim.kernels.bundles.Merging`, frame ``f``'s row of weights): the frame's
+    mean m = c + Σ w (T − c) and variance v = max(Σ w (T − c)² − (Σ w (T − c))², 0) are merged
+    into every member job b of weight w_b = weight[f, b] > 0 (Chan et al.: δ = m − mean,
+    M2 += w_b v + δ² n_b w_b / n', mean += δ w_b / n', n' = n_b + w_b; the maximum), unless
+    ``moments`` is off; signals add signal_weight[f, b] × Σ w S; and the reference row becomes
+    m (the next frame's c)."""
+    slot_weight = cols.weight
+    slot_of_piece = cols.of_piece
+    col_bounds = cols.bounds
+    layout = cols.layout
+    reference = acc.reference
     n_pixels = col_bounds.size - 1
     identity = (layout & 1) != 0
     if (layout & 2) != 0:
@@ -164,8 +170,13 @@ def _commit_row(i, a1, a2, a3, am, an, slot_weight, slot_of_piece, col_bounds, l
                               identity, with_signal, t_low, t_high, s1, s2, s3, sm)
     if status:
         return status
-    if not merge:  # the accumulators indexed [i, j], [b, i, j]: no row views (a view of an
-        # array is a reference count, an atomic operation the threads would share)
+    if not members.merge:  # the accumulators indexed [i, j], [b, i, j]: no row views (a view
+        # of an array is a reference count, an atomic operation the threads would share)
+        time_weight = acc.time_weight
+        dev = acc.dev
+        sq = acc.sq
+        tmax = acc.tmax
+        signal = acc.signal
         for j in range(n_pixels):
             dev[i, j] += time_weight * s1[j]
             sq[i, j] += time_weight * s2[j]
@@ -175,20 +186,27 @@ def _commit_row(i, a1, a2, a3, am, an, slot_weight, slot_of_piece, col_bounds, l
             for j in range(n_pixels):
                 signal[i, j] += time_weight * s3[j]
         return 0
-    for b in range(member_weight.size):
-        w = signal_weight[b]
+    member_weight = members.weight
+    member_count = members.count
+    signal_weight = members.signal_weight
+    m_mean = members.mean
+    m_m2 = members.m2
+    m_max = members.max
+    m_signal = members.signal
+    for b in range(member_weight.shape[1]):
+        w = signal_weight[f, b]
         if with_signal and w > 0.0:
             for j in range(n_pixels):
                 m_signal[b, i, j] += w * s3[j]
-    if moments:
+    if members.moments:
         for j in range(n_pixels):  # the frame's mean and variance over each footprint
             v = s2[j] - s1[j] * s1[j]
             s2[j] = v if v > 0.0 else 0.0
             s1[j] = reference[i, j] + s1[j]
-        for b in range(member_weight.size):
-            w = member_weight[b]
+        for b in range(member_weight.shape[1]):
+            w = member_weight[f, b]
             if w > 0.0:
-                n = member_count[b]
+                n = member_count[f, b]
                 total = n + w
                 share = w / total
                 spread = n * w / total
@@ -207,12 +225,13 @@ def _commit_row(i, a1, a2, a3, am, an, slot_weight, slot_of_piece, col_bounds, l
 def _rows12(row_source, p, n, length):
     """The uint64 offsets, in a flat array of rows of ``length`` elements, of sample rows
     ``row_source[p + h]`` for h < 12 (rows past n − 1 repeat the last)."""
-    return (_row(row_source, p, 0, n, length), _row(row_source, p, 1, n, length),
-            _row(row_source, p, 2, n, length), _row(row_source, p, 3, n, length),
-            _row(row_source, p, 4, n, length), _row(row_source, p, 5, n, length),
-            _row(row_source, p, 6, n, length), _row(row_source, p, 7, n, length),
-            _row(row_source, p, 8, n, length), _row(row_source, p, 9, n, length),
-            _row(row_source, p, 10, n, length), _row(row_source, p, 11, n, length))
+    h = np.int64(0)  # not a literal: one compilation of _row, not one per h
+    return (_row(row_source, p, h, n, length), _row(row_source, p, h + 1, n, length),
+            _row(row_source, p, h + 2, n, length), _row(row_source, p, h + 3, n, length),
+            _row(row_source, p, h + 4, n, length), _row(row_source, p, h + 5, n, length),
+            _row(row_source, p, h + 6, n, length), _row(row_source, p, h + 7, n, length),
+            _row(row_source, p, h + 8, n, length), _row(row_source, p, h + 9, n, length),
+            _row(row_source, p, h + 10, n, length), _row(row_source, p, h + 11, n, length))
 
 
 @numba.njit(**JIT)
@@ -223,28 +242,43 @@ def _row(row_source, p, h, n, length):
 
 
 @numba.njit(**JIT)
-def _accumulate_rows(i_start, i_stop, base, row_length, row_source, row_weight, row_bounds,
-                     n_samples, slot_runs, slot_weight, slot_of_piece, dup_source, col_bounds,
-                     layout, time_weight, reference, dev, sq, tmax, signal, merge, moments,
-                     member_weight, member_count, signal_weight, m_mean, m_m2, m_max, m_signal,
-                     mode, coef, key0, shift, last, offset, t_min, t_max, entry_table, entry_grey,
-                     grey,
-                     grey_map, index_map, map_length, use_map, rows_w, rows_r, grey_w, grey_r,
-                     index_w, index_r, am, an, status):
-    """Pixel rows i_start to i_stop − 1 of :func:`accumulate_kernel` (one thread's block).
-    rows_w/rows_r, grey_w/grey_r, index_w/index_r: this thread's buffers for the duplicate
-    slots' samples, each written through the first array and read through the second (a
-    read-only view of the same memory, so that the gathered rows have the type of the frame's
-    rows: one compilation serves both); am, an: this thread's running maximum and minimum per
-    slot, in the frame's dtype.
+def _accumulate_rows(i_start, i_stop, base, row_length, rows, cols, acc, members, f, tables,
+                     emissivity, thread, status):
+    """Pixel rows i_start to i_stop − 1 of frame ``f`` (its samples from ``base``, rows
+    ``row_length`` apart) of :func:`accumulate_kernel`: one thread's block, with its row of
+    the :class:`~radiosim.kernels.bundles.ThreadBuffers` (``thread``): buffers for the
+    duplicate slots' samples, each written through the first array and read through the second
+    (a read-only view of the same memory, so that the gathered rows have the type of the
+    frame's rows: one compilation serves both), and the running maximum and minimum per slot,
+    in the frame's dtype. ``status``: frame f's status per pixel row.
 
     Each pixel row is swept along the columns in chunks of CHUNK slots, up to MAX_ROWS sample
     rows per sweep (all of them, for pixels of up to MAX_ROWS pieces), so the accumulators are
     read and written once per chunk while the frame's rows stream through."""
+    row_source = rows.source
+    row_weight = rows.weight
+    row_bounds = rows.bounds
+    slot_weight = cols.weight
+    dup_source = cols.dup_source
+    reference = acc.reference
+    mode = emissivity.mode
+    grey = emissivity.grey
+    grey_map = emissivity.grey_map
+    index_map = emissivity.index_map
+    map_length = emissivity.map_length
+    use_map = emissivity.use_map
+    rows_w = thread.rows_w
+    rows_r = thread.rows_r
+    grey_w = thread.grey_w
+    grey_r = thread.grey_r
+    index_w = thread.index_w
+    index_r = thread.index_r
+    am = thread.am
+    an = thread.an
     n_slots = slot_weight.size
-    ns = n_samples
+    ns = cols.n_samples
     n_dups = dup_source.size
-    n_pixels = col_bounds.size - 1
+    n_pixels = cols.bounds.size - 1
     with_signal = mode != SIGNAL_NONE
     # The slot accumulators in one buffer, their starts 576 bytes apart modulo 4096: loads of
     # one and stores to another never alias in the address bits the CPU compares first.
@@ -263,14 +297,15 @@ def _accumulate_rows(i_start, i_stop, base, row_length, row_source, row_weight, 
     s2 = np.empty(n_pixels)
     s3 = np.empty(n_pixels)
     sm = np.empty(n_pixels)
-    table = entry_table[0]
-    t_low = t_min[table] if (mode == SIGNAL_SCALAR or mode == SIGNAL_MAP) else -INF
-    t_high = t_max[table] if (mode == SIGNAL_SCALAR or mode == SIGNAL_MAP) else INF
-    # Modes 1 and 2: the one table's rows and grid.
-    table_rows = coef[np.uint64(offset[table]) * np.uint64(4):]
-    table_key0 = key0[table]
-    table_shift = np.uint64(shift[table])
-    table_last = np.uint64(last[table])
+    table = tables.entry_table[0]
+    one_table = mode == SIGNAL_SCALAR or mode == SIGNAL_MAP
+    t_low = tables.t_min[table] if one_table else -INF
+    t_high = tables.t_max[table] if one_table else INF
+    # SIGNAL_SCALAR and SIGNAL_MAP: the one table's rows and grid.
+    table_rows = tables.coef[np.uint64(tables.offset[table]) * np.uint64(4):]
+    table_key0 = tables.key0[table]
+    table_shift = np.uint64(tables.shift[table])
+    table_last = np.uint64(tables.last[table])
     # Slot bounds and offsets as uint64 (the sweeps index with them).
     zero = np.uint64(0)
     samples_u = np.uint64(ns)
@@ -285,7 +320,7 @@ def _accumulate_rows(i_start, i_stop, base, row_length, row_source, row_weight, 
                    np.uint64(9) * size - samples_u, np.uint64(10) * size - samples_u,
                    np.uint64(11) * size - samples_u)
     for i in range(i_start, i_stop):
-        _setup_row(reference, i, slot_runs, with_signal, ce, a3)
+        _setup_row(reference, i, cols.runs, with_signal, ce, a3)
         row_status = np.int64(0)  # not a literal: one compilation of _commit_row
         p = row_bounds[i]
         start = p
@@ -339,47 +374,37 @@ def _accumulate_rows(i_start, i_stop, base, row_length, row_source, row_weight, 
                                 e = index_r
                             row_status |= _signal_row(
                                 x, g, e, slot_weight[lo_i:hi_i], ws[h], mode, grey, use_map,
-                                coef, key0, shift, last, offset, t_min, t_max, entry_table,
-                                entry_grey, interval, u, value, factor, a3[lo_i:hi_i])
+                                tables, interval, u, value, factor, a3[lo_i:hi_i])
             p += n
-        status[i] = _commit_row(i, a1, a2, a3, am, an, slot_weight, slot_of_piece, col_bounds,
-                                layout, time_weight, with_signal, t_low, t_high, reference,
-                                dev, sq, tmax, signal,
-                                merge, moments, member_weight, member_count, signal_weight,
-                                m_mean, m_m2, m_max, m_signal, s1, s2, s3, sm, row_status)
+        status[i] = _commit_row(i, a1, a2, a3, am, an, cols, acc, members, f, with_signal,
+                                t_low, t_high, s1, s2, s3, sm, row_status)
 
 
 @numba.njit(parallel=True, **JIT)
-def accumulate_kernel(n_blocks, start, n_frames, frame_stride, base, row_length, row_source,
-                       row_weight, row_bounds, n_samples, slot_runs, slot_weight, slot_of_piece,
-                       dup_source, col_bounds, layout, time_weight, reference, dev, sq, tmax,
-                       signal, merge, moments, member_weight, member_count, signal_weight,
-                       m_mean, m_m2, m_max, m_signal, mode, coef, key0, shift, last, offset,
-                       t_min, t_max, entry_table, entry_grey, grey, grey_map, index_map,
-                       map_length, use_map, rows_w, rows_r, grey_w, grey_r, index_w, index_r, am,
-                       an, status):
+def accumulate_kernel(n_blocks, start, frames, rows, cols, acc, members, tables, emissivity,
+                      buffers, status):
     """The frames' pixel rows in ``n_blocks`` contiguous blocks, one per thread (block b uses
-    buffers [b]); frame f starts at ``base[f * frame_stride]``, and member_weight,
-    member_count, signal_weight and status have one row per frame. Block b takes frames
+    row b of ``buffers``); frame f starts at ``frames.base[f * frames.frame_stride]``, and the
+    merging weights (``members``) and ``status`` have one row per frame. Block b takes frames
     start[b] … n_frames − 1 of its rows, one after the other, without waiting for the other
     blocks (no barrier per frame), and stops after its first frame with a status. Returns,
-    per block, that frame, or n_frames."""
-    n_rows = row_bounds.size - 1
+    per block, that frame, or n_frames. The bundles: :mod:`radiosim.kernels.bundles`."""
+    n_frames = frames.n_frames
+    frame_stride = frames.frame_stride
+    base = frames.base
+    n_rows = rows.bounds.size - 1
     stopped = np.full(n_blocks, n_frames, dtype=np.int64)
     for b in prange(n_blocks):
         first_row = b * n_rows // n_blocks
         stop_row = (b + 1) * n_rows // n_blocks
+        thread = ThreadBuffers(buffers.rows_w[b], buffers.rows_r[b], buffers.grey_w[b],
+                               buffers.grey_r[b], buffers.index_w[b], buffers.index_r[b],
+                               buffers.am[b], buffers.an[b])
         for f in range(start[b], n_frames):
             row_status = status[f]
-            _accumulate_rows(first_row, stop_row, base[f * frame_stride:], row_length,
-                             row_source, row_weight, row_bounds, n_samples, slot_runs,
-                             slot_weight, slot_of_piece, dup_source, col_bounds, layout,
-                             time_weight, reference, dev, sq, tmax, signal, merge, moments,
-                             member_weight[f], member_count[f], signal_weight[f], m_mean, m_m2,
-                             m_max, m_signal, mode, coef, key0, shift, last, offset, t_min,
-                             t_max, entry_table, entry_grey, grey, grey_map, index_map,
-                             map_length, use_map, rows_w[b], rows_r[b], grey_w[b], grey_r[b],
-                             index_w[b], index_r[b], am[b], an[b], row_status)
+            _accumulate_rows(first_row, stop_row, base[f * frame_stride:], frames.row_length,
+                             rows, cols, acc, members, f, tables, emissivity, thread,
+                             row_status)
             bad = 0
             for i in range(first_row, stop_row):
                 bad |= row_status[i]

@@ -1,8 +1,14 @@
 """
-The radiance tables packed for the kernels (:class:`RadianceKernelTable`): the coefficient
-rows of one or more :class:`~radiosim.radiometry.BandRadianceTable` in one flat array, their
-grids, the entries' grey factors and the frame's grey and index maps, with the numpy
-evaluation of the signal (:meth:`RadianceKernelTable.signal`, the reference).
+The response's signal as tables, engine-neutral (:class:`SignalTable`): what a response
+(:meth:`radiosim.response.Response.signal_table`) hands to the integration engines. It holds
+no engine's format: each entry's :class:`~radiosim.radiometry.BandRadianceTable` (its
+temperature grid ``temperatures`` [K], nodes T_k, and ``coefficients`` (intervals, 4), the
+cubic of the radiance in T − T_k on each interval, highest power first [signal unit K⁻³,
+K⁻², K⁻¹, 1]; the range ``temperature_range`` [K] it answers over), the exact radiance for
+samples below it, the entries' grey factors and the frame's grey and index maps, with the numpy
+evaluation of the signal (:meth:`SignalTable.signal`, every engine's reference). An engine packs
+it into its own format (the compiled CPU engine: :func:`radiosim.kernels.packing.pack`) and may
+keep that in :attr:`SignalTable.engine_data`.
 """
 
 from __future__ import annotations
@@ -16,15 +22,16 @@ from radiosim.errors import RadiosimError
 from radiosim.kernels.codes import SIGNAL_INDEX, SIGNAL_MAP, SIGNAL_SCALAR
 from radiosim.radiometry import BandRadianceTable, band_radiance
 
-__all__ = ["RadianceKernelTable"]
+__all__ = ["SignalTable", "RadianceKernelTable"]
 
 _UNCHANGED = object()
 
 
-class RadianceKernelTable:
+class SignalTable:
     """
-    One or more :class:`~radiosim.radiometry.BandRadianceTable` packed for the kernels, with the
-    emissivity of every sample: S(T) = L_e(T) · grey_e · grey, where e is the sample's *entry*.
+    The signal S(T) = L_e(T) · grey_e · grey of every sample [signal unit, e.g. photons s⁻¹
+    m⁻² sr⁻¹], where e is the sample's *entry*: one or more
+    :class:`~radiosim.radiometry.BandRadianceTable` (L_e), with the emissivity of every sample.
 
     Emissivity forms:
 
@@ -58,9 +65,9 @@ class RadianceKernelTable:
     --------
     >>> from radiosim.radiometry import BandRadianceTable
     >>> table = BandRadianceTable(temperature_range=(200.0, 1500.0), per_octave=64)
-    >>> packed = RadianceKernelTable(table, exact={"band": table.band}, grey=0.9)
-    >>> packed.n_entries, table.intervals, packed.coefficients.shape
-    (1, 210, (840,))
+    >>> signal = SignalTable(table, exact={"band": table.band}, grey=0.9)
+    >>> signal.n_entries, table.intervals, table.coefficients.shape, signal.mode
+    (1, 210, (210, 4), 1)
     """
 
     def __init__(self, tables, exact=None, grey=1.0, index=None, entry_grey=None):
@@ -93,22 +100,21 @@ class RadianceKernelTable:
         if len(exact) != n:
             raise RadiosimError(f"exact must be one specification or {n}, got {len(exact)}")
         self.exact = exact
-        # The tables' coefficient rows one after the other (table j's from row offset[j]), as
-        # one flat array for the kernels: the cubic's coefficients of each interval, highest
-        # power of T − T_k first.
-        self.offset = np.cumsum([0] + [t.intervals for t in unique[:-1]]).astype(np.uint64)
-        self.coefficients = np.concatenate([t.coefficients for t in unique]).reshape(-1)
-        self.key0 = np.array([t.key0 for t in unique], dtype=np.int64)
-        self.shift = np.array([t.shift for t in unique], dtype=np.uint64)
-        self.last = np.array([t.intervals - 1 for t in unique], dtype=np.intp)
+        #: The distinct tables, in entry order (a table serving several entries once).
+        self.unique_tables = tuple(unique)
+        #: The range each distinct table answers over [K] (samples below it take the exact
+        #: radiance, samples above it are refused).
         self.t_min = np.array([t.temperature_range[0] for t in unique])
         self.t_max = np.array([t.temperature_range[1] for t in unique])
+        #: What engines keep for this table (their packed forms, by engine name); shared with
+        #: the copies :meth:`with_maps` makes.
+        self.engine_data: dict = {}
         self._set_maps(grey, index)
 
     @classmethod
     def build(cls, band=(3.8e-6, 5.1e-6), quantity: str = "photon", responsivity=None,
               emissivity=(1.0,), temperature_range=(150.0, 3000.0),
-              per_octave: int | None = None, grey=1.0, index=None) -> "RadianceKernelTable":
+              per_octave: int | None = None, grey=1.0, index=None) -> "SignalTable":
         """
         Tables and exact radiances for a band and responsivity, one entry per emissivity
         (scalar: the blackbody table with that grey factor; spectral: its own table).
@@ -159,7 +165,7 @@ class RadianceKernelTable:
                 raise RadiosimError(f"grey map shape {self.grey.shape} and index map shape "
                                     f"{self.index.shape} differ")
 
-    def with_maps(self, grey=_UNCHANGED, index=_UNCHANGED) -> "RadianceKernelTable":
+    def with_maps(self, grey=_UNCHANGED, index=_UNCHANGED) -> "SignalTable":
         """The same tables with other grey and/or index maps (e.g. those of the next frame)."""
         other = object.__new__(type(self))
         other.__dict__.update(self.__dict__)
@@ -171,12 +177,18 @@ class RadianceKernelTable:
     def n_entries(self) -> int:
         return int(self.entry_table.size)
 
-    def _mode(self) -> int:
+    @property
+    def mode(self) -> int:
+        """How the samples' emissivity is given (:mod:`radiosim.kernels.codes`):
+        SIGNAL_SCALAR (one entry, a grey factor), SIGNAL_MAP (one entry, a grey map) or
+        SIGNAL_INDEX (an index map of entries)."""
         if self.index is not None:
             return SIGNAL_INDEX
         return SIGNAL_SCALAR if self.grey_scalar is not None else SIGNAL_MAP
 
-    def _check_maps(self, shape):
+    def check_maps(self, shape):
+        """Raise unless the maps fit a frame region of ``shape`` (and several entries have an
+        index map)."""
         if self.index is None and self.n_entries > 1:
             raise RadiosimError(f"{self.n_entries} radiance table entries need an index map "
                                 "(the entry of every sample): see with_maps")
@@ -224,3 +236,7 @@ class RadianceKernelTable:
                 factor = self.entry_grey[e] * factor_map[here]
             out[here] = radiance * factor
         return out
+
+
+#: The former name of :class:`SignalTable`.
+RadianceKernelTable = SignalTable

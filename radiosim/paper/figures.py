@@ -13,7 +13,8 @@ from pathlib import Path
 import numpy as np
 
 from radiosim.paper.columns import COLUMN_NAMES, column_index, has_columns
-from radiosim.plotting import figure, load_results, plot_versus, save_figure, select
+from radiosim.plotting import (few_ticks, figure, fixed_axes, load_results, plot_versus,
+                               save_figure, select, title_block, wrap_text)
 from radiosim.units import CELSIUS_OFFSET
 
 __all__ = ["preview_scene", "plot_peak", "plot_column_i", "plot_column_profiles",
@@ -102,15 +103,35 @@ def preview_scene(scene, t=None, path=None, columns=True, pixel_pitch=6e-6):
     return fig
 
 
+#: Margins [in] of the paper's plots (fixed: the figures are laid out without measuring every
+#: text, and drawn once): room for tick labels and an axis label left of and below the axes.
+_LEFT, _RIGHT, _BOTTOM, _GAP = 0.85, 0.2, 0.62, 0.95
+#: Height [in] an axes title of ``lines`` lines at ``size`` [pt] takes above its axes (with
+#: matplotlib's 6 pt pad).
+_AXES_TITLE_PAD = 6 / 72
+
+
+def _axes_title_height(lines, size):
+    return (1.2 * lines + 0.1) * size / 72 + _AXES_TITLE_PAD
+
+
 def _two_panels(rows, sweeps, y_key, err_key, scene_key, subject):
-    fig = figure(11, 4.6)
-    _suptitle(fig, f"{subject}: reading of each camera against the scene; {ERROR_BARS}")
-    left, right = fig.subfigures(1, 2)
+    width, height = 11, 4.6
+    fig = figure(width, height, layout=None)
+    top = title_block(fig, f"{subject}: reading of each camera against the scene; {ERROR_BARS}")
+    panel = (width - _LEFT - _RIGHT - _GAP) / 2
+    nbsp = "\u00a0"  # the tensor's shape is not broken across lines
+    titles = [wrap_text(fig, f"A) {subject} vs integration time "
+                        f"({nbsp.join('9 × 9 × n'.split())})", panel, 10),
+              wrap_text(fig, f"B) {subject} vs sensor area ({nbsp.join('p × p × 1'.split())})",
+                        panel, 10)]
+    lines = max(t.count("\n") + 1 for t in titles)
+    left, right = fixed_axes(fig, 1, 2, _LEFT, _RIGHT, _BOTTOM,
+                             top + _axes_title_height(lines, 10) + 0.04, wspace=_GAP)
     plot_versus(left, select(rows, sweeps[0]), "integration_time_us", y_key, err_key,
-                scene_key, "integration time [µs]",
-                f"A) {subject} vs integration time (9 × 9 × n)")
+                scene_key, "integration time [µs]", titles[0])
     plot_versus(right, select(rows, sweeps[1]), "sensor_area_um2", y_key, err_key, scene_key,
-                "sensor element area [µm²]", f"B) {subject} vs sensor area (p × p × 1)")
+                "sensor element area [µm²]", titles[1])
     return fig
 
 
@@ -131,11 +152,13 @@ def plot_column_profiles(rows, folder, scene, sweep="integration-time", camera="
     """Figure 6: vertical temperature profiles along Columns I, II and III, one line per
     integration time, with the scene's event frame. ``cache`` as in :func:`plot_maps`."""
     mine = sorted(select(rows, sweep, camera=camera), key=lambda r: r["integration_time_us"])
-    fig = figure(12, 4.8)
-    _suptitle(fig, f"Figure 6: vertical profiles of the camera {camera!r} "
-              f"({mine[0]['response'] if mine else ''} response) along Columns I–III, one line "
-              "per integration time, centred on the shear band; black: the scene's event frame")
-    axes = fig.subplots(1, 3, sharey=True)
+    fig = figure(12, 4.8, layout=None)
+    top = title_block(fig, f"Figure 6: vertical profiles of the camera {camera!r} "
+                      f"({mine[0]['response'] if mine else ''} response) along Columns I–III, "
+                      "one line per integration time, centred on the shear band; black: the "
+                      "scene's event frame")
+    axes = fixed_axes(fig, 1, 3, _LEFT, _RIGHT, _BOTTOM, top + _axes_title_height(1, 12) + 0.04,
+                      wspace=0.2, sharey=True)
     event = scene.temperature(scene.event_time) if hasattr(scene, "temperature") else None
     for ax, name in zip(axes, ("I", "II", "III")):
         for r in mine:
@@ -149,8 +172,9 @@ def plot_column_profiles(rows, folder, scene, sweep="integration-time", camera="
             j = column_index(scene, scene.dx, name)
             y = (scene.shape[0] - np.arange(scene.shape[0]) - 0.5) * scene.dx * 1e6
             ax.plot(event[:, j] - CELSIUS_OFFSET, y, color="black", lw=0.8, label="scene, event frame")
-        ax.set_title(f"Column {name}")
+        ax.set_title(f"Column {name}", y=1.0)
         ax.set_xlabel("temperature [°C]")
+        few_ticks(ax, 5, 7)
     axes[0].set_ylabel("y [µm]")
     axes[0].legend(fontsize=7)
     return fig
@@ -162,25 +186,28 @@ def plot_long_integration(rows, history, sweep="long-integration"):
     and its reading at an integration time equal to the position on the axis [°C]; below, the
     standard deviation of the scene over the same tensor [K].
     """
-    fig = figure(8, 6.5)
-    top, bottom = fig.subplots(2, 1, sharex=True)
     mine = sorted(select(rows, sweep), key=lambda r: r["integration_time_us"])
     camera = mine[0]["camera"] if mine else ""
-    _suptitle(fig, f"Figure 8: the Column I pixel where the shear band peaks, camera {camera!r}; "
-              "windows start at the event frame")
+    fig = figure(8, 6.5, layout=None)
+    top = title_block(fig, f"Figure 8: the Column I pixel where the shear band peaks, camera "
+                      f"{camera!r}; windows start at the event frame")
+    top_ax, bottom = fixed_axes(fig, 2, 1, _LEFT, _RIGHT, _BOTTOM, top + 0.1, hspace=0.15,
+                                sharex=True)
     if history:
-        top.plot([h["time_us"] for h in history], [h["mean_C"] for h in history], lw=0.8,
-                 color="tab:blue", label="pixel footprint mean, instantaneous (x = time)")
+        top_ax.plot([h["time_us"] for h in history], [h["mean_C"] for h in history], lw=0.8,
+                    color="tab:blue", label="pixel footprint mean, instantaneous (x = time)")
     x = [r["integration_time_us"] for r in mine]
-    top.plot(x, [r["peak_C"] for r in mine], "o-", color="tab:red",
-             label="reading (x = integration time)")
-    top.set_ylabel("temperature [°C]")
-    top.legend(fontsize=8)
+    top_ax.plot(x, [r["peak_C"] for r in mine], "o-", color="tab:red",
+                label="reading (x = integration time)")
+    top_ax.set_ylabel("temperature [°C]")
+    top_ax.legend(fontsize=8)
     bottom.plot(x, [r["peak_uncertainty_K"] for r in mine], "s-", color="tab:green",
                 label="standard deviation over the tensor (x = integration time)")
     bottom.set_ylabel("standard deviation [K]")
     bottom.set_xlabel("time since the event frame's start; integration time [µs]")
     bottom.legend(fontsize=8)
+    few_ticks(top_ax, 8, 7)
+    few_ticks(bottom, 8, 7)
     return fig
 
 
@@ -193,34 +220,62 @@ def plot_maps(folder, rows, cases, cache=None):
     value in every case of the row. ``cache`` (optional) maps EXR names to measurements
     already read, and is filled with the ones read here.
     """
-    fig = figure(3.2 * len(cases) + 1.5, 8.8)
-    _suptitle(fig, "Figures 9–11: maps of each case (columns); rows: the reading, the paper's "
-              "peak error (tensor max − reading, > 0 when the camera reads low) and its "
-              "uncertainty (tensor standard deviation); one colour scale per row")
-    axes = fig.subplots(3, len(cases), squeeze=False)
     titles = ("apparent temperature [°C]", "peak error [K]", "uncertainty [K]")
     row_names = ("Fig. 9: reading", "Fig. 10: peak error", "Fig. 11: uncertainty")
     maps = [[] for _ in titles]
-    for c, row in enumerate(cases):
+    labels, extents = [], []
+    for row in cases:
         m = _read(folder, row["exr"], cache)
         pitch = m.camera.fpa.pixel_pitch * 1e6
         extent = (0, m.shape[1] * pitch, 0, m.shape[0] * pitch)
+        extents.append(extent)
         fields = (m.apparent_temperature - CELSIUS_OFFSET, m.tensor_max - m.apparent_temperature,
                   m.tensor_std)
         for r, values in enumerate(fields):
             maps[r].append((values, extent))
         p = round(row["pixel_samples"], 3)
-        label = (f"{p:g}×{p:g}×{row['n_frames']:g} "
-                 f"({row['integration_time_us']:g} µs, {row['camera']})")
-        axes[0, c].set_title(label, fontsize=9)
+        labels.append(f"{p:g}×{p:g}×{row['n_frames']:g} "
+                      f"({row['integration_time_us']:g} µs, {row['camera']})")
+    # One map 2.75 in wide, as tall as the first case's field. Maps of one extent are drawn
+    # side by side with ticks on the outer ones only (fewer texts to lay out and draw).
+    shared = all(np.allclose(e, extents[0], rtol=1e-9, atol=0) for e in extents)
+    n = len(cases)
+    width = 2.75
+    aspect = (extents[0][3] / extents[0][1]) if extents and extents[0][1] > 0 else 0.75
+    height = width * min(max(aspect, 0.2), 2.0)
+    left, gap = 1.0, (0.2 if shared else 0.85)
+    rowgap = 0.2 if shared else 0.6
+    bar_gap, bar, right = 0.12, 0.14, 0.95
+    fig_width = left + n * width + (n - 1) * gap + bar_gap + bar + right
+    fig = figure(fig_width, 1.0, layout=None)  # its height once the title's lines are known
+    top = title_block(fig, "Figures 9–11: maps of each case (columns); rows: the reading, the "
+                      "paper's peak error (tensor max − reading, > 0 when the camera reads low) "
+                      "and its uncertainty (tensor standard deviation); one colour scale per row")
+    labels = [wrap_text(fig, label, width, 9) for label in labels]
+    top += _axes_title_height(max(label.count("\n") + 1 for label in labels), 9) + 0.04
+    fig_height = top + 3 * height + 2 * rowgap + _BOTTOM
+    fig.set_size_inches(fig_width, fig_height)  # the title stays where it is from the top
+    axes = fixed_axes(fig, 3, n, left, bar_gap + bar + right, _BOTTOM, top, wspace=gap,
+                      hspace=rowgap, squeeze=False)
+    for c, label in enumerate(labels):
+        axes[0, c].set_title(label, fontsize=9, y=1.0)
     for r, (title, name) in enumerate(zip(titles, row_names)):
         vmin, vmax = _limits([values for values, _ in maps[r]])
         for c, (values, extent) in enumerate(maps[r]):
-            image = axes[r, c].imshow(values, extent=extent, cmap="inferno", origin="upper",
-                                      vmin=vmin, vmax=vmax, rasterized=True)
-            axes[r, c].set_xlabel("x [µm]")
-            axes[r, c].set_ylabel(f"{name}\ny [µm]" if c == 0 else "y [µm]")
-        fig.colorbar(image, ax=axes[r, :], shrink=0.9, label=title, pad=0.01, aspect=12)
+            ax = axes[r, c]
+            image = ax.imshow(values, extent=extent, cmap="inferno", origin="upper", vmin=vmin,
+                              vmax=vmax, interpolation="nearest")
+            if shared and r < 2:
+                ax.set_xticks([])
+            else:
+                ax.set_xlabel("x [µm]")
+            if shared and c > 0:
+                ax.set_yticks([])
+            else:
+                ax.set_ylabel(f"{name}\ny [µm]" if c == 0 else "y [µm]")
+        box = axes[r, -1].get_position()
+        cax = fig.add_axes((box.x1 + bar_gap / fig_width, box.y0, bar / fig_width, box.height))
+        fig.colorbar(image, cax=cax, label=title)
     return fig
 
 
@@ -235,22 +290,14 @@ def _limits(arrays):
 
 def _read(folder, name, cache=None):
     """The measurement in EXR file ``name`` of ``folder``, read once per ``cache``."""
+    if cache is not None and name in cache:
+        return cache[name]
     from radiosim.io.exr import read_exr
 
-    if cache is None:
-        return read_exr(Path(folder) / name)
-    if name not in cache:
-        cache[name] = read_exr(Path(folder) / name)
-    return cache[name]
-
-
-def _suptitle(fig, text, fontsize=9):
-    """A figure title, wrapped to the figure's width so that no end is cut off."""
-    import textwrap
-
-    # Characters per line: DejaVu Sans averages about 0.6 em per character; 8 % margin.
-    width = 0.92 * fig.get_figwidth() * 72 / (0.6 * fontsize)
-    fig.suptitle(textwrap.fill(text, int(width)), fontsize=fontsize)
+    measurement = read_exr(Path(folder) / name)
+    if cache is not None:
+        cache[name] = measurement
+    return measurement
 
 
 def make_figures(folder, scene=None, camera="linear") -> list[Path]:

@@ -13,13 +13,13 @@ from __future__ import annotations
 
 import math
 
-import numba
 import numpy as np
 
-from radiosim.kernels import parallel_launch
+from radiosim.kernels import parallel_launch, thread_count
 from radiosim.scenes.base import Region
 from radiosim.scenes.segmented_chip.geometry import Geometry, RegionData
-from radiosim.scenes.segmented_chip.kernel import PAD, KernelConstants, moving_terms_kernel
+from radiosim.scenes.segmented_chip.kernel import (PAD, KernelConstants, RunLayout,
+                                                   moving_terms_kernel)
 from radiosim.scenes.segmented_chip.parameters import ChipParameters
 from radiosim.scenes.segmented_chip.profiles import FADE_REACH
 from radiosim.scenes.segmented_chip.reference import band_terms, forming_base, forming_reach, phase
@@ -120,6 +120,8 @@ class KernelLayout:
             ambient=float(p.ambient_temperature))
         self.constants = k
         self.x = np.concatenate([r.x, np.full(PAD, r.x[-1] if r.x.size else 0.0)])  # padded
+        #: The kernel's bundle of the above (:class:`~.kernel.RunLayout`).
+        self.run_layout = RunLayout(self.x, self.ptr, self.runs, self.fade, self.fade_rows)
         # Work per row, summed, for blocks of rows of equal work: relative costs (fitted to
         # timings of row blocks on one core) of a copied sample 1, and of a sample of the
         # modulation 8 (its two fields come from memory), of the released bands 6, of the
@@ -142,7 +144,7 @@ class KernelLayout:
         about equal work, _BLOCKS per thread (with one thread, one block)."""
         work = self.work[forming]
         rows = work.size - 1
-        threads = max(1, min(numba.get_num_threads(), rows))
+        threads = max(1, min(thread_count(), rows))
         bounds = self._bounds.get((threads, forming))
         if bounds is None:
             count = max(1, min(threads * _BLOCKS, rows)) if threads > 1 else 1
@@ -186,9 +188,8 @@ def evaluate_compiled(p: ChipParameters, r: RegionData, layout: KernelLayout, t:
     extremes = np.empty((threads, 2), dtype=np.int64)
     with parallel_launch():
         moving_terms_kernel(threads, blocks, r.static, r.regions, temperature, regions,
-                            want_regions, forming, layout.x, r.y, frame, grid, terms, nodes,
-                            r.cos_field, r.sin_field, layout.ptr, layout.runs, layout.fade,
-                            layout.fade_rows, extremes)
+                            want_regions, forming, r.y, frame, grid, terms, nodes, r.cos_field,
+                            r.sin_field, layout.run_layout, extremes)
     # Every value finite and > 0 K (see moving_terms_kernel): the frame's check is done.
     clean = temperature.size == 0 or bool(extremes[:, 0].min() > 0
                                           and extremes[:, 1].max() < _INF_BITS)

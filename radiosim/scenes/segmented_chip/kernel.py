@@ -17,7 +17,8 @@ implementations differ by rounding only (< 1e-15 relative in temperature, the re
 identical).
 
 The kernel's scalars travel in one named bundle, :class:`KernelConstants` (a numba-supported
-named tuple of floats): the grid's constants, set once per region, and five set per frame.
+named tuple of floats): the grid's constants, set once per region, and five set per frame; the
+region's runs and fades in another, :class:`RunLayout` (no function takes over 20 arguments).
 Everything here compiles on first use and is cached on disk; importing compiles nothing.
 
 References
@@ -35,7 +36,7 @@ from numba import prange
 
 from radiosim.kernels import fast_exp
 
-__all__ = ["KernelConstants", "SET_PERIODIC", "SET_CHIP", "SET_FORMING", "SET_SURFACE", "PAD",
+__all__ = ["KernelConstants", "RunLayout", "SET_PERIODIC", "SET_CHIP", "SET_FORMING", "SET_SURFACE", "PAD",
            "moving_terms_kernel", "kernel_coordinates"]
 
 _JIT = dict(cache=True, fastmath=False, nogil=True, error_model="numpy", boundscheck=False)
@@ -69,6 +70,22 @@ class KernelConstants(NamedTuple):
     min_t: float  #: h_min [m]
     span_t: float  #: h_max − h_min [m]
     ambient: float  #: air temperature [K]
+
+
+class RunLayout(NamedTuple):
+    """Where the moving terms act (:class:`~.compiled.KernelLayout`, once per region): the index
+    sets as runs of columns per row, and the rake-face fade of each row's faded columns."""
+
+    #: float64, columns + PAD: the columns' x coordinates [m], padded with finite values.
+    x: np.ndarray
+    #: int64 (4, rows + 1): the runs of index set s on row i are ``ptr[s, i]:ptr[s, i + 1]``.
+    ptr: np.ndarray
+    #: int64 (runs, 3): first column, end column, and (modulation) first field sample of a run.
+    runs: np.ndarray
+    #: float64: the fades of the faded columns, row after row.
+    fade: np.ndarray
+    #: int64 (rows + 1, 2): each row's first fade in ``fade`` and first faded column.
+    fade_rows: np.ndarray
 
 
 # Index sets, in the order the kernel applies them (rows of the layout's run pointers).
@@ -234,11 +251,15 @@ def _modulation_span(row, cos_field, sin_field, ca, sa):
 
 
 @numba.njit(**_JIT)
-def _frame_row(i, static, regions_static, out, regions_out, want_regions, forming, x, y, k,
-               profile, cos_field, sin_field, ptr, runs, fade, fade_rows, scratch, f_saturated,
-               sigma_saturated):
+def _frame_row(i, static, regions_static, out, regions_out, want_regions, forming, y, k,
+               profile, cos_field, sin_field, layout, scratch, f_saturated, sigma_saturated):
     """Row i of the frame: the static row, then the moving terms on the row's runs
-    (``scratch``: three rows of space, padded)."""
+    (``layout``: :class:`RunLayout`; ``scratch``: three rows of space, padded)."""
+    x = layout.x
+    ptr = layout.ptr
+    runs = layout.runs
+    fade = layout.fade
+    fade_rows = layout.fade_rows
     row = out[i]
     _copy(row, static[i])
     region_row = regions_out[0]
@@ -297,13 +318,14 @@ def _band_profile(grid, terms, nodes, sin_b):
 
 @numba.njit(parallel=True, **_JIT)
 def moving_terms_kernel(threads, bounds, static, regions_static, out, regions_out,
-                        want_regions, forming, x, y, k, grid, terms, nodes, cos_field, sin_field,
-                        ptr, runs, fade, fade_rows, extremes):
+                        want_regions, forming, y, k, grid, terms, nodes, cos_field, sin_field,
+                        layout, extremes):
     """The frame over the region: rows bounds[b] … bounds[b + 1] − 1 in block b, the blocks
     dealt to ``threads`` threads in turn (so that each thread's work spans the frame, and the
     threads' shares are even however the blocks' work was estimated). ``out`` (and, with
-    ``want_regions``, ``regions_out``) is written in full. ``x`` holds the columns' x
-    coordinates and PAD more (any finite values). The released bands' profile on ``grid`` is
+    ``want_regions``, ``regions_out``) is written in full. ``layout`` (:class:`RunLayout`)
+    holds the runs, the fades and the columns' x coordinates and PAD more (any finite
+    values); ``k`` the scalars (:class:`KernelConstants`). The released bands' profile on ``grid`` is
     computed first, from the bands' ``terms`` (ζ_k, σ_k², amplitude) on their ``nodes``.
     ``extremes[thread]``: the least and greatest bit pattern (as int64) of the values the
     thread wrote — as integers, positive finite floats keep their order, and any value ≤ 0 K
@@ -327,8 +349,8 @@ def moving_terms_kernel(threads, bounds, static, regions_static, out, regions_ou
         for b in range(thread, n_blocks, threads):
             for i in range(bounds[b], bounds[b + 1]):
                 _frame_row(i, static, regions_static, out, regions_out, want_regions, forming,
-                           x, y, k, profile, cos_field, sin_field, ptr, runs, fade, fade_rows,
-                           scratch, f_saturated, sigma_saturated)
+                           y, k, profile, cos_field, sin_field, layout, scratch, f_saturated,
+                           sigma_saturated)
                 for j in range(i * n_cols, (i + 1) * n_cols):
                     v = bits[j]
                     low = v if v < low else low

@@ -20,7 +20,6 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from scipy.signal import fftconvolve
 from scipy.special import erfc
 
 from radiosim.scenes.segmented_chip.parameters import ChipParameters
@@ -75,6 +74,8 @@ def jaeger_band_source(p: ChipParameters, s_max: float, n_max: float, step: floa
         g = np.where(r > 0, 2 * np.sqrt(r) * np.exp(-ratio)
                      - 2 * np.sqrt(np.pi * c) * erfc(np.sqrt(ratio)), 0.0)
     kernel = np.diff(g, axis=1)  # ∫ over [m·step, (m+1)·step] of r^{−½} e^{−c/r} dr
+    from scipy.signal import fftconvolve  # here: scipy.signal loads scipy.stats (~1 s)
+
     # I(s_j) = Σ_{i<j} q_i · kernel[j − 1 − i]
     conv = fftconvolve(kernel, q[None, :], axes=1)[:, : s.size - 1]
     field_ = np.zeros((n.size, s.size))

@@ -1,0 +1,184 @@
+"""The paper's figures (radiosim.paper.figures) and the plotting helpers they are laid out with:
+the same data, titles, labels and legends, every text inside the figure, lines that coincide
+kept apart, and a layout drawn once (no layout engine)."""
+
+from types import SimpleNamespace
+
+import numpy as np
+import pytest
+
+from radiosim.paper import figures as F
+from radiosim.plotting import figure, fixed_axes, save_figure, wrap_text
+
+TIMES = (1.0, 10.0, 25.0, 45.0, 60.0, 75.0, 90.0)
+AREAS = (4.0, 16.0, 36.0, 64.0, 100.0, 144.0, 196.0)
+
+
+def _rows():
+    """A study's results rows, two cameras reading alike (the linear and Planck peaks of the
+    paper's Figure 5B nearly coincide)."""
+    rows = []
+    for camera in ("linear", "planck"):
+        lift = 0.0 if camera == "linear" else 0.5
+        for t in TIMES:
+            rows.append({"sweep": "integration-time", "camera": camera, "response": camera,
+                         "integration_time_us": t, "sensor_area_um2": 35.0,
+                         "peak_C": 740.0 - t + lift, "peak_uncertainty_K": 5.0 + t / 3,
+                         "peak_scene_C": 744.0, "column_I_C": 560.0 - 2 * t + lift,
+                         "column_I_uncertainty_K": 10.0, "column_I_scene_C": 568.0})
+        for a in AREAS:
+            rows.append({"sweep": "size-of-source", "camera": camera, "response": camera,
+                         "integration_time_us": 0.2, "sensor_area_um2": a,
+                         "peak_C": 738.0 - a / 4 + lift / 10, "peak_uncertainty_K": a / 8,
+                         "peak_scene_C": 740.0, "column_I_C": 568.0 - a / 10,
+                         "column_I_uncertainty_K": 2.0, "column_I_scene_C": 568.3})
+    return rows
+
+
+def _texts_outside(fig):
+    """The texts ``fig`` draws (visible, non-empty; tick labels of ticks within their axis's
+    view) that reach beyond its edges by more than a pixel."""
+    from matplotlib.text import Text
+
+    fig.canvas.draw()
+    renderer = fig.canvas.get_renderer()
+    undrawn = set()
+    for ax in fig.axes:
+        for axis in (ax.xaxis, ax.yaxis):
+            low, high = sorted(axis.get_view_interval())
+            slack = 1e-9 * max(1.0, abs(high - low))
+            for loc, tick in zip(axis.get_majorticklocs(), axis.get_major_ticks()):
+                if not low - slack <= loc <= high + slack:
+                    undrawn.update((id(tick.label1), id(tick.label2)))
+    box = fig.bbox
+    outside = []
+    for text in fig.findobj(Text):
+        if not text.get_visible() or not text.get_text().strip() or id(text) in undrawn:
+            continue
+        extent = text.get_window_extent(renderer)
+        if (extent.x0 < box.x0 - 1 or extent.x1 > box.x1 + 1 or extent.y0 < box.y0 - 1
+                or extent.y1 > box.y1 + 1):
+            outside.append(text.get_text())
+    return outside
+
+
+def test_figure_5_shows_each_camera_and_the_scene_peak_within_the_figure():
+    rows = _rows()
+    fig = F.plot_peak(rows)
+    assert fig.get_layout_engine() is None  # laid out once, by hand: drawn once when saved
+    left, right = fig.axes
+    title = " ".join(fig.get_suptitle().split())  # wrapped to the figure, same words
+    assert title == ("Figure 5, peak temperature: reading of each camera against the scene; "
+                     + F.ERROR_BARS)
+    assert " ".join(left.get_title().split()) == ("A) Figure 5, peak temperature vs "
+                                                  "integration time (9 × 9 × n)")
+    assert " ".join(right.get_title().split()) == ("B) Figure 5, peak temperature vs sensor "
+                                                   "area (p × p × 1)")
+    assert left.get_xlabel() == "integration time [µs]"
+    assert right.get_xlabel() == "sensor element area [µm²]"
+    assert left.get_ylabel() == right.get_ylabel() == "temperature [°C]"
+    for ax in (left, right):
+        labels = ax.get_legend_handles_labels()[1]
+        assert sorted(labels) == ["linear", "planck", "scene peak"]
+    # The same data: each camera's line through its rows' readings, in order of the sweep.
+    lines = {c.get_label(): c.lines[0] for c in right.containers}
+    assert sorted(lines) == ["linear", "planck"]
+    for camera, line in lines.items():
+        mine = [r for r in rows if r["sweep"] == "size-of-source" and r["camera"] == camera]
+        np.testing.assert_array_equal(np.asarray(line.get_xdata(), float), AREAS)
+        np.testing.assert_array_equal(np.asarray(line.get_ydata(), float),
+                                      [r["peak_C"] for r in mine])
+    # Lines that coincide stay apart: different markers, fills and line styles.
+    linear, planck = lines["linear"], lines["planck"]
+    assert linear.get_marker() != planck.get_marker()
+    assert linear.get_linestyle() != planck.get_linestyle()
+    assert "none" in (str(linear.get_markerfacecolor()), str(planck.get_markerfacecolor()))
+    assert _texts_outside(fig) == []
+
+
+def test_figure_7_titles_fit_and_are_wrapped_not_cut():
+    fig = F.plot_column_i(_rows())
+    assert "Figure 7, shear band peak in Column I" in fig.get_suptitle()
+    assert _texts_outside(fig) == []
+
+
+def test_figure_8_draws_the_history_and_the_readings():
+    rows = [{"sweep": "long-integration", "camera": "linear", "response": "linear",
+             "integration_time_us": t, "peak_C": 300.0 + t, "peak_uncertainty_K": 100.0 + t}
+            for t in (1.0, 45.0, 90.0, 725.0)]
+    history = [{"time_us": t, "mean_C": 200.0 + (t % 90)} for t in np.arange(0.0, 725.0, 0.2)]
+    fig = F.plot_long_integration(rows, history)
+    top, bottom = fig.axes
+    assert [line.get_label() for line in top.get_lines()] == [
+        "pixel footprint mean, instantaneous (x = time)", "reading (x = integration time)"]
+    assert list(bottom.get_lines()[0].get_ydata()) == [101.0, 145.0, 190.0, 825.0]
+    assert bottom.get_xlabel() == "time since the event frame's start; integration time [µs]"
+    assert _texts_outside(fig) == []
+
+
+def _measurement(seed, shape=(12, 16), pitch=6e-6):
+    rng = np.random.default_rng(seed)
+    apparent = 300.0 + 400.0 * rng.random(shape)
+    return SimpleNamespace(apparent_temperature=apparent,
+                           tensor_max=apparent + 20.0 * rng.random(shape),
+                           tensor_std=10.0 * rng.random(shape), shape=shape,
+                           camera=SimpleNamespace(fpa=SimpleNamespace(pixel_pitch=pitch)))
+
+
+def test_the_maps_share_one_colour_scale_per_row_and_label_the_outer_axes(tmp_path):
+    cases = [{"exr": f"exr/{i}.exr", "pixel_samples": 9.0, "n_frames": n,
+              "integration_time_us": t, "camera": "linear"}
+             for i, (n, t) in enumerate(((1, 0.2), (451, 90.0)))]
+    cache = {c["exr"]: _measurement(i) for i, c in enumerate(cases)}
+    fig = F.plot_maps(tmp_path, [], cases, cache=cache)
+    maps = [ax for ax in fig.axes if ax.get_images()]
+    bars = [ax for ax in fig.axes if not ax.get_images()]
+    assert len(maps) == 6 and len(bars) == 3
+    assert sorted(ax.get_ylabel() for ax in bars) == ["apparent temperature [°C]",
+                                                      "peak error [K]", "uncertainty [K]"]
+    for r in range(3):  # one colour scale per row
+        limits = {ax.get_images()[0].get_clim() for ax in maps[2 * r:2 * r + 2]}
+        assert len(limits) == 1
+    first = maps[0].get_images()[0].get_array()
+    np.testing.assert_array_equal(first, cache["exr/0.exr"].apparent_temperature - 273.15)
+    assert maps[0].get_ylabel() == "Fig. 9: reading\ny [µm]"
+    assert maps[4].get_xlabel() == "x [µm]" and maps[0].get_xlabel() == ""
+    assert maps[1].get_yticks().size == 0 and maps[0].get_yticks().size > 0  # outer ticks only
+    assert [ax.get_title() for ax in maps[:2]] == ["9×9×1 (0.2 µs, linear)",
+                                                   "9×9×451 (90 µs, linear)"]
+    assert _texts_outside(fig) == []
+
+
+def test_wrap_text_keeps_the_words_and_fits_the_width():
+    fig = figure(6, 2, layout=None)
+    text = "Figure 6: vertical profiles of the camera 'linear' along Columns I–III, one line " \
+           "per integration time"
+    wrapped = wrap_text(fig, text, 2.0, 9)
+    assert wrapped.replace("\n", " ") == text
+    from radiosim.plotting import _text_width
+
+    assert all(_text_width(fig, line, 9) <= 2.0 for line in wrapped.splitlines())
+    assert wrap_text(fig, "short", 2.0, 9) == "short"
+
+
+def test_fixed_axes_are_placed_in_inches_and_refuse_no_room():
+    fig = figure(10, 5, layout=None)
+    left, right = fixed_axes(fig, 1, 2, left=1.0, right=0.5, bottom=0.5, top=1.0, wspace=1.0)
+    assert left.get_position().x0 == pytest.approx(0.1)
+    assert right.get_position().x1 == pytest.approx(0.95)
+    assert (right.get_position().x0 - left.get_position().x1) * 10 == pytest.approx(1.0)
+    assert left.get_position().y1 == pytest.approx(0.8)
+    from radiosim.errors import RadiosimError
+
+    with pytest.raises(RadiosimError, match="no room"):
+        fixed_axes(figure(2, 2, layout=None), 1, 2, left=1.0, right=1.0, bottom=0.5, top=0.5)
+
+
+def test_save_figure_writes_a_png_of_the_figure_size(tmp_path):
+    from PIL import Image
+
+    fig = figure(4, 3, dpi=50, layout=None)
+    fig.add_subplot().plot([0, 1], [1, 0])
+    path = save_figure(fig, tmp_path / "a.png", dpi=50)
+    with Image.open(path) as image:
+        assert image.format == "PNG" and image.size == (200, 150)

@@ -1,0 +1,61 @@
+"""The local-cluster policy (radiosim.scheduling.worth_a_cluster): a cluster only where it pays.
+No cluster is started here: the policy is arithmetic on measured constants."""
+
+import logging
+
+import pytest
+
+from radiosim.errors import RadiosimError
+from radiosim.scheduling import (CLUSTER_START_SECONDS, CLUSTER_TASK_FACTOR, cluster_overhead,
+                                 local_workers, worth_a_cluster)
+
+
+def test_the_default_study_runs_in_process_with_two_workers_on_two_cores():
+    # 44 measurements of about 0.3 s (the msec2009 study, warm): 13 s alone, 20 s on a cluster.
+    gain, reason = worth_a_cluster(44, 0.3, 2, cores=2)
+    assert not gain
+    assert "measuring in this process" in reason and "\n" not in reason
+    assert "44 measurements" in reason and "2 cores" in reason
+
+
+def test_long_work_goes_to_the_cluster():
+    gain, reason = worth_a_cluster(400, 2.0, 2, cores=2)  # 800 s alone, 10 + 600 s shared
+    assert gain and reason.endswith("starting it")
+
+
+def test_the_break_even_follows_the_model():
+    # alone = n s; cluster = start + n s × factor / 2 on 2 cores; chosen where ≤ 90 % of alone.
+    n = 100
+    s_even = CLUSTER_START_SECONDS / (n * (0.9 - CLUSTER_TASK_FACTOR / 2))
+    assert worth_a_cluster(n, s_even * 1.01, 2, cores=2)[0]
+    assert not worth_a_cluster(n, s_even * 0.99, 2, cores=2)[0]
+
+
+def test_one_core_or_one_measurement_never_gains():
+    assert not worth_a_cluster(1000, 10.0, 2, cores=1)[0]  # no second core to share the work
+    assert not worth_a_cluster(1, 1000.0, 2, cores=2)[0]  # one task: nothing to share
+
+
+def test_more_workers_than_cores_cost_more_to_start():
+    assert cluster_overhead(4, cores=2) == pytest.approx(2 * cluster_overhead(2, cores=2))
+    assert cluster_overhead(1, cores=2) == pytest.approx(CLUSTER_START_SECONDS)
+
+
+@pytest.mark.parametrize("workers", [0, -1, 1.5, True])
+def test_bad_worker_counts_are_refused(workers):
+    with pytest.raises(RadiosimError, match="workers"):
+        worth_a_cluster(10, 1.0, workers)
+
+
+def test_a_nan_estimate_is_refused():
+    with pytest.raises(RadiosimError, match="seconds_per_measurement"):
+        worth_a_cluster(10, float("nan"), 2)
+
+
+def test_local_workers_says_why_it_declines_in_one_log_line(caplog):
+    with caplog.at_level(logging.INFO, logger="radiosim.scheduling"):
+        assert local_workers(2, 44, 0.3, cores=2) is None
+        assert local_workers(None, 44, 0.3, cores=2) is None
+        assert local_workers(2, 400, 2.0, cores=2) == 2
+    declined = [r for r in caplog.records if r.levelno == logging.WARNING]
+    assert len(declined) == 1 and "measuring in this process" in declined[0].getMessage()
