@@ -20,6 +20,7 @@ from __future__ import annotations
 import math
 
 import numpy as np
+from scipy import fft as sfft
 from scipy.special import erfc
 
 from radiosim.scenes.segmented_chip.parameters import ChipParameters
@@ -74,10 +75,13 @@ def jaeger_band_source(p: ChipParameters, s_max: float, n_max: float, step: floa
         g = np.where(r > 0, 2 * np.sqrt(r) * np.exp(-ratio)
                      - 2 * np.sqrt(np.pi * c) * erfc(np.sqrt(ratio)), 0.0)
     kernel = np.diff(g, axis=1)  # ∫ over [m·step, (m+1)·step] of r^{−½} e^{−c/r} dr
-    from scipy.signal import fftconvolve  # here: scipy.signal loads scipy.stats (~1 s)
-
-    # I(s_j) = Σ_{i<j} q_i · kernel[j − 1 − i]
-    conv = fftconvolve(kernel, q[None, :], axes=1)[:, : s.size - 1]
+    # I(s_j) = Σ_{i<j} q_i · kernel[j − 1 − i]: the full linear convolution along s, by real
+    # FFTs of a fast length (the operations of scipy.signal.fftconvolve(kernel, q[None, :],
+    # axes=1), without importing scipy.signal and with it scipy.stats: about a second)
+    length = kernel.shape[1] + q.size - 1
+    fast = [sfft.next_fast_len(length, True)]
+    product = sfft.rfftn(kernel, fast, axes=[1]) * sfft.rfftn(q[None, :], fast, axes=[1])
+    conv = sfft.irfftn(product, fast, axes=[1])[:, :length][:, : s.size - 1]
     field_ = np.zeros((n.size, s.size))
     field_[:, 1:] = np.clip(conv, 0.0, None)
     field_ *= 1.0 - p.tool_sink * np.exp(-n / p.tool_sink_depth)[:, None]
