@@ -1,5 +1,5 @@
 """
-Full-resolution check of the segmented-chip calibration against the paper (SCENE.md's table).
+Full-resolution check of the segmented-chip calibration against the paper (docs/scene.md's table).
 
 Measures every target with the linear ideal camera on the whole 1440 × 1113 field with 0.2 µs
 frames (no crops), prints the table and exits non-zero if any row is out of tolerance. The test

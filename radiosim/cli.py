@@ -533,6 +533,15 @@ def _presets(args) -> int:
     return 0
 
 
+def _example_data(args) -> int:
+    from radiosim.example_data import write_example_data
+
+    files = write_example_data(args.folder)
+    print(f"wrote {len(files)} example files in {args.folder} (what each is: "
+          "python -m pydoc radiosim.example_data)")
+    return 0
+
+
 def _preview(args) -> int:
     from radiosim.paper import preview_scene
     from radiosim.scenes import SegmentedChip
@@ -673,6 +682,11 @@ def build_parser() -> argparse.ArgumentParser:
     warm.set_defaults(func=_warmup)
     presets = sub.add_parser("presets", help="list the cameras and studies")
     presets.set_defaults(func=_presets)
+    example = sub.add_parser("example-data", help="write the files the README's and guides' "
+                             "examples read (frames, EXR, FEA nodes and mesh, a calibration "
+                             "table) into a new or empty folder")
+    example.add_argument("folder", help="a new or empty folder (. for the current one)")
+    example.set_defaults(func=_example_data)
     scene = sub.add_parser("scene", help="the built-in segmented-chip scene")
     scene_sub = scene.add_subparsers(dest="scene_command", required=True)
     preview = scene_sub.add_parser("preview", help="write a PNG of the scene with the tool, "

@@ -61,7 +61,7 @@ __all__ = [
     "CALIBRATION_RANGE",
 ]
 
-#: First radiation constant :math:`c_1 = 2 \\pi h c^2` [W m²] (CODATA, exact).
+#: First radiation constant :math:`c_1 = 2 \pi h c^2` [W m²] (CODATA, exact).
 PLANCK_C1 = 2 * math.pi * sc.h * sc.c**2
 #: First radiation constant for spectral radiance :math:`c_{1L} = 2 h c^2` [W m² sr⁻¹].
 PLANCK_C1L = 2 * sc.h * sc.c**2

@@ -86,7 +86,7 @@ def test_region_evaluation_equals_a_slice_of_the_full_frame(scene):
 
 
 def reference_chip_temperature(scene, t, i, j):
-    """Plain, term-by-term evaluation of SCENE.md at chip samples (no tables of the moving
+    """Plain, term-by-term evaluation of docs/scene.md at chip samples (no tables of the moving
     terms, no reach limits), for comparison with the fast evaluator."""
     p, g = scene.params, scene.geometry
     tau = t % p.period

@@ -2,7 +2,7 @@
 Calibration of the segmented-chip scene to the paper's figures.
 
 :data:`TARGETS` holds the paper's numbers (MSEC2009-84319, Table 2 and results) with the
-tolerances of ``shared/SCENE.md``; :func:`evaluate_targets` measures each of them through the
+tolerances of ``docs/scene.md``; :func:`evaluate_targets` measures each of them through the
 linear ideal camera (:meth:`radiosim.Camera.linear_ideal`) on the scene, and :func:`calibrate`
 re-runs the tuning of the scene's free parameters: a bounded least-squares fit of the targets,
 each residual scaled by its tolerance. ``python -m radiosim.paper.chip_calibration`` runs it and
@@ -39,7 +39,7 @@ logger = logging.getLogger(__name__)
 
 _C = CELSIUS_OFFSET
 
-#: The paper's numbers [°C or K] and tolerances [K] (shared/SCENE.md).
+#: The paper's numbers [°C or K] and tolerances [K] (docs/scene.md).
 TARGETS = {
     "peak_scene_C": (739.0, 8.0),
     "peak_90us_C": (668.0, 8.0),
@@ -54,7 +54,7 @@ TARGETS = {
 
 #: Parameters the calibration adjusts and their bounds (SI units). A bound given with a
 #: reference parameter is a multiple of it: the forming band starts at least as wide as it
-#: ends (σ_init ≥ σ_rel, SCENE.md), so band_initial_width is fitted as σ_init / σ_rel.
+#: ends (σ_init ≥ σ_rel, docs/scene.md), so band_initial_width is fitted as σ_init / σ_rel.
 FREE_PARAMETERS = {
     "band_width": (4e-6, 20e-6, None),
     "band_initial_width": (1.0, 3.0, "band_width"),

@@ -4,7 +4,7 @@ The built-in segmented-chip scene: a kinematic thermal model of orthogonal cutti
 The paper's FEA movie (AdvantEdge, AISI 1045, 250 m/min, 0.3 mm feed) is not public, so radiosim
 ships a closed-form, physically motivated temperature field of orthogonal cutting with a
 segmented chip, periodic in time with the segmentation period, that can be evaluated at any time
-on any grid. Its specification is ``shared/SCENE.md`` (summarised in ``docs/scene.md``); the
+on any grid. Its specification is ``docs/scene.md`` (model, parameters and calibration); the
 terms, superposed on the initial temperature T₀, are:
 
 1.  the primary shear zone, a smooth step T_b(ξ) across the shear plane L0;

@@ -3,7 +3,7 @@ Parameters of the segmented-chip scene: :class:`ChipParameters`, in SI units, wi
 keys (units in the keys) and the quantities derived from them (chip speed and thickness,
 segment pitch, shear angle, band angle, the saw-tooth's thicknesses).
 
-The specification is ``shared/SCENE.md`` (summarised in ``docs/scene.md``).
+The specification is ``docs/scene.md`` (its table of parameters lists every TOML key).
 
 References
 ----------
@@ -41,12 +41,12 @@ class ChipParameters:
     """
     Parameters of the segmented-chip scene, in SI units (K, m, s, rad).
 
-    TOML files use the units of ``shared/SCENE.md`` with the unit in each key (``period_us``,
+    TOML files use the units of ``docs/scene.md`` with the unit in each key (``period_us``,
     ``band_width_um``, ``initial_temperature_C``); :meth:`from_toml` and :meth:`to_toml`
-    convert. The defaults are SCENE.md's values except the eight that
+    convert. The defaults are the specification's first values except the eight that
     :func:`radiosim.paper.chip_calibration.calibrate` fitted to the paper's figures
     (slip fraction, primary rise, band amplitude, widths and diffusivity, secondary rise,
-    modulation); docs/scene.md gives the fit and its result.
+    modulation); docs/scene.md gives both, the fit and its result.
     """
 
     # Process and frame

@@ -49,7 +49,7 @@ def hermite_step(x):
 
 def jaeger_band_source(p: ChipParameters, s_max: float, n_max: float, step: float):
     """
-    Tabulate the secondary zone's shape I(s, n)·(1 − κ e^{−n/λ}), normalised to a maximum of 1.
+    Tabulate the secondary zone's shape I(s, n)·(1 − κ·exp(−n/λ)), normalised to a maximum of 1.
 
     I(s, n) = ∫₀^s q(s′) (s − s′)^{−½} exp(−n² V_c / 4 a_s (s − s′)) ds′ is evaluated as a
     discrete convolution of q (piecewise constant on cells of ``step``) with the kernel
