@@ -81,7 +81,8 @@ def _run(args) -> int:
         _announce_compile(args, chip=True)
         result = study.run(out.staging, rng=args.seed, write_exr=not args.no_exr,
                            progress=None if args.quiet else progress,
-                           scheduler=args.scheduler, workers=args.workers)
+                           scheduler=args.scheduler, workers=args.workers,
+                           cluster=args.cluster)
         progress.close()
         if draw is not None and not args.quiet:
             print("drawing the figures", file=sys.stderr, flush=True)
@@ -582,6 +583,10 @@ def build_parser() -> argparse.ArgumentParser:
                      "one record per measurement (default: CSV and EXR only)")
     _add_quiet(run)
     _add_dask_options(run, "the measurements")
+    run.add_argument("--cluster", choices=["auto", "always"], default="auto",
+                     help="with --workers: auto starts the cluster only where the estimate "
+                     "says it pays (else it says why and measures in this process); always "
+                     "starts it regardless")
     run.set_defaults(func=_run)
     measure = sub.add_parser("measure", help="measure one scene file with one camera",
                              description="Measure a scene file (.npy, .npz, a folder or glob "

@@ -238,3 +238,23 @@ def test_warmup_compiles_every_path_and_says_so_in_one_line(capsys):
     assert "cached in" in out[0]
     # Nothing is left to compile, for any frame or index-map type.
     assert not compile_pending(("float32", "float64"), ("uint8", "intp"))
+
+
+def test_workers_on_a_study_too_small_to_gain_run_in_this_process(tmp_path, capsys):
+    # Three measurements of 4 frames of 24 × 24 samples: a cluster's start (about 10 s) could
+    # never pay; the command says why in one line and measures here (no cluster started).
+    import logging
+
+    from conftest import frames_study
+
+    np.save(tmp_path / "frames.npy", np.full((6, 24, 24), 650.0))
+    (tmp_path / "s.toml").write_text(frames_study([1, 2, 3], 4.0))
+    logging.getLogger("radiosim.scheduling").addHandler(handler := logging.StreamHandler())
+    try:
+        assert main(["run", str(tmp_path / "s.toml"), "--out", str(tmp_path / "out"),
+                     "--workers", "2", "--no-figures", "-q"]) == 0
+    finally:
+        logging.getLogger("radiosim.scheduling").removeHandler(handler)
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "measuring in this process" in err[0], err
+    assert (tmp_path / "out" / "results.csv").exists()

@@ -376,7 +376,8 @@ def test_signals_with_local_workers_end_in_one_line(tmp_path):
     for name in plan:
         root = tmp_path / name
         root.mkdir()
-        runs[name] = (root, _start(root, _command(root, "--workers", "2")))
+        runs[name] = (root, _start(root, _command(root, "--workers", "2", "--cluster",
+                                                  "always")))
     pending = {name: None for name in plan}  # name -> when to send
     deadline = time.monotonic() + 120
     while pending and time.monotonic() < deadline:
