@@ -10,7 +10,8 @@ The chain, one module per stage, imports flowing one way (:data:`CHAIN`):
 :mod:`radiosim.scenes` → :mod:`radiosim.response` (:mod:`radiosim.radiometry`,
 :mod:`radiosim.spectral`) → :mod:`radiosim.integrator` → :mod:`radiosim.optics` (its
 point-spread functions in :mod:`radiosim.psf`; the image they form in :mod:`radiosim.imaging`) →
-:mod:`radiosim.electronics` → :mod:`radiosim.calibration` → :mod:`radiosim.measurement`,
+:mod:`radiosim.electronics` → :mod:`radiosim.calibration` → :mod:`radiosim.measurement`
+(several spectral channels and their ratio temperature in :mod:`radiosim.ratio`),
 orchestrated by :class:`radiosim.camera.Camera` (its acquisition modes in
 :mod:`radiosim.acquisition`, its laboratory procedures in :mod:`radiosim.characterization` and
 :mod:`radiosim.calibration_table`). Files in and out are in :mod:`radiosim.io`,
@@ -37,12 +38,13 @@ _LAZY = {
     "RadiosimError": "radiosim.errors",
     "RadiosimWarning": "radiosim.errors",
     "Measurement": "radiosim.measurement",
+    "Channel": "radiosim.ratio",
     "FrameStack": "radiosim.scenes",
     "MovingGaussianBand": "radiosim.scenes",
     "UniformBlackbody": "radiosim.scenes",
 }
 _SUBMODULES = frozenset({"errors", "units", "io", "paper", "scenes", "study", "acquisition",
-                         "characterization", "calibration_table"})
+                         "characterization", "calibration_table", "ratio"})
 
 
 def __getattr__(name):
@@ -64,9 +66,10 @@ def __dir__():
 CHAIN = (
     "_version", "errors", "units", "checks", "config", "files", "spectral", "radiometry",
     "kernels", "scenes", "response", "fpa", "integrator", "psf", "optics", "imaging",
-    "electronics", "calibration", "measurement", "presets", "acquisition", "camera",
-    "characterization", "calibration_table", "scheduling", "moments", "uncertainty", "io",
-    "study_spec", "study", "plotting", "reporting", "paper", "console", "cli",
+    "electronics", "calibration", "measurement", "ratio", "presets", "acquisition", "camera",
+    "characterization", "calibration_table", "scheduling", "moments", "budget_reuse",
+    "uncertainty", "io", "study_spec", "study", "plotting", "reporting", "paper", "example_data",
+    "console", "cli",
 )
 
 __all__ = [
@@ -75,6 +78,7 @@ __all__ = [
     "FocalPlaneArray",
     "Electronics",
     "Measurement",
+    "Channel",
     "FrameStack",
     "UniformBlackbody",
     "MovingGaussianBand",

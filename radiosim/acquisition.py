@@ -31,11 +31,13 @@ from radiosim import integrator as _integrator  # its integrate_many looked up p
 from radiosim.integrator import Job, TensorStatistics, Window, stack_rows
 from radiosim.measurement import Measurement
 from radiosim.optics import collect
+from radiosim.ratio import channel_cameras, combine
 from radiosim.scenes.base import Scene
 
 __all__ = ["readout_shape", "frame_period", "check_frame_period", "check_measurable", "frame_dtype", "is_rolling",
            "instrument_signal", "photoelectrons", "tensor_statistics", "rolling_statistics",
-           "read_out", "measure_many", "measure_many_statistics", "record", "superframe"]
+           "read_out", "measure_many", "measure_many_statistics", "ChannelStatistics",
+           "channel_cases", "record", "superframe"]
 
 
 # -- timing -------------------------------------------------------------------------------------
@@ -220,7 +222,16 @@ def read_out(camera, stats: TensorStatistics, window: Window, scene: Scene,
     The stages after the integrator: the optics, the electronics and the calibration of
     ``camera`` turn a window's tensor statistics into a :class:`Measurement`, drawing shot
     and read noise from ``rng`` (seed or :class:`numpy.random.Generator`).
+
+    A multi-channel camera's ``stats`` are its :class:`ChannelStatistics`: each channel is
+    read out in turn (its noise drawn from the same generator, in the channels' order) and
+    the readings combined (:func:`radiosim.ratio.combine`).
     """
+    if isinstance(stats, ChannelStatistics):
+        rng = check_rng(rng)
+        return combine(camera, [read_out(own, own_stats, own_window, scene, rng)
+                                for own, (own_window, own_stats) in zip(
+                                    channel_cameras(camera), stats.channels)])
     calibration = camera.calibration(window.duration)
     calibration.check_resolution(stacklevel=3)
     # Optics: mean signal and the optics' emission → mean photo-electrons [e⁻] through the
@@ -299,12 +310,50 @@ def measure_many_statistics(scene: Scene, cases, progress=None) -> list:
         In the order of ``cases``.
     """
     cases = list(cases)
-    windows = [camera.window(scene, t_int, t_start) for camera, t_int, t_start in cases]
-    for (camera, _, _), window in zip(cases, windows):
+    # A multi-channel camera's case is its channels' cases (:func:`channel_cases`); their
+    # statistics come back grouped as the camera's.
+    expanded, spans = [], []
+    for camera, t_int, t_start in cases:
+        own = channel_cases(camera, scene, t_int, t_start)
+        spans.append((len(expanded), len(own), camera.channels is not None))
+        expanded += own
+    windows = [camera.window(scene, t_int, t_start) for camera, t_int, t_start in expanded]
+    for (camera, _, _), window in zip(expanded, windows):
         check_measurable(camera, window.duration)
-    statistics = tensor_statistics(
-        scene, [(camera, window) for (camera, _, _), window in zip(cases, windows)], progress)
-    return list(zip(windows, statistics))
+    statistics = list(zip(windows, tensor_statistics(
+        scene, [(camera, window) for (camera, _, _), window in zip(expanded, windows)],
+        progress)))
+    return [statistics[i] if not multi else (statistics[i][0], ChannelStatistics(
+        tuple(statistics[i:i + n]))) for i, n, multi in spans]
+
+
+@dataclasses.dataclass(frozen=True)
+class ChannelStatistics:
+    """The noise-free stage of a multi-channel camera: each channel's ``(Window,
+    TensorStatistics)``, in the camera's order (:func:`measure_many_statistics`)."""
+
+    channels: tuple
+
+
+def channel_cases(camera, scene: Scene, integration_time: float,
+                  t_start: float | None) -> list:
+    """
+    The ``(camera, integration time [s], t_start [s] or None)`` cases of ``camera``'s
+    channels (:func:`radiosim.ratio.channel_cameras`): the camera's own case without channels.
+    Channel k integrates for its own integration time (default ``integration_time``) from
+    the measurement's window start plus its time offset; a channel with neither keeps
+    ``t_start`` as given (and so the window's alignment).
+    """
+    if camera.channels is None:
+        return [(camera, integration_time, t_start)]
+    base = camera.window(scene, integration_time, t_start)
+    cases = []
+    for channel, own in zip(camera.channels, channel_cameras(camera)):
+        t_int = integration_time if channel.integration_time is None else \
+            channel.integration_time
+        same = channel.time_offset == 0 and channel.integration_time is None
+        cases.append((own, t_int, t_start if same else base.start + channel.time_offset))
+    return cases
 
 
 # -- modes: frames in time ----------------------------------------------------------------------

@@ -201,6 +201,16 @@ class Calibration:
         photo = self.electronics.photoelectrons(counts, self.integration_time)  # [e⁻]
         return photo / (self.rate_per_signal * self.integration_time)  # [signal unit]
 
+    def object_signal(self, counts) -> np.ndarray:
+        """
+        The object's emitted signal ε·L(T) [signal unit] that ``counts`` [DN] imply under the
+        camera's settings: the counts' photo-charge as signal, less the optics' emission, the
+        path and the reflection (the thermography equation solved for the object's term; the
+        ratio of two channels' is the ratio method's measured ratio, :mod:`radiosim.ratio`).
+        """
+        return object_signal(self._signal(counts) - self.background_signal,
+                             self.reflected_signal, self.path_transmission, self.path_signal)
+
     def invert(self, counts):
         """
         Apparent temperature [K] of ``counts`` [DN], and where it falls outside the range.
@@ -212,8 +222,7 @@ class Calibration:
         below, above : numpy.ndarray of bool
             Counts under the lowest or over the highest temperature of the range.
         """
-        signal = object_signal(self._signal(counts) - self.background_signal,
-                               self.reflected_signal, self.path_transmission, self.path_signal)
+        signal = self.object_signal(counts)
         low, high = (self.response.grey_signal(t, self.emissivity)
                      for t in self.temperature_range)
         # The range is closed: its ends survive the counts round trip within a few ulp.

@@ -51,14 +51,15 @@ from radiosim.measurement import Measurement
 from radiosim.optics import Optics
 from radiosim.presets import PRESET_DIRECTORY, available_presets, camera_fields, camera_table
 from radiosim.radiometry import CALIBRATION_RANGE
+from radiosim.ratio import Channel
 from radiosim.response import LinearResponse, PlanckResponse, Response
 from radiosim.scenes.base import Scene
 
 # integrate_many is imported for tests/test_integrator.py, which patches
 # radiosim.camera.integrate_many (the stages now look it up in radiosim.integrator per call).
 
-__all__ = ["Optics", "FocalPlaneArray", "Camera", "measure_many", "measure_many_statistics",
-           "available_presets", "PRESET_DIRECTORY"]
+__all__ = ["Optics", "FocalPlaneArray", "Camera", "Channel", "measure_many",
+           "measure_many_statistics", "available_presets", "PRESET_DIRECTORY"]
 
 
 @dataclass(frozen=True, eq=False)
@@ -106,6 +107,17 @@ class Camera:
     nuc : NonUniformityCorrection or None
         The non-uniformity correction applied to counts before the calibration (measured:
         :func:`radiosim.characterization.fit_nuc`; not part of the camera file).
+    assumed_emissivity_ratio : float
+        The camera's setting of ε₁/ε₂, the emissivity ratio of its first two channels that
+        the ratio temperature assumes (1: a grey body; :mod:`radiosim.ratio`).
+    ratio_noise_limit : float or None
+        The largest noise (NETD of the ratio at the measured signals) [K] of a reported ratio
+        temperature: weaker pixels are flagged under range, as ratio pyrometers report only
+        above a minimum signal; ``None``: every pixel both channels read.
+    channels : tuple of Channel or None
+        Spectral channels (:meth:`with_channels`; ``[[channels]]`` tables in a camera
+        file): measuring measures each with its own band and reports the ratio temperature
+        of the first two; ``None``: a single-channel camera.
 
     Examples
     --------
@@ -144,6 +156,11 @@ class Camera:
     detection_sigma: float = edge_field(3.0, "detection_sigma",
                                         doc="k of the detection limit, blank + k σ [1]")
     nuc: NonUniformityCorrection | None = None
+    assumed_emissivity_ratio: float = edge_field(
+        1.0, "assumed_emissivity_ratio", doc="ε₁/ε₂ of the channels the ratio assumes")
+    ratio_noise_limit: float | None = edge_field(
+        None, "ratio_noise_limit_K", doc="largest noise of a reported ratio temperature [K]")
+    channels: tuple[Channel, ...] | None = None
 
     def __post_init__(self):
         if self.response not in ("linear", "planck"):
@@ -177,6 +194,16 @@ class Camera:
                                 f"{self.detection_sigma!r}")
         object.__setattr__(self, "detection_sigma",
                            check_positive(self.detection_sigma, "detection_sigma", "1"))
+        if isinstance(self.assumed_emissivity_ratio, bool):
+            raise RadiosimError(f"assumed_emissivity_ratio must be a number > 0 [1], got "
+                                f"{self.assumed_emissivity_ratio!r}")
+        object.__setattr__(self, "assumed_emissivity_ratio", check_positive(
+            self.assumed_emissivity_ratio, "assumed_emissivity_ratio", "1"))
+        if self.ratio_noise_limit is not None:
+            object.__setattr__(self, "ratio_noise_limit", check_positive(
+                self.ratio_noise_limit, "ratio_noise_limit", "K"))
+        if self.channels is not None:
+            object.__setattr__(self, "channels", check_channels(self.channels, self.response))
 
     # -- construction -------------------------------------------------------------------------
 
@@ -244,7 +271,10 @@ class Camera:
 
     def to_toml(self) -> str:
         """The camera as a TOML preset (see :meth:`to_dict`)."""
-        return dumps_toml(self.to_dict(), tables=("optics", "fpa", "electronics"))
+        data = self.to_dict()
+        channels = data.pop("channels", None)
+        text = dumps_toml(data, tables=("optics", "fpa", "electronics"))
+        return text if channels is None else text + "\n" + dumps_toml({"channels": channels})
 
     def replace(self, **changes) -> Camera:
         """A copy with some fields changed (``dataclasses.replace``); it keeps this camera's
@@ -267,6 +297,31 @@ class Camera:
         its components' curve objects)."""
         return (self.response, self.linear_responsivity, self.optics.band,
                 *(id(c) if not isinstance(c, float) else c for c in self.responsivity))
+
+    def with_channels(self, bands, slot_time: float = 0.0) -> Camera:
+        """
+        The same camera with one spectral channel per ``(λ_low, λ_high)`` band [m] of
+        ``bands`` (in order), each with this camera's optics, FPA and electronics and its own
+        band (:class:`~radiosim.ratio.Channel`). Measuring it measures every channel and reads
+        the ratio temperature of the first two (:mod:`radiosim.ratio`).
+
+        ``slot_time`` [s]: 0 (default) for the simultaneous layout (a beam splitter or a
+        two-colour detector: every channel over the same window); > 0 for a filter wheel,
+        channel k's window starting k·``slot_time`` after the first's.
+
+        Examples
+        --------
+        >>> cam = Camera.preset("nist-ir").with_channels([(3.8e-6, 4.2e-6), (4.6e-6, 5.1e-6)])
+        >>> [tuple(round(b * 1e6, 3) for b in c.band) for c in cam.channels]
+        [(3.8, 4.2), (4.6, 5.1)]
+        """
+        if isinstance(bands, (str, bytes)) or not hasattr(bands, "__len__") or not len(bands):
+            raise RadiosimError(f"with_channels needs at least one (λ_low, λ_high) band [m], "
+                                f"got {bands!r}")
+        slot = check_time(slot_time, "slot_time", positive=False)
+        return self.replace(channels=tuple(
+            _channel(k, lambda k=k, band=band: Channel(band=band, time_offset=k * slot))
+            for k, band in enumerate(bands)))
 
     def with_pixel_pitch(self, pixel_pitch: float) -> Camera:
         """
@@ -379,12 +434,38 @@ class Camera:
         -------
         Measurement
         """
+        if self.channels is not None:  # each channel through the stages below, one pass
+            return measure_many(scene, [(self, integration_time, t_start)], rng, progress)[0]
         window = self.window(scene, integration_time, t_start)  # [s]
         check_measurable(self, window.duration)
         # Scene → response → integrator (→ the optics' image): the tensor statistics.
         stats, = tensor_statistics(scene, [(self, window)], progress)
         # Optics → electronics → calibration: the measurement.
         return read_out(self, stats, window, scene, rng)
+
+
+def _channel(k: int, build) -> Channel:
+    """``build()`` (a :class:`Channel`), its errors naming channel ``k`` (from 0) as 1, 2, …"""
+    try:
+        return build()
+    except RadiosimError as exc:
+        raise RadiosimError(f"channel {k + 1}: {exc}") from None
+
+
+def check_channels(channels, response: str) -> tuple[Channel, ...]:
+    """``channels`` as a tuple of :class:`Channel` (bands [m] accepted), at least one; two or
+    more need the radiometric response (their ratio)."""
+    if isinstance(channels, (str, bytes, Channel)) or not hasattr(channels, "__len__"):
+        raise RadiosimError(f"channels must be a sequence of Channel, got {channels!r:.80}")
+    if len(channels) < 1:
+        raise RadiosimError(f"a camera with channels needs at least one channel, got "
+                            f"{channels!r}")
+    out = tuple(c if isinstance(c, Channel) else _channel(k, lambda c=c: Channel(band=c))
+                for k, c in enumerate(channels))
+    if len(out) >= 2 and response != "planck":
+        raise RadiosimError(f"a camera with {len(out)} channels reads their ratio, which needs "
+                            f"response = 'planck', got {response!r}")
+    return out
 
 
 def check_scene(scene) -> Scene:

@@ -223,6 +223,19 @@ class Measurement:
         A superframe's integration times [s], in the order they were taken.
     subframe_starts : tuple of float
         The start of each subframe's window [s].
+    channels : tuple of Measurement
+        A multi-channel camera's (:mod:`radiosim.ratio`): each channel's single-channel
+        measurement, in the camera's order; empty for a single-channel camera. With channels,
+        the scene-truth statistics, counts, electrons, signal and window are the first
+        channel's.
+    ratio_temperature : numpy.ndarray or None
+        With two or more channels: the temperature [K] whose band-signal ratio equals the
+        first two channels' measured ratio (over the camera's ``assumed_emissivity_ratio``);
+        NaN where a channel is flagged or the ratio lies outside the calibration. It is then
+        also the ``apparent_temperature`` (and the flags combine the channels').
+    ratio_netd : numpy.ndarray or None
+        The ratio temperature's noise [K]: √((σ₁/S₁)² + (σ₂/S₂)²) / abs(d ln r/dT),
+        from both channels' temporal noise at their measured charge.
     """
 
     #: Units of the array fields and derived properties, as radiosim writes them (the EXR
@@ -253,6 +266,9 @@ class Measurement:
     subframe: np.ndarray | None = None
     subframe_times: tuple = ()
     subframe_starts: tuple = ()
+    channels: tuple = ()
+    ratio_temperature: np.ndarray | None = None
+    ratio_netd: np.ndarray | None = None
 
     def __post_init__(self):
         if self.over_range is None:
@@ -321,10 +337,47 @@ class Measurement:
         for key, value in self.scene.items():
             attrs[f"scene_{key}"] = value
         where = "centre of the pixel in object space, from the array's origin"
-        return xr.Dataset(data, coords={
-            "y": ("y", y, {"units": "m", "long_name": f"row position: {where}"}),
-            "x": ("x", x, {"units": "m", "long_name": f"column position: {where}"})},
-            attrs=attrs)
+        coords = {"y": ("y", y, {"units": "m", "long_name": f"row position: {where}"}),
+                  "x": ("x", x, {"units": "m", "long_name": f"column position: {where}"})}
+        if self.channels:
+            self._channel_variables(data, coords)
+        return xr.Dataset(data, coords=coords, attrs=attrs)
+
+    def _channel_variables(self, data: dict, coords: dict):
+        """A multi-channel measurement's variables: each channel's arrays along a
+        ``channel`` dimension (``channel_<field>``), its window, and the ratio temperature
+        and its noise."""
+        channels = self.channels
+        coords["channel"] = ("channel", np.arange(1, len(channels) + 1, dtype=np.int32),
+                             {"long_name": "spectral channel (1: the ratio's numerator)"})
+        bands = np.array([m.camera.optics.band for m in channels], dtype=np.float64)
+        for i, end in enumerate(("low", "high")):
+            coords[f"band_{end}"] = ("channel", bands[:, i], {
+                "units": "m", "long_name": f"{end} wavelength limit of the channel's band"})
+        for name in self.ARRAYS:
+            stack = np.stack([np.asarray(getattr(m, name)) for m in channels])
+            stack = stack.astype(bool) if name in FLAGS else stack.astype(np.float64)
+            attrs = dict(field_attributes(name, self.signal_unit))
+            attrs["long_name"] = f"each channel's {attrs['long_name']}"
+            data[f"channel_{name}"] = (("channel", "y", "x"), stack, attrs)
+        for name in ("integration_time", "t_start"):
+            attrs = dict(field_attributes(name))
+            attrs["long_name"] = f"each channel's {attrs['long_name']}"
+            data[f"channel_{name}"] = ("channel", np.array(
+                [getattr(m, name) for m in channels], dtype=np.float64), attrs)
+        data["channel_n_frames"] = ("channel", np.array([m.n_frames for m in channels],
+                                                        dtype=np.int64),
+                                    {"units": "1", "long_name": "scene frames each channel's "
+                                                                "window touched"})
+        if self.ratio_temperature is not None:
+            data["ratio_temperature"] = (("y", "x"), np.asarray(
+                self.ratio_temperature, dtype=np.float64), {
+                "units": "K", "long_name": "ratio temperature: the temperature whose band-"
+                "signal ratio equals the first two channels' measured ratio (NaN where "
+                "flagged)"})
+            data["ratio_netd"] = (("y", "x"), np.asarray(self.ratio_netd, dtype=np.float64), {
+                "units": "K", "long_name": "noise-equivalent temperature difference of the "
+                "ratio temperature, from both channels' temporal noise"})
 
     @property
     def peak_error(self) -> np.ndarray:

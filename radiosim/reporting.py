@@ -92,7 +92,9 @@ def bad_sample_in(message: str, units: str | None) -> str:
 def catalogue_lines() -> list[str]:
     """The shipped cameras (name, response, array, object pixel, band) and studies (name,
     description), as ``radiosim presets`` lists them."""
-    from radiosim.camera import Camera, available_presets
+    import tomllib
+
+    from radiosim.camera import PRESET_DIRECTORY, Camera, available_presets
     from radiosim.study import Study, available_studies
 
     lines = ["cameras (radiosim measure --camera NAME):",
@@ -100,9 +102,14 @@ def catalogue_lines() -> list[str]:
     for name in available_presets():
         camera = Camera.preset(name)
         rows, cols = camera.fpa.shape or ("-", "-")
+        bands = [c.band for c in camera.channels] if camera.channels else [camera.optics.band]
         lines.append(f"  {name:<14} {camera.response:<7} {cols} x {rows} px, "
                      f"{camera.fpa.pixel_pitch * 1e6:g} µm object pixel, "
-                     f"{camera.optics.band[0] * 1e6:g}-{camera.optics.band[1] * 1e6:g} µm")
+                     + " + ".join(f"{lo * 1e6:g}-{hi * 1e6:g} µm" for lo, hi in bands))
+        with open(PRESET_DIRECTORY / f"{name}.toml", "rb") as file:  # what sets it apart
+            description = tomllib.load(file).get("description")
+        if description:
+            lines.append(f"  {'':<14} {description}")
     lines.append("studies (radiosim run NAME):")
     lines += [f"  {name:<14} {Study.preset(name).description}" for name in available_studies()]
     return lines

@@ -27,6 +27,12 @@ plain floats would be stored as 32-bit): ``radiosim:version``, ``radiosim:integr
 ``radiosim:response``, ``radiosim:signal_unit``, ``radiosim:camera_name``, ``radiosim:camera``
 (the camera as a TOML preset, which rebuilds it exactly), ``radiosim:unit:<channel>`` and
 ``scene:<key>`` for every item of the scene's description.
+
+A multi-channel (two-colour) measurement (:mod:`radiosim.ratio`) adds each spectral channel's
+fields as the layer ``ch<k>`` (``ch1.counts``, …, its band [m] in ``radiosim:band_m:ch<k>``)
+and the ``ratio_temperature`` and ``ratio_netd`` channels [K]; :func:`read_exr` reads the
+measurement's own fields (the NetCDF file keeps the channels whole). A single-channel
+measurement's file is as before.
 """
 
 from __future__ import annotations
@@ -113,7 +119,25 @@ def write_exr(path, measurement: Measurement) -> Path:
         header[f"{_PREFIX}unit:{name}"] = unit or m.signal_unit
     for key, value in m.scene.items():
         header[f"scene:{key}"] = _typed(value)
+    if m.channels:
+        _add_spectral_channels(m, channels, header)
     return write_channels(path, channels, header)
+
+
+def _add_spectral_channels(m: Measurement, channels: dict, header: dict):
+    """A multi-channel measurement's extra EXR channels: each spectral channel k's fields as
+    the layer ``ch<k>`` (``ch1.apparent_temperature``, …; its band in
+    ``radiosim:band_m:ch<k>``), and ``ratio_temperature`` and ``ratio_netd`` [K]."""
+    for k, own in enumerate(m.channels, 1):
+        for name, unit in CHANNELS.items():
+            channels[f"ch{k}.{name}"] = np.ascontiguousarray(getattr(own, _FIELD_OF[name]),
+                                                             dtype=np.float32)
+            header[f"{_PREFIX}unit:ch{k}.{name}"] = unit or m.signal_unit
+        header[f"{_PREFIX}band_m:ch{k}"] = _typed(own.camera.optics.band)
+    if m.ratio_temperature is not None:
+        for name in ("ratio_temperature", "ratio_netd"):
+            channels[name] = np.ascontiguousarray(getattr(m, name), dtype=np.float32)
+            header[f"{_PREFIX}unit:{name}"] = "K"
 
 
 def write_channels(path, channels: dict, header: dict) -> Path:

@@ -14,7 +14,10 @@ A measurement's dataset (:meth:`~radiosim.measurement.Measurement.to_xarray`) ha
 origin), one variable per array of the measurement, the flags as booleans (``status_flag``),
 and as attributes the camera (its TOML, which rebuilds it exactly), the window, the scene's
 description (``scene_<key>``; files of radiosim before CF-1.8 wrote ``scene:<key>``, read
-as well) and radiosim's version.
+as well) and radiosim's version. A multi-channel (two-colour) measurement adds a ``channel``
+dimension (coordinates ``band_low``, ``band_high`` [m]) with each channel's arrays and window
+(``channel_<field>``), and ``ratio_temperature`` and ``ratio_netd`` [K]; a single-channel one
+is written as before.
 
 A study's results (:func:`results_to_xarray`, the command's ``results.nc``) are the rows of
 ``results.csv`` along one record dimension, ``measurement``: the sweep parameters (``sweep``,
@@ -88,10 +91,37 @@ def from_xarray(dataset) -> Measurement:
         arrays[name] = values.astype(bool) if name in FLAGS else values.astype(np.float64)
     scene = {k[len("scene_"):]: (v.item() if isinstance(v, np.generic) else v)
              for k, v in attrs.items() if k.startswith(("scene_", "scene:"))}  # new, old
+    extra = _channels_from(dataset, camera, scene) if "channel" in dataset.dims else {}
     return Measurement(**arrays, signal_unit=str(attrs["signal_unit"]), camera=camera,
                        integration_time=float(attrs["integration_time_s"]),
                        t_start=float(attrs["t_start_s"]), n_frames=int(attrs["n_frames"]),
-                       scene=scene, alignment=str(attrs["alignment"]))
+                       scene=scene, alignment=str(attrs["alignment"]), **extra)
+
+
+def _channels_from(dataset, camera, scene) -> dict:
+    """A multi-channel measurement's ``channels`` (and ratio temperature and its noise) from
+    the ``channel_*`` variables of :meth:`Measurement.to_xarray`."""
+    from radiosim.ratio import channel_cameras
+
+    attrs = dataset.attrs
+    cameras = channel_cameras(camera)
+    channels = []
+    for k in range(dataset.sizes["channel"]):
+        arrays = {}
+        for name in _ARRAYS:
+            values = np.asarray(dataset[f"channel_{name}"].values[k])
+            arrays[name] = values.astype(bool) if name in FLAGS else values.astype(np.float64)
+        channels.append(Measurement(
+            **arrays, signal_unit=str(attrs["signal_unit"]), camera=cameras[k],
+            integration_time=float(dataset["channel_integration_time"].values[k]),
+            t_start=float(dataset["channel_t_start"].values[k]),
+            n_frames=int(dataset["channel_n_frames"].values[k]), scene=scene,
+            alignment=str(attrs["alignment"])))
+    out = {"channels": tuple(channels)}
+    if "ratio_temperature" in dataset.variables:
+        out["ratio_temperature"] = np.asarray(dataset["ratio_temperature"].values, np.float64)
+        out["ratio_netd"] = np.asarray(dataset["ratio_netd"].values, np.float64)
+    return out
 
 
 def write_netcdf(path, measurement_or_dataset, history: str | None = None) -> Path:
