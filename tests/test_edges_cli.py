@@ -285,7 +285,9 @@ LONG = frames_study([1 + 0.025 * i for i in range(121)], 1.0, name="long", camer
 
 
 def _command(root: Path, *extra):
-    y, x = np.mgrid[0:120, 0:120]
+    # 121 measurements of 480 × 480 samples: about 15 s warm on 2 cores, long enough that
+    # every signal below arrives while the command works
+    y, x = np.mgrid[0:480, 0:480]
     frame = 600.0 + 200.0 * np.sin(x / 9.0) * np.cos(y / 7.0)
     np.save(root / "frames.npy", np.stack([frame + 10.0 * k for k in range(8)]))
     (root / "long.toml").write_text(LONG)
