@@ -34,10 +34,10 @@ from radiosim.optics import collect
 from radiosim.ratio import channel_cameras, combine
 from radiosim.scenes.base import Scene
 
-__all__ = ["readout_shape", "frame_period", "check_frame_period", "check_measurable", "frame_dtype", "is_rolling",
-           "instrument_signal", "photoelectrons", "tensor_statistics", "rolling_statistics",
-           "read_out", "measure_many", "measure_many_statistics", "ChannelStatistics",
-           "channel_cases", "record", "superframe"]
+__all__ = ["readout_shape", "frame_period", "check_frame_period", "check_measurable", "frame_dtype",
+           "is_rolling", "instrument_signal", "photoelectrons", "tensor_statistics",
+           "rolling_statistics", "read_out", "measure_many", "measure_many_statistics",
+           "ChannelStatistics", "channel_cases", "record", "superframe"]
 
 
 # -- timing -------------------------------------------------------------------------------------

@@ -21,7 +21,8 @@ from radiosim.files import write_text
 from radiosim.plotting import figure, save_figure
 from radiosim.units import to_celsius, typed
 
-__all__ = ["measurement_lines", "under_range_lines", "is_bad_sample", "bad_sample_in", "catalogue_lines", "BUDGET_COLUMNS", "budget_csv", "write_budget", "budget_lines",
+__all__ = ["measurement_lines", "under_range_lines", "is_bad_sample", "bad_sample_in",
+           "catalogue_lines", "BUDGET_COLUMNS", "budget_csv", "write_budget", "budget_lines",
            "DATASHEET_FIGURES", "write_datasheet", "datasheet_lines", "sse_csv", "sse_lines",
            "calibration_lines"]
 

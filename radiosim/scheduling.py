@@ -24,9 +24,10 @@ import numpy as np
 from radiosim.checks import check_positive, check_rng
 from radiosim.errors import RadiosimError, RadiosimWarning
 
-__all__ = ["connect", "SCHEDULER_TIMEOUT", "recorded_warnings", "recording_run",
-           "seed_sequence", "spawn_seeds", "recorded_call", "with_eta", "CLUSTER_START_SECONDS",
-           "CLUSTER_TASK_FACTOR", "SECONDS_PER_SAMPLE", "cluster_overhead", "worth_a_cluster", "local_workers"]
+__all__ = ["connect", "SCHEDULER_TIMEOUT", "recorded_warnings", "recording_run", "seed_sequence",
+           "spawn_seeds", "recorded_call", "with_eta", "CLUSTER_START_SECONDS",
+           "CLUSTER_TASK_FACTOR", "SECONDS_PER_SAMPLE", "cluster_overhead", "worth_a_cluster",
+           "local_workers"]
 
 
 class _quiet:

@@ -36,8 +36,8 @@ from numba import prange
 
 from radiosim.kernels import fast_exp
 
-__all__ = ["KernelConstants", "RunLayout", "SET_PERIODIC", "SET_CHIP", "SET_FORMING", "SET_SURFACE", "PAD",
-           "moving_terms_kernel", "kernel_coordinates"]
+__all__ = ["KernelConstants", "RunLayout", "SET_PERIODIC", "SET_CHIP", "SET_FORMING", "SET_SURFACE",
+           "PAD", "moving_terms_kernel", "kernel_coordinates"]
 
 _JIT = dict(cache=True, fastmath=False, nogil=True, error_model="numpy", boundscheck=False)
 
