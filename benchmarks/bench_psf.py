@@ -7,19 +7,26 @@ for the ``nist-ir`` camera with a perfect lens (the compiled fast path), with th
 reflecting a uniform temperature (the image stage, one band, no blur), with diffraction at
 1, 4 and 8 spectral sub-bands, and the ``nist-ir-psf`` preset (diffraction, 8 sub-bands, and a
 scatter halo) — each as a ratio to the perfect lens — and the time of one blur of a frame-sized
-field. Run on demand:
+field; then the issue-23 table: ``nist-ir``, ``nist-ir-psf`` and their ratio (the measurement,
+and the PSF camera's statistics from one pass over the frames,
+:func:`radiosim.imaging.image_statistics`), with the process's peak resident memory after each
+case (``resource.getrusage``: it only grows). Run on demand:
 
     python benchmarks/bench_psf.py [--window-us 10]
 """
 
 import argparse
 import dataclasses
+import os
+import resource
 import time
 import warnings
 
 import numpy as np
 
 import radiosim as rs
+from radiosim.imaging import image_statistics
+from radiosim.integrator import integration_window
 from radiosim.psf import Diffraction, blur
 from radiosim.scenes import SegmentedChip
 
@@ -49,11 +56,19 @@ def main(argv=None):
             perfect.replace(optics=dataclasses.replace(perfect.optics, psf=Diffraction(n))),
             None)
     cases["nist-ir-psf (diffraction 8 + halo)"] = (rs.Camera.preset("nist-ir-psf"), None)
-    times = {}
+    times, peaks = {}, {}
     for label, (camera, reflected) in cases.items():
         chip.set_environment(reflected_temperature=reflected)
         times[label] = timed(lambda: camera.measure(chip, window, rng=0))
+        peaks[label] = peak_mib()
     chip.set_environment()
+    psf_camera = cases["nist-ir-psf (diffraction 8 + halo)"][0]
+    optics = psf_camera.optics
+    span = integration_window(chip, window)
+    one_pass = timed(lambda: image_statistics(
+        chip, psf_camera.integrator(chip), span, psf_camera.response_model, optics.psf,
+        optics.band, optics.object_na(psf_camera.fpa)))
+    one_pass_peak = peak_mib()
     field = np.random.default_rng(0).uniform(1e20, 1e21, chip.shape)
     na = perfect.optics.object_na(perfect.fpa)
     one_blur = timed(lambda: blur(field, 1e20, [Diffraction()], chip.dx, 4.5e-6, na), 2)
@@ -64,6 +79,20 @@ def main(argv=None):
     for label, seconds in times.items():
         print(f"{label:<38}{seconds:>10.2f}{seconds / base:>16.1f}")
     print(f"one blur of a frame-sized field (diffraction, one sub-band): {one_blur:.2f} s")
+    psf = times["nist-ir-psf (diffraction 8 + halo)"]
+    print()
+    print(f"issue 23 (load average {os.getloadavg()[0]:.1f} at the end)")
+    print(f"{'case':<52}{'wall [s]':>10}{'÷ nist-ir':>11}{'peak RSS [MiB]':>16}")
+    print(f"{'nist-ir (no PSF)':<52}{base:>10.2f}{1:>11.1f}{peaks['perfect lens']:>16.0f}")
+    print(f"{'nist-ir-psf (8-sub-band diffraction + 2 % halo)':<52}{psf:>10.2f}"
+          f"{psf / base:>11.1f}{peaks['nist-ir-psf (diffraction 8 + halo)']:>16.0f}")
+    print(f"{'nist-ir-psf statistics in one pass (image_statistics)':<52}{one_pass:>10.2f}"
+          f"{one_pass / base:>11.1f}{one_pass_peak:>16.0f}")
+
+
+def peak_mib() -> float:
+    """The process's peak resident memory so far [MiB] (Linux reports KiB)."""
+    return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
 
 
 if __name__ == "__main__":

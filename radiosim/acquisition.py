@@ -28,6 +28,7 @@ import numpy as np
 from radiosim.checks import check_positive, check_rng
 from radiosim.errors import RadiosimError, RadiosimWarning
 from radiosim import integrator as _integrator  # its integrate_many looked up per call
+from radiosim.imaging import image_statistics
 from radiosim.integrator import Job, TensorStatistics, Window, stack_rows
 from radiosim.measurement import Measurement
 from radiosim.optics import collect
@@ -168,8 +169,8 @@ def tensor_statistics(scene: Scene, windowed, progress=None) -> list[TensorStati
     Snapshot cameras share one pass over the frames (cameras with the same footprints share
     them); a rolling shutter takes a pass of its own (:func:`rolling_statistics`). Where the
     camera forms an image (a PSF, or reflections or a path a radiometric response sees), the
-    statistics stay scene truth and the signal is the image's
-    (:meth:`~radiosim.camera.Camera.image`), one more pass.
+    statistics stay scene truth and the signal is the image's, both from one pass of its own
+    (:func:`radiosim.imaging.image_statistics`).
 
     Parameters
     ----------
@@ -189,27 +190,29 @@ def tensor_statistics(scene: Scene, windowed, progress=None) -> list[TensorStati
     windowed = list(windowed)
     snapshot = [i for i, (camera, _) in enumerate(windowed) if not is_rolling(camera)]
     imaged = [i for i in snapshot if windowed[i][0].forms_image(scene)]
+    plain = [i for i in snapshot if i not in imaged]
     rolling = [i for i in range(len(windowed)) if i not in snapshot]
-    passes = iter(_passes(progress, (1 if snapshot else 0) + len(rolling) + len(imaged)))
+    passes = iter(_passes(progress, (1 if plain else 0) + len(rolling) + len(imaged)))
     statistics = {}
-    if snapshot:
+    if plain:
         integrators, jobs = {}, []
-        for camera, window in (windowed[i] for i in snapshot):
+        for camera, window in (windowed[i] for i in plain):
             fpa = camera.fpa
             key = (fpa.pixel_pitch, fpa.fill_factor, fpa.shape, fpa.origin)
             if key not in integrators:  # cameras with the same footprints share them
                 integrators[key] = camera.integrator(scene)
             jobs.append(Job(integrators[key], window, camera.response_model))
-        # Reflections, where the scene has them, are the image stage's: below.
-        statistics = dict(zip(snapshot, _integrator.integrate_many(
+        statistics = dict(zip(plain, _integrator.integrate_many(
             scene, jobs, next(passes), emission_only=True)))
     for i in rolling:  # its own pass, one job per row
         camera, window = windowed[i]
         statistics[i] = rolling_statistics(camera, scene, window, next(passes))
-    for i in imaged:
+    for i in imaged:  # one pass each: the scene truth's statistics and the image together
         camera, window = windowed[i]
-        statistics[i] = dataclasses.replace(
-            statistics[i], signal_mean=camera.image(scene, window, next(passes)))
+        optics = camera.optics
+        statistics[i] = image_statistics(scene, camera.integrator(scene), window,
+                                         camera.response_model, optics.psf, optics.band,
+                                         optics.object_na(camera.fpa), next(passes))
     return [statistics[i] for i in range(len(windowed))]
 
 

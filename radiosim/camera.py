@@ -45,8 +45,7 @@ from radiosim.electronics import Electronics
 from radiosim.errors import RadiosimError
 from radiosim.fpa import FocalPlaneArray
 from radiosim.imaging import forms_image, image_signal
-from radiosim.integrator import (FootprintIntegrator, TensorStatistics, Window,  # noqa: F401
-                                 integrate_many, integration_window)  # integrate_many: see below
+from radiosim.integrator import FootprintIntegrator, Window, integration_window
 from radiosim.measurement import Measurement
 from radiosim.optics import Optics
 from radiosim.presets import PRESET_DIRECTORY, available_presets, camera_fields, camera_table
@@ -54,9 +53,6 @@ from radiosim.radiometry import CALIBRATION_RANGE
 from radiosim.ratio import Channel
 from radiosim.response import LinearResponse, PlanckResponse, Response
 from radiosim.scenes.base import Scene
-
-# integrate_many is imported for tests/test_integrator.py, which patches
-# radiosim.camera.integrate_many (the stages now look it up in radiosim.integrator per call).
 
 __all__ = ["Optics", "FocalPlaneArray", "Camera", "Channel", "measure_many",
            "measure_many_statistics", "available_presets", "PRESET_DIRECTORY"]

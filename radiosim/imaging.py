@@ -8,10 +8,12 @@ reaching a pixel also depends on other samples or on the environment:
 
 1.  per sample and per spectral sub-band, the window mean of the surface's radiance
     ε L(T) + (1 − ε) L(T_refl) (emission and reflection of an opaque surface, Kirchhoff's law),
-    one compiled pass per frame and sub-band (the engine's ``accumulate`` with one
-    piece per sample);
+    all sub-bands from one table lookup per sample (:class:`SubBandSignals`), in the
+    integrator's own pass over the frames where the statistics are wanted too
+    (:func:`image_statistics`);
 2.  the path: τ · (that) + (1 − τ) · L(T_path) (:func:`radiosim.response.observed_signal`);
-3.  the point-spread function, once per sub-band on the window mean (:func:`radiosim.psf.blur`,
+3.  the point-spread function on the window mean, all sub-bands in one inverse transform
+    (:func:`radiosim.psf.blur_bands`,
     with the surroundings beyond the frame's edges as a blackbody at the scene's
     ``surroundings_temperature``). The PSF and the time average are both linear in radiance,
     so blurring the window's mean equals blurring every frame and averaging;
@@ -25,18 +27,23 @@ centre wavelength, and it neither reflects nor sees a path.
 
 from __future__ import annotations
 
+import dataclasses
 import math
 
 import numpy as np
 
-from radiosim.integrator import (FootprintIntegrator, Window, _prefetched, axis_footprints,
-                                 frame_weights)
+from radiosim.integrator import (FootprintIntegrator, Job, TensorStatistics, Window,
+                                 _prefetched, frame_weights, integrate_many)
+from radiosim.kernels.bands import accumulate_bands
+from radiosim.kernels.codes import STATUS_OK
 from radiosim.kernels.engines import get_engine
-from radiosim.psf import PSF, blur
-from radiosim.response import Response, observed_signal, reflectance
+from radiosim.kernels.reference import accumulate_bands_reference
+from radiosim.psf import PSF, blur_bands
+from radiosim.response import LinearResponse, Response, observed_signal, reflectance
 from radiosim.scenes.base import Scene, SceneFrame
 
-__all__ = ["forms_image", "sub_band_count", "sample_signals", "image_signal"]
+__all__ = ["forms_image", "sub_band_count", "SubBandSignals", "sample_signals", "form_image",
+           "image_signal", "image_statistics"]
 
 
 def forms_image(scene: Scene, response: Response, psfs) -> bool:
@@ -78,6 +85,146 @@ def _reflection(frame: SceneFrame, complement: _Reflectances) -> SceneFrame:
                                                     regions.items()}, frame.index)
 
 
+class SubBandSignals:
+    """
+    The window mean of each sample's surface signal per response (sub-band), fed frame by
+    frame or by blocks of consecutive frames sharing their maps (:meth:`add`): the running sums
+    of :func:`sample_signals`, also fed by the integrator's pass
+    (:func:`radiosim.integrator.integrate_many`'s ``observer``) so that one pass over the
+    frames gives the tensor statistics and the image.
+
+    With the compiled engine, the radiometric responses' signals come from one table lookup
+    per sample for all of them (:func:`radiosim.kernels.bands.accumulate_bands`); rows it
+    leaves (samples below a table, bad samples) are redone by the numpy reference
+    (:func:`radiosim.kernels.reference.accumulate_bands_reference`, each sub-band on its
+    own: exact radiance below the tables, the references' errors). The numpy engine takes that
+    reference throughout.
+    """
+
+    def __init__(self, scene: Scene, window: Window, responses: list[Response],
+                 engine: str | None = None):
+        self.first, self.weights = frame_weights(window.start, window.duration, scene.dt,
+                                                 scene.n_frames)
+        self.stop = self.first + self.weights.size
+        self.responses = list(responses)
+        #: The region of the scene it reads: the whole frame.
+        self.region = (slice(0, scene.shape[0]), slice(0, scene.shape[1]))
+        #: (responses, rows, columns): Σ w_t S per sample [each response's unit].
+        self.out = np.zeros((len(self.responses), *scene.shape))
+        self.compiled = not get_engine(engine).reference
+        self._complement = _Reflectances()
+        self._buffer = None  # frames kept for one kernel call (see add)
+        self._held = 0
+        self._held_frame = None
+        self._held_start = 0
+
+    def add(self, temperature: np.ndarray, frame: SceneFrame, start: int) -> None:
+        """Frames ``start``, ``start + 1``, … (``temperature``: one 2-D frame or a 3-D block
+        of consecutive frames, over the whole scene; ``frame``: the first one's scene frame,
+        for its emissivity and reflections).
+
+        Single frames of a grey scene (one scalar emissivity, no regions) are kept, up to
+        :data:`HELD_FRAMES` consecutive ones, and accumulated in one kernel call (the
+        accumulators are read and written once per call, not once per frame): memory
+        :data:`HELD_FRAMES` frames. :meth:`signals` takes the rest."""
+        block = temperature if temperature.ndim == 3 else temperature[None]
+        lo, hi = max(start, self.first), min(start + block.shape[0], self.stop)
+        if lo >= hi:
+            return
+        block = block[lo - start:hi - start]
+        if self._holds(block, frame, lo):
+            if self._held == 0:
+                self._held_frame, self._held_start = frame, lo
+            self._buffer[self._held] = block[0]
+            self._held += 1
+            if self._held == HELD_FRAMES:
+                self._flush()
+            return
+        self._flush()
+        self._feed(block, frame, lo)
+
+    def _holds(self, block, frame, index) -> bool:
+        """Whether this single frame joins the held ones (a grey frame following them with
+        the same emissivity and reflection), allocating the buffer on first use."""
+        if not self.compiled or block.shape[0] != 1 or frame.regions is not None \
+                or isinstance(frame.emissivity, np.ndarray) \
+                or isinstance(frame.reflected_temperature, np.ndarray):
+            return False
+        if self._held:
+            held = self._held_frame
+            same = frame.emissivity is held.emissivity or (
+                isinstance(frame.emissivity, (int, float))
+                and isinstance(held.emissivity, (int, float))
+                and frame.emissivity == held.emissivity)
+            if (index != self._held_start + self._held or not same
+                    or frame.reflected_temperature != held.reflected_temperature
+                    or block.dtype != self._buffer.dtype):
+                self._flush()
+        if self._buffer is None or self._buffer.dtype != block.dtype:
+            self._buffer = np.empty((HELD_FRAMES, *block.shape[1:]), dtype=block.dtype)
+        return True
+
+    def _flush(self) -> None:
+        if self._held:
+            n, self._held = self._held, 0
+            self._feed(self._buffer[:n], self._held_frame, self._held_start)
+
+    def _feed(self, block, frame, lo) -> None:
+        weights = self.weights[lo - self.first:lo - self.first + block.shape[0]]
+        self._add(block, weights, frame, lo)
+        if frame.reflected_temperature is not None:
+            reflection = _reflection(frame, self._complement)
+            radiometric = [n for n, r in enumerate(self.responses) if r.radiometric]
+            if radiometric:
+                t = np.broadcast_to(reflection.temperature, block.shape)
+                self._add(t, weights, reflection, lo, radiometric)
+
+    def _add(self, block, weights, frame, index, which=None):
+        which = range(len(self.responses)) if which is None else which
+        tables, rows = [], []
+        for n in which:
+            table = self.responses[n].signal_table(frame)
+            if table is None:  # the signal is T: its mean is Σ w T
+                for f in range(block.shape[0]):
+                    self.out[n] += float(weights[f]) * block[f]
+            else:
+                tables.append(table)
+                rows.append(n)
+        if not tables:
+            return
+        every = len(rows) == self.out.shape[0]
+        out = self.out if every else np.zeros((len(rows), *self.out.shape[1:]))
+        if self.compiled:
+            status, flagged = accumulate_bands(block, weights, tables, out, frame_index=index)
+        else:
+            status, flagged = -1, np.arange(block.shape[1])
+        if status != STATUS_OK and flagged.size:
+            lo, hi = int(flagged[0]), int(flagged[-1]) + 1
+            part = np.zeros((len(tables), hi - lo, block.shape[2]))
+            cut = [_rows_of_table(t, lo, hi) for t in tables]
+            accumulate_bands_reference(block[:, lo:hi], weights, cut, part, frame_index=index)
+            redo = flagged - lo if status != -1 else slice(None)
+            out[:, lo:hi][:, redo] += part[:, redo]
+        if not every:
+            self.out[rows] += out
+
+    def signals(self) -> np.ndarray:
+        """(responses, rows, columns): the window mean of each response's signal."""
+        self._flush()
+        return self.out
+
+
+#: Single frames :class:`SubBandSignals` keeps for one kernel call.
+HELD_FRAMES = 4
+
+
+def _rows_of_table(table, lo: int, hi: int):
+    """The table with its maps cut to rows ``lo`` … ``hi − 1``."""
+    grey = table.grey if table.grey_scalar is not None else table.grey[lo:hi]
+    index = None if table.index is None else table.index[lo:hi]
+    return table.with_maps(grey=grey, index=index)
+
+
 def sample_signals(scene: Scene, window: Window, responses: list[Response],
                    progress=None, engine: str | None = None) -> np.ndarray:
     """
@@ -102,36 +249,48 @@ def sample_signals(scene: Scene, window: Window, responses: list[Response],
     numpy.ndarray
         (len(responses), rows, columns) [each response's unit].
     """
-    accumulate = get_engine(engine).accumulate
-    first, weights = frame_weights(window.start, window.duration, scene.dt, scene.n_frames)
-    rows_n, cols_n = scene.shape
-    rows = axis_footprints(rows_n, scene.dx, scene.dx, 1.0, rows_n, axis="y (rows)")
-    cols = axis_footprints(cols_n, scene.dx, scene.dx, 1.0, cols_n, axis="x (columns)")
-    out = np.zeros((len(responses), rows_n, cols_n))
-    zero = np.zeros((rows_n, cols_n))
-    # The kernels' temperature moments are not needed here: scratch accumulators.
-    dev, sq, t_max = np.zeros_like(zero), np.zeros_like(zero), np.full_like(zero, -np.inf)
-    complement = _Reflectances()
-    full = (slice(0, rows_n), slice(0, cols_n))
-    frames = range(first, first + weights.size)
-    for done, frame in enumerate(_prefetched(scene, frames, full, checked=False), start=1):
-        weight = float(weights[frame.index - first])
-        reflection = (None if frame.reflected_temperature is None
-                      else _reflection(frame, complement))
-        for n, response in enumerate(responses):
-            table = response.signal_table(frame)
-            if table is None:  # the signal is T: its mean is the first moment about 0
-                accumulate(frame.temperature, rows, cols, weight, zero, out[n], sq, t_max,
-                           frame_index=frame.index)
-                continue
-            accumulate(frame.temperature, rows, cols, weight, zero, dev, sq, t_max, out[n],
-                       table, frame_index=frame.index)
-            if reflection is not None and response.radiometric:
-                accumulate(reflection.temperature, rows, cols, weight, zero, dev, sq, t_max,
-                           out[n], response.signal_table(reflection), frame_index=frame.index)
+    signals = SubBandSignals(scene, window, responses, engine)
+    frames = range(signals.first, signals.stop)
+    for done, frame in enumerate(_prefetched(scene, frames, signals.region, checked=False),
+                                 start=1):
+        signals.add(frame.temperature, frame, frame.index)
         if progress is not None:
-            progress(done, weights.size)
-    return out
+            progress(done, signals.weights.size)
+    return signals.signals()
+
+
+def form_image(scene: Scene, integrator: FootprintIntegrator, bands, maps: np.ndarray,
+               psfs, band: tuple[float, float], object_na: float) -> np.ndarray:
+    """
+    The mean signal per pixel of the image of the window-mean sub-band signals ``maps``
+    (:func:`sample_signals`, one per ``(response, wavelength)`` of ``bands``): the path, the
+    blur of all sub-bands (:func:`radiosim.psf.blur_bands`, one inverse transform) and each
+    pixel's footprint (steps 2–4 of the module docstring).
+    """
+    tau, path_temperature = scene.path_transmission, scene.path_temperature
+    fields, surroundings, wavelengths = [], [], []
+    for (sub, wavelength), field in zip(bands, maps):
+        if math.isnan(wavelength):
+            wavelength = 0.5 * (band[0] + band[1])
+        if sub.radiometric:
+            around = float(sub.grey_signal(scene.surroundings_temperature))
+            if tau < 1.0:
+                path = float(sub.grey_signal(path_temperature))
+                field = observed_signal(field, 0.0, tau, path)
+                around = observed_signal(around, 0.0, tau, path)
+        else:
+            around = scene.surroundings_temperature
+        fields.append(field)
+        surroundings.append(around)
+        wavelengths.append(wavelength)
+    if psfs:
+        total = blur_bands(fields, surroundings, psfs, scene.dx, wavelengths, object_na)
+    else:
+        total = np.zeros(scene.shape)
+        for field in fields:
+            total += field
+    rows, cols = integrator.region
+    return integrator.pixel_mean(integrator.expand(total[rows, cols]))
 
 
 def image_signal(scene: Scene, integrator: FootprintIntegrator, window: Window,
@@ -162,20 +321,30 @@ def image_signal(scene: Scene, integrator: FootprintIntegrator, window: Window,
     """
     bands = response.sub_bands(sub_band_count(psfs))
     maps = sample_signals(scene, window, [r for r, _ in bands], progress, engine)
-    tau, path_temperature = scene.path_transmission, scene.path_temperature
-    total = np.zeros(scene.shape)
-    for (sub, wavelength), field in zip(bands, maps):
-        if math.isnan(wavelength):
-            wavelength = 0.5 * (band[0] + band[1])
-        if sub.radiometric:
-            surroundings = float(sub.grey_signal(scene.surroundings_temperature))
-            if tau < 1.0:
-                path = float(sub.grey_signal(path_temperature))
-                field = observed_signal(field, 0.0, tau, path)
-                surroundings = observed_signal(surroundings, 0.0, tau, path)
-        else:
-            surroundings = scene.surroundings_temperature
-        total += blur(field, surroundings, psfs, scene.dx, wavelength, object_na) if psfs \
-            else field
-    rows, cols = integrator.region
-    return integrator.pixel_mean(integrator.expand(total[rows, cols]))
+    return form_image(scene, integrator, bands, maps, psfs, band, object_na)
+
+
+def image_statistics(scene: Scene, integrator: FootprintIntegrator, window: Window,
+                     response: Response, psfs: tuple[PSF, ...] | None,
+                     band: tuple[float, float], object_na: float, progress=None,
+                     engine: str | None = None) -> TensorStatistics:
+    """
+    The tensor statistics of the scene truth (T over footprint × window, as
+    :func:`radiosim.integrator.integrate`) with ``signal_mean`` the image's
+    (:func:`image_signal`), from ONE pass over the frames: the integrator's pass also feeds
+    the sub-band signals at sample resolution (:class:`SubBandSignals`). Arguments as
+    :func:`image_signal`; returns the same ``signal_mean`` and the same mean, std and max as
+    the two passes.
+    """
+    bands = response.sub_bands(sub_band_count(psfs))
+    signals = SubBandSignals(scene, window, [r for r, _ in bands], engine)
+    # The statistics are the scene truth's T moments: the job's own signal is not needed
+    # (the linear response's is T itself, formed with the moments).
+    truth = integrate_many(scene, [Job(integrator, window, _TRUTH)], progress, engine,
+                           emission_only=True, observer=signals)[0]
+    image = form_image(scene, integrator, bands, signals.signals(), psfs, band, object_na)
+    return dataclasses.replace(truth, signal_mean=image)
+
+
+#: The response of the statistics' job in :func:`image_statistics` (its signal is T).
+_TRUTH = LinearResponse()

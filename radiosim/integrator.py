@@ -543,8 +543,8 @@ ENGINES = tuple(_ENGINES)
 
 
 def integrate_many(scene: Scene, jobs: list[Job], progress=None,
-                   engine: str | None = None, emission_only: bool = False
-                   ) -> list[TensorStatistics]:
+                   engine: str | None = None, emission_only: bool = False,
+                   observer=None) -> list[TensorStatistics]:
     """
     Integrate several measurements of one scene in one pass: each frame any window touches is
     read (or generated) once, over the union of the jobs' regions, and feeds every job whose
@@ -572,13 +572,23 @@ def integrate_many(scene: Scene, jobs: list[Job], progress=None,
     emission_only
         The signal need hold each sample's own emission only (the caller adds reflections), so
         a reflecting scene may take the compiled engine.
+    observer
+        Also fed, in the same pass, every frame of its ``first`` … ``stop − 1`` over its
+        ``region`` (:class:`~radiosim.imaging.SubBandSignals`): ``observer.add(temperature,
+        frame, start)`` with one 2-D frame or a 3-D block of consecutive frames, the first
+        one's scene frame and its index.
     """
     engine = get_engine(engine)
     accumulators = [_Accumulator(job, scene) for job in jobs]
     if not accumulators:
         return []
-    frames = sorted(set().union(*(range(a.first, a.stop) for a in accumulators)))
-    region = _union([a.job.integrator.region for a in accumulators])
+    ranges = [range(a.first, a.stop) for a in accumulators]
+    regions = [a.job.integrator.region for a in accumulators]
+    if observer is not None:
+        ranges.append(range(observer.first, observer.stop))
+        regions.append(observer.region)
+    frames = sorted(set().union(*ranges))
+    region = _union(regions)
     # The compiled kernels integrate each sample's own emission; a scene that reflects is
     # integrated by the numpy engine, whose Planck signal adds (1 − ε)·L(T_refl) — unless the
     # caller forms the reflected light itself (the camera's image stage: ``emission_only``).
@@ -586,9 +596,13 @@ def integrate_many(scene: Scene, jobs: list[Job], progress=None,
         a.job.response.radiometric for a in accumulators)
     if not engine.reference and not reflects and all(a.job.response.has_table
                                                      for a in accumulators):
-        return _integrate_compiled(scene, accumulators, frames, region, progress, engine)
+        return _integrate_compiled(scene, accumulators, frames, region, progress, engine,
+                                   observer)
     for done, frame in enumerate(_prefetched(scene, frames, region), start=1):
         k = frame.index
+        if observer is not None:
+            mine = _within(frame, region, observer.region)
+            observer.add(mine.temperature, mine, k)
         signals = {}
         for acc in accumulators:
             if not acc.first <= k < acc.stop:
@@ -624,7 +638,7 @@ def _frames_inline_or_prefetched(scene, indices, region):
             return
 
 
-def _integrate_compiled(scene, accumulators, frames, region, progress, engine):
+def _integrate_compiled(scene, accumulators, frames, region, progress, engine, observer=None):
     """
     The compiled engine. Per frame and footprint group, one kernel pass
     (the engine's ``accumulate_merged``; blocks of up to :data:`FRAME_BLOCK` frames
@@ -652,6 +666,9 @@ def _integrate_compiled(scene, accumulators, frames, region, progress, engine):
                 if mine.ndim == 3:
                     mine = mine[first - start:last - start]
                 group.merge(mine, _within(sample, region, inner), first)
+        if observer is not None:
+            inner = observer.region
+            observer.add(crop(temperature, region, inner), _within(sample, region, inner), start)
 
     done = 0
     # A scene that holds its frames as one array: blocks of consecutive frames, one kernel

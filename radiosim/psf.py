@@ -49,6 +49,7 @@ References
 
 from __future__ import annotations
 
+import functools
 import math
 import warnings
 from abc import ABC, abstractmethod
@@ -63,7 +64,8 @@ from radiosim.config import edge_value, si_value
 from radiosim.errors import RadiosimError, RadiosimWarning
 
 __all__ = ["PSF", "Diffraction", "GaussianBlur", "ScatterHalo", "TabulatedPSF", "as_psf",
-           "psf_floor", "transfer", "sampled_transfer", "blur", "padded_shape", "reach",
+           "psf_floor", "transfer", "sampled_transfer", "blur", "blur_bands", "padded_shape",
+           "fft_shape", "padding", "reach", "PAD_ENERGY", "MERGE_TOLERANCE",
            "airy_encircled_energy", "halo_encircled_energy", "PSF_TYPES"]
 
 #: H − floor below this fraction (in magnitude) is negligible: the aliases beyond are not summed.
@@ -98,6 +100,11 @@ class PSF(ABC):
         """Distance [m] beyond which the PSF's kernel is negligible against its core (20 core
         widths for the power-law wings of the Airy pattern and the halo): the padding of a
         blur."""
+
+    def radius(self, energy: float, wavelength: float, object_na: float) -> float:
+        """Radius [m] beyond which less than ``energy`` [1] of the PSF's light lies (its
+        encircled energy exceeds 1 − ``energy`` there); by default its :meth:`reach`."""
+        return self.reach(wavelength, object_na)
 
     def to_table(self) -> dict:
         """The PSF as a TOML table (``type`` and its parameters in edge units)."""
@@ -145,6 +152,22 @@ class Diffraction(PSF):
     def reach(self, wavelength, object_na):
         return 20 * 0.61 * wavelength / object_na  # 20 Airy radii: the r⁻³ envelope at 1e-4
 
+    def radius(self, energy, wavelength, object_na):
+        # 1 − EE = J₀²(v) + J₁²(v) decreases monotonically (its derivative is −2 J₁²/v) and
+        # tends to 2/(π v): bisection in v between 0 and twice that asymptote's root.
+        if energy >= 1.0:
+            return 0.0
+        from scipy.special import j0, j1
+
+        lo, hi = 0.0, 4.0 / (math.pi * energy) + 10.0
+        for _ in range(100):
+            mid = 0.5 * (lo + hi)
+            if j0(mid) ** 2 + j1(mid) ** 2 > energy:
+                lo = mid
+            else:
+                hi = mid
+        return hi * wavelength / (2 * math.pi * object_na)
+
     def to_table(self) -> dict:
         return {"type": "diffraction", "sub_bands": self.sub_bands}
 
@@ -174,6 +197,10 @@ class GaussianBlur(PSF):
 
     def reach(self, wavelength, object_na):
         return 8 * self.sigma
+
+    def radius(self, energy, wavelength, object_na):
+        # The light beyond r of a circular Gaussian: exp(−r²/2σ²).
+        return 0.0 if energy >= 1.0 else self.sigma * math.sqrt(2 * math.log(1 / energy))
 
     def axis_terms(self, f, axis: int) -> np.ndarray:
         """The OTF per axis as (frequencies, 1) terms (see :func:`sampled_transfer`)."""
@@ -224,6 +251,12 @@ class ScatterHalo(PSF):
 
     def reach(self, wavelength, object_na):
         return 20 * self.width  # the kernel there is 1e-4 of its centre's
+
+    def radius(self, energy, wavelength, object_na):
+        # The light beyond r: β a / √(r² + a²) (the point part lies at r = 0).
+        if energy >= self.fraction:
+            return 0.0
+        return self.width * math.sqrt((self.fraction / energy) ** 2 - 1.0)
 
     def to_table(self) -> dict:
         return {"type": "scatter_halo", "fraction": self.fraction, "width_um": edge_value(self.width, 1e-6)}
@@ -284,6 +317,15 @@ class TabulatedPSF(PSF):
 
     def reach(self, wavelength, object_na):
         return 0.5 * max(self.kernel.shape) * self.pitch
+
+    def radius(self, energy, wavelength, object_na):
+        # Cells whose farthest corner lies beyond r hold all the light beyond r.
+        y, x = np.meshgrid(np.abs(self._centres(0)), np.abs(self._centres(1)), indexing="ij")
+        far = np.hypot(y + 0.5 * self.pitch, x + 0.5 * self.pitch).ravel()
+        order = np.argsort(far)[::-1]
+        outside = np.cumsum(self.kernel.ravel()[order])  # light beyond far[order[k + 1]]
+        beyond = np.flatnonzero(outside > energy)
+        return 0.0 if beyond.size == 0 else float(far[order[beyond[0]]])
 
     def _centres(self, axis: int) -> np.ndarray:
         n = self.kernel.shape[axis]
@@ -440,8 +482,13 @@ def sampled_transfer(psfs, shape: tuple[int, int], dx: float, wavelength: float,
     >>> float(k[0, 0].real)  # a uniform field is unchanged
     1.0
     """
-    fy = sfft.fftfreq(shape[0], dx)
-    fx = sfft.rfftfreq(shape[1], dx)
+    return _transfer_on(psfs, sfft.fftfreq(shape[0], dx), sfft.rfftfreq(shape[1], dx), dx,
+                        wavelength, object_na)
+
+
+def _transfer_on(psfs, fy: np.ndarray, fx: np.ndarray, dx: float, wavelength: float,
+                 object_na: float) -> np.ndarray:
+    """K̂ at the row frequencies ``fy`` × column frequencies ``fx`` [cycles m⁻¹]."""
     bandwidth = _bandwidth(psfs, wavelength, object_na)
     separable = _separable(psfs)
     if separable is not None:  # Σ over (ky, kx) = (Σ over ky) ⊗ (Σ over kx), per term
@@ -453,7 +500,7 @@ def sampled_transfer(psfs, shape: tuple[int, int], dx: float, wavelength: float,
     if bandwidth * dx > _MAX_ALIASES + 0.5:
         warnings.warn(f"the PSF's transfer reaches {bandwidth * dx:.3g} / dx, beyond the "
                       f"±{_MAX_ALIASES} aliases summed: its blur of {dx:.3g} m samples is "
-                      "approximate (sample the scene finer)", RadiosimWarning, stacklevel=3)
+                      "approximate (sample the scene finer)", RadiosimWarning, stacklevel=4)
     floor = psf_floor(psfs)
     fy, fx = fy[:, None], fx[None, :]
     out = np.full((fy.size, fx.size), floor, dtype=complex)
@@ -467,24 +514,146 @@ def sampled_transfer(psfs, shape: tuple[int, int], dx: float, wavelength: float,
     return out
 
 
-#: A blur pads each axis of n samples by n to 3n samples of surroundings.
+#: A blur's padding leaves less than this fraction of the PSF's light beyond it (see
+#: :func:`padding`): the error of the circular convolution, per unit of the field's contrast.
+PAD_ENERGY = 5e-3
+#: The padding of an axis is at most this many times the field's length.
+_MAX_PAD = 4
+#: Sub-bands whose sampled kernels differ by at most this L1 norm [1] share one transfer
+#: (:func:`blur_bands`).
+MERGE_TOLERANCE = 1e-9
+
+
+def padding(psfs, wavelength: float, object_na: float, energy: float = PAD_ENERGY) -> float:
+    """
+    The padding [m] of a blur: the distance beyond which less than ``energy`` [1] of the light
+    of the convolution of ``psfs`` lies, Σᵢ rᵢ with rᵢ each PSF's :meth:`~PSF.radius` at
+    ``energy`` / n (a point displaced by more than Σ rᵢ has at least one of its n PSFs'
+    displacements beyond its rᵢ: the union bound).
+    """
+    psfs = list(psfs)
+    share = energy / max(len(psfs), 1)
+    return sum(p.radius(share, wavelength, object_na) for p in psfs)
+
+
+#: A blur pads each axis of n samples by n to 3n samples of surroundings (the former rule,
+#: :func:`padded_shape`).
 _PAD_RANGE = (1, 3)
 
 
 def padded_shape(shape: tuple[int, int], reach: float = 0.0) -> tuple[int, int]:
     """
-    The FFT grid of a blur of a field of ``shape`` samples: each axis padded by the PSF's
-    ``reach`` [samples], at least the field's length and at most three times it (a scene's
-    width of surroundings or more between periodic copies), rounded up to a fast length.
+    The FFT grid of a field of ``shape`` samples padded by ``reach`` [samples]: each axis
+    padded by the reach, at least the field's length and at most three times it, rounded up
+    to a fast length (the former rule of :func:`blur`, kept for callers;
+    :func:`blur` pads by :func:`padding` instead).
     """
     low, high = _PAD_RANGE
     return tuple(sfft.next_fast_len(n + int(min(max(low * n, math.ceil(reach)), high * n)),
                                     real=True) for n in shape)
 
 
+def fft_shape(shape: tuple[int, int], pad: float) -> tuple[int, int]:
+    """The FFT grid of a blur of a field of ``shape`` samples with ``pad`` [samples] of
+    surroundings between its periodic copies (at most :data:`_MAX_PAD` field lengths, plus
+    two samples for the sample squares' own width), each axis rounded up to a fast length."""
+    return tuple(sfft.next_fast_len(n + int(min(math.ceil(pad) + 2, _MAX_PAD * n)), real=True)
+                 for n in shape)
+
+
 def reach(psfs, wavelength: float, object_na: float) -> float:
     """The reach [m] of a convolution of PSFs: the sum of theirs."""
     return sum(p.reach(wavelength, object_na) for p in psfs)
+
+
+def _support(psfs, n: int, dx: float, bandwidth: float, real: bool) -> np.ndarray:
+    """The frequency indices of an axis of ``n`` samples (real FFT: the non-negative ones)
+    where the sampled transfer of ``psfs`` may differ from 0: all, unless the product OTF has
+    no point-like part and vanishes beyond ``bandwidth`` below Nyquist (then no alias reaches
+    the axis and K̂ = 0 beyond the bandwidth)."""
+    f = sfft.rfftfreq(n, dx) if real else sfft.fftfreq(n, dx)
+    if psf_floor(psfs) != 0.0 or bandwidth * dx >= 0.5:
+        return np.arange(f.size)
+    return np.flatnonzero(np.abs(f) <= bandwidth * (1 + 1e-12))
+
+
+#: The transfers :func:`_cached_transfer` keeps, at most this many bytes (the oldest go first).
+TRANSFER_CACHE_BYTES = 256 * 2**20
+_TRANSFERS: dict = {}
+
+
+def _cached_transfer(psfs: tuple, shape: tuple[int, int], dx: float, wavelength: float,
+                     object_na: float):
+    """K̂ of ``psfs`` on the real-FFT grid of ``shape`` where it may differ from 0: (row
+    indices, column count, K̂ there), read-only; cached per PSFs, grid, wavelength and NA
+    (at most :data:`TRANSFER_CACHE_BYTES`)."""
+    key = (psfs, tuple(shape), float(dx), float(wavelength), float(object_na))
+    found = _TRANSFERS.pop(key, None)
+    if found is None:
+        found = _transfer_support(*key)
+        size = found[2].nbytes
+        while _TRANSFERS and sum(v[2].nbytes for v in _TRANSFERS.values()) + size \
+                > TRANSFER_CACHE_BYTES:
+            _TRANSFERS.pop(next(iter(_TRANSFERS)))
+    _TRANSFERS[key] = found  # the most recent last
+    return found
+
+
+def _transfer_support(psfs: tuple, shape: tuple[int, int], dx: float, wavelength: float,
+                      object_na: float):
+    """:func:`_cached_transfer`, computed."""
+    bandwidth = _bandwidth(psfs, wavelength, object_na)
+    rows = _support(psfs, shape[0], dx, bandwidth, False)
+    cols = _support(psfs, shape[1], dx, bandwidth, True)
+    n_cols = int(cols[-1]) + 1
+    k = _transfer_on(psfs, sfft.fftfreq(shape[0], dx)[rows], sfft.rfftfreq(shape[1], dx)[:n_cols],
+                     dx, wavelength, object_na)
+    rows.flags.writeable = False
+    k.flags.writeable = False
+    return rows, n_cols, k
+
+
+def _kernel_distance(a, b, shape) -> float:
+    """‖k_a − k_b‖₁: the L1 norm of the difference of two sampled kernels, from their
+    transfers (:func:`_cached_transfer`) on the grid of ``shape``."""
+    diff = np.zeros((shape[0], shape[1] // 2 + 1), dtype=complex)
+    diff[a[0], :a[1]] += a[2]
+    diff[b[0], :b[1]] -= b[2]
+    return float(np.abs(sfft.irfft2(diff, shape, workers=-1)).sum())
+
+
+def _transfer_gap(a, b) -> float:
+    """max |K̂_a − K̂_b| over the frequencies both supports hold: a lower bound of
+    ‖k_a − k_b‖₁ (|Σ Δk e^{…}| ≤ Σ |Δk|)."""
+    rows, ia, ib = np.intersect1d(a[0], b[0], return_indices=True)
+    n = min(a[1], b[1])
+    if rows.size == 0 or n == 0:
+        return 0.0
+    return float(np.abs(a[2][ia, :n] - b[2][ib, :n]).max())
+
+
+@functools.lru_cache(maxsize=16)
+def _merged_bands(psfs: tuple, shape: tuple[int, int], dx: float, wavelengths: tuple,
+                  object_na: float, tolerance: float) -> tuple:
+    """The sub-bands grouped by transfer: each group (its first sub-band, the members) with
+    ‖k_first − k_member‖₁ ≤ ``tolerance`` (cached per PSFs, grid and wavelengths)."""
+    transfers = [_cached_transfer(psfs, shape, dx, w, object_na) for w in wavelengths]
+    groups: list[tuple[int, list[int]]] = []
+    for b, t in enumerate(transfers):
+        for first, members in groups:
+            u = transfers[first]
+            same = (u[1] == t[1] and np.array_equal(u[0], t[0]) and np.array_equal(u[2], t[2]))
+            if same or (tolerance > 0 and _transfer_gap(u, t) <= tolerance
+                        and _kernel_distance(u, t, shape) <= tolerance):
+                members.append(b)
+                break
+        else:
+            groups.append((b, [b]))
+    return tuple((first, tuple(members)) for first, members in groups)
+
+
+def _hashable(psfs) -> tuple:
+    return tuple(psfs)
 
 
 def blur(field: np.ndarray, surroundings: float, psfs, dx: float, wavelength: float,
@@ -515,21 +684,90 @@ def blur(field: np.ndarray, surroundings: float, psfs, dx: float, wavelength: fl
 
     Notes
     -----
-    The field is placed on a grid of :func:`padded_shape` filled with the surroundings and
-    convolved circularly: each sample also receives the light of the field's periodic copies,
-    a padding away, instead of the surroundings'. The error is the PSF's kernel at that distance
-    times the field's area and radiance contrast: with the PSF's :meth:`~PSF.reach` of padding,
-    below 1e-4 of the core's kernel; where the padding is capped at three field lengths, a
-    field smaller than the PSF's wings should be extended with its surroundings.
+    :func:`blur_bands` of one band (its notes: the padding and its error bound).
     """
-    field = np.asarray(field, dtype=float)
-    shape = padded_shape(field.shape, reach(psfs, wavelength, object_na) / dx)
-    padded = np.full(shape, float(surroundings))
-    padded[:field.shape[0], :field.shape[1]] = field
-    spectrum = sfft.rfft2(padded - surroundings, workers=-1)
-    spectrum *= sampled_transfer(psfs, shape, dx, wavelength, object_na)
-    out = sfft.irfft2(spectrum, shape, workers=-1)[:field.shape[0], :field.shape[1]]
-    return out + surroundings
+    return blur_bands([field], [surroundings], psfs, dx, [wavelength], object_na)
+
+
+def blur_bands(fields, surroundings, psfs, dx: float, wavelengths, object_na: float,
+               energy: float = PAD_ENERGY, tolerance: float = MERGE_TOLERANCE) -> np.ndarray:
+    """
+    Σ_b of the sample-square averages of sub-band b's radiance field seen through the PSFs at
+    its wavelength: the blurred image of several sub-bands, in one inverse transform.
+
+    Parameters
+    ----------
+    fields
+        Radiance per sample of each sub-band (any unit), 2-D, one shape; pitch ``dx`` [m].
+    surroundings
+        Each sub-band's radiance outside the field (same unit).
+    psfs
+        The PSFs (their convolution).
+    dx
+        Sample pitch [m, object space].
+    wavelengths
+        Each sub-band's wavelength [m].
+    object_na
+        Object-side numerical aperture of the working cone [1].
+    energy
+        The light [1] the padding may leave beyond it (:func:`padding`).
+    tolerance
+        Sub-bands whose sampled kernels differ by at most this L1 norm share a transfer.
+
+    Returns
+    -------
+    numpy.ndarray
+        The blurred sum, shaped like a field.
+
+    Notes
+    -----
+    Each field less its surroundings is placed on a grid of :func:`fft_shape` (zeros around
+    it) and convolved circularly: each sample also receives the light of the field's periodic
+    copies instead of the surroundings'. Those copies lie beyond the padding P (:func:`padding`
+    at the longest wavelength) from every sample of the field, so the error at any sample is at
+    most ``energy`` × max |field − surroundings| per sub-band (the light beyond P), or the
+    light beyond :data:`_MAX_PAD` field lengths where the padding is capped there.
+
+    The transforms take only the frequencies where the transfer can differ from 0: a PSF with
+    no point-like part whose OTF vanishes beyond a frequency below Nyquist (diffraction) needs
+    the columns and rows below that frequency, so the forward transform runs over the field's
+    rows and those columns, the inverse over those columns and the field's rows (the same
+    discrete Fourier transform, to rounding). Transfers are cached per PSFs, grid and
+    wavelength; the spectra of all sub-bands add before one inverse transform (the blur is
+    linear), and sub-bands whose kernels differ by at most ``tolerance`` in L1 norm are added
+    before one forward transform: their error is at most ``tolerance`` × max |field −
+    surroundings| of each sub-band so merged.
+    """
+    fields = [np.asarray(f, dtype=float) for f in fields]
+    n_rows, n_cols = fields[0].shape
+    psfs = _hashable(psfs)
+    wavelengths = tuple(float(w) for w in wavelengths)
+    pad = max(padding(psfs, w, object_na, energy) for w in wavelengths) / dx
+    shape = fft_shape((n_rows, n_cols), pad)
+    groups = _merged_bands(psfs, shape, dx, wavelengths, object_na, float(tolerance))
+    transfers = [_cached_transfer(psfs, shape, dx, wavelengths[first], object_na)
+                 for first, _ in groups]
+    rows = functools.reduce(np.union1d, [t[0] for t in transfers])  # the union of supports
+    n_freq = max(t[1] for t in transfers)
+    spectrum = np.zeros((rows.size, n_freq), dtype=complex)
+    for (first, members), (band_rows, band_freq, k) in zip(groups, transfers):
+        g = fields[members[0]] - float(surroundings[members[0]])
+        for b in members[1:]:
+            g = g + (fields[b] - float(surroundings[b]))
+        part = sfft.rfft(g, shape[1], axis=1, workers=-1)[:, :band_freq]
+        part = sfft.fft(part, shape[0], axis=0, workers=-1)[band_rows]
+        part *= k
+        if band_rows.size == rows.size and band_freq == n_freq:
+            spectrum += part
+        else:
+            spectrum[np.searchsorted(rows, band_rows), :band_freq] += part
+    full = np.zeros((shape[0], n_freq), dtype=complex)
+    full[rows] = spectrum
+    part = sfft.ifft(full, axis=0, workers=-1)[:n_rows]
+    out = np.zeros((n_rows, shape[1] // 2 + 1), dtype=complex)
+    out[:, :n_freq] = part
+    result = sfft.irfft(out, shape[1], axis=1, workers=-1)[:, :n_cols]
+    return result + float(sum(float(s) for s in surroundings))
 
 
 def airy_encircled_energy(radius, wavelength: float, object_na: float):

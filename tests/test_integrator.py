@@ -170,7 +170,6 @@ def test_one_pass_many_measurements_equals_one_at_a_time(engine, monkeypatch):
     many = integrator_module.integrate_many
     monkeypatch.setattr(integrator_module, "integrate_many",
                         lambda *a, **k: many(*a, **{**k, "engine": engine}))
-    monkeypatch.setattr("radiosim.camera.integrate_many", integrator_module.integrate_many)
     together = measure_many(scene, cases, rng=7)
     rng = np.random.default_rng(7)
     for (camera, t_int, t_start), m in zip(cases, together):

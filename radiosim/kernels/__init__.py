@@ -155,10 +155,10 @@ def dispatchers() -> tuple:
     signatures."""
     import numba
 
-    from radiosim.kernels import intrinsics, radiance, rows, sweeps
+    from radiosim.kernels import bands, intrinsics, radiance, rows, sweeps
 
     found = []
-    for module in (intrinsics, sweeps, radiance, rows):
+    for module in (intrinsics, sweeps, radiance, rows, bands):
         found += [v for v in vars(module).values()
                   if isinstance(v, numba.core.registry.CPUDispatcher)]
     found += sweeps._LIN_SWEEPS

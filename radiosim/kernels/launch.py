@@ -358,7 +358,8 @@ def _launch(block, rows: KernelAxis, cols: KernelAxis, time_weight, reference, d
     acc = Accumulators(time_weight, reference, dev, sq, tmax, signal)
     status = np.zeros((n_frames, rows.n_pixels), dtype=np.int64)
     slots = cols.slots
-    n_blocks = _blocks(rows.n_pixels, threads)
+    previous = thread_count()  # once per launch: numba's getter costs ~0.1 ms
+    n_blocks = _blocks(rows.n_pixels, previous if threads is None else threads)
     buffers = _buffers(n_blocks, max(1, slots.dup_source.size), slots.weight.size, base.dtype,
                        signs.index_map.dtype)
     members = merged if merged is not None else _NO_MEMBERS
@@ -366,8 +367,8 @@ def _launch(block, rows: KernelAxis, cols: KernelAxis, time_weight, reference, d
     start = np.zeros(n_blocks, dtype=np.int64)
     pending = np.full(n_blocks, -1, dtype=np.int64)  # a frame whose status awaits handling
     handled = STATUS_OK
-    previous = numba.get_num_threads()
-    if n_blocks != previous and n_blocks <= numba.config.NUMBA_NUM_THREADS:
+    changed = n_blocks != previous and n_blocks <= numba.config.NUMBA_NUM_THREADS
+    if changed:
         numba.set_num_threads(n_blocks)
     try:
         while True:
@@ -387,7 +388,7 @@ def _launch(block, rows: KernelAxis, cols: KernelAxis, time_weight, reference, d
             handled |= handle(f, (result, status[f], response))
             pending[pending == f] = -1
     finally:
-        if numba.get_num_threads() != previous:
+        if changed:
             numba.set_num_threads(previous)
 
 
@@ -456,7 +457,9 @@ def compile_pending(frame_dtypes=("float64",), index_dtypes=("uint8",), also=())
             cached.add((str(base.dtype), str(index.dtype)))
         except (AttributeError, IndexError, TypeError, ValueError):
             continue
-    wanted = {(str(np.dtype(f)), str(np.dtype(i))) for f in frame_dtypes for i in index_dtypes}
+    # An index map of any integer type is launched as uint8 where its table has at most 255
+    # entries (every scene's region map): its variant is uint8's.
+    wanted = {(str(np.dtype(f)), "uint8") for f in frame_dtypes for _ in index_dtypes}
     return not wanted <= cached or not all(_fresh_signatures(d) for d in also)
 
 
@@ -492,7 +495,8 @@ def warmup(progress=None, memmap_dir=None) -> dict:
     read-only numpy memory maps; no response (linear), and the radiance table (Planck) with a
     grey scalar, a grey map, and emissivity index maps of uint8 and intp (converted to uint8:
     one variant); through
-    :func:`pixel_mean`, :func:`accumulate` and :func:`accumulate_merged`. Later processes load
+    :func:`pixel_mean`, :func:`accumulate` and :func:`accumulate_merged`; and the image stage's
+    sub-band kernel (:func:`radiosim.kernels.bands.accumulate_bands`). Later processes load
     the compiled code from the cache (:func:`cache_location`) in well under a second.
 
     Parameters
@@ -513,6 +517,7 @@ def warmup(progress=None, memmap_dir=None) -> dict:
     import time
 
     from radiosim.kernels import dispatchers
+    from radiosim.kernels.bands import accumulate_bands
     from radiosim.radiometry import BandRadianceTable
 
     began = time.perf_counter()
@@ -543,6 +548,9 @@ def warmup(progress=None, memmap_dir=None) -> dict:
                     done += 1
                     if progress is not None:
                         progress(done, total, f"{np.dtype(dtype).name} frames {storage}, {name}")
+                # The image stage's sub-bands from one lookup (one variant per frame dtype).
+                accumulate_bands(block, np.full(2, 0.5), [responses[1][1]] * 2,
+                                 np.zeros((2, *shape)))
                 del block  # the memory map's file is closed before its folder goes
     after = sum(len(d.signatures) for d in dispatchers())
     return {"seconds": time.perf_counter() - began, "compiled": after - before,

@@ -16,7 +16,7 @@ from radiosim.kernels.messages import check_samples
 from radiosim.kernels.table import SignalTable
 
 __all__ = ["pixel_mean_reference", "accumulate_reference", "Members",
-           "accumulate_merged_reference"]
+           "accumulate_merged_reference", "accumulate_bands_reference", "identity_axes"]
 
 
 def on_pieces(field: np.ndarray, rows: KernelAxis, cols: KernelAxis,
@@ -150,4 +150,51 @@ def accumulate_merged_reference(frame, rows, cols, reference: np.ndarray, member
                     members.signal)
     if moments:
         members.count[...] = counts[-1]
+    return status
+
+
+class _Identity:
+    """An axis of n pixels, each one whole sample (the image stage's sample resolution)."""
+
+    def __init__(self, n: int):
+        self.source = np.arange(n)
+        self.weight = np.ones(n)
+        self.starts = np.arange(n)
+
+
+_IDENTITY: dict[tuple[int, int], tuple[KernelAxis, KernelAxis]] = {}
+
+
+def identity_axes(shape: tuple[int, int]) -> tuple[KernelAxis, KernelAxis]:
+    """The row and column axes of one pixel per sample on a region of ``shape`` (kept per
+    shape)."""
+    axes = _IDENTITY.get(tuple(shape))
+    if axes is None:
+        _IDENTITY.clear()
+        axes = _IDENTITY[tuple(shape)] = (KernelAxis.of(_Identity(shape[0]), "row"),
+                                          KernelAxis.of(_Identity(shape[1]), "column"))
+    return axes
+
+
+def accumulate_bands_reference(block, weights, tables: list[SignalTable], out: np.ndarray, *,
+                               frame_index: int = 0) -> int:
+    """:func:`~radiosim.kernels.bands.accumulate_bands` in plain numpy, the oracle: each
+    sub-band on its own, frame by frame (``out[b] += weights[f] · S_b(T_f)`` per sample, by
+    :func:`accumulate_reference` with one pixel per sample), with its checks and errors.
+    Returns STATUS_BELOW_TABLE if some samples were below a table (exact radiance), else
+    STATUS_OK."""
+    block = np.asarray(block)
+    if block.ndim == 2:
+        block = block[None]
+    weights = np.asarray(weights, dtype=np.float64).reshape(-1)
+    shape = block.shape[1:]
+    rows, cols = identity_axes(shape)
+    zero = np.zeros(shape)
+    dev, sq, tmax = np.zeros(shape), np.zeros(shape), np.full(shape, -np.inf)
+    status = STATUS_OK
+    for f in range(block.shape[0]):
+        for b, table in enumerate(tables):
+            status |= accumulate_reference(block[f], rows, cols, float(weights[f]), zero, dev,
+                                           sq, tmax, out[b], table,
+                                           frame_index=frame_index + f)
     return status

@@ -1,0 +1,122 @@
+"""
+The image stage's fast paths (issue 23): all sub-bands from one table lookup per sample
+against the per-sub-band reference, the statistics and the image from one pass over the
+frames, and the blur's padding and sub-band merging within their stated bounds.
+"""
+
+import dataclasses
+
+import numpy as np
+import pytest
+
+import radiosim as rs
+from radiosim import acquisition
+from radiosim.imaging import image_signal, image_statistics
+from radiosim.integrator import Job, Window, integrate_many
+from radiosim.kernels.bands import accumulate_bands
+from radiosim.kernels.reference import accumulate_bands_reference
+from radiosim.psf import Diffraction, GaussianBlur, ScatterHalo, _cached_transfer, _kernel_distance, \
+    blur_bands, fft_shape, padding
+from radiosim.scenes import FrameStack
+
+RNG = np.random.default_rng(23)
+
+
+def psf_camera():
+    camera = rs.Camera.preset("nist-ir-psf")
+    return camera.replace(fpa=dataclasses.replace(camera.fpa, shape=(5, 6)))
+
+
+def stack_scene(n_frames=4, shape=(40, 52), cold=None):
+    t = RNG.uniform(300.0, 1100.0, (n_frames, *shape))
+    if cold is not None:
+        t[1, 3:5, 7:9] = cold  # below the 130 K table
+    return FrameStack(t, dt=2e-7, dx=6.0e-6 / 9)
+
+
+@pytest.mark.parametrize("emissivity", ["scalar", "map", "index"])
+def test_fused_sub_band_kernel_equals_the_per_sub_band_reference(emissivity):
+    camera = psf_camera()
+    subs = [r for r, _ in camera.response_model.sub_bands(8)]
+    shape = (9, 21)
+    block = RNG.uniform(250.0, 1500.0, (3, *shape))
+    weights = np.array([0.2, 0.5, 0.3])
+    frame = rs.scenes.SceneFrame(block[0], 0.7)
+    tables = [s.signal_table(frame) for s in subs]
+    if emissivity == "map":
+        grey = RNG.uniform(0.1, 0.9, shape)
+        tables = [t.with_maps(grey=grey) for t in tables]
+    elif emissivity == "index":
+        regions = {0: 0.3, 1: 0.8}
+        codes = RNG.integers(0, 2, shape).astype(np.uint8)
+        frame = rs.scenes.SceneFrame(block[0], 1.0, codes, regions)
+        tables = [s.signal_table(frame) for s in subs]
+    fused, reference = np.zeros((8, *shape)), np.zeros((8, *shape))
+    status, rows = accumulate_bands(block, weights, tables, fused)
+    assert status == 0 and rows.size == 0
+    accumulate_bands_reference(block, weights, tables, reference)
+    assert np.all(reference > 0)
+    assert np.max(np.abs(fused / reference - 1)) < 1e-12
+
+
+def test_one_pass_gives_the_statistics_and_image_of_two_passes():
+    camera = psf_camera()
+    scene = stack_scene()
+    window = Window(0.0, 3 * scene.dt)
+    integrator = camera.integrator(scene)
+    optics = camera.optics
+    args = (camera.response_model, optics.psf, optics.band, optics.object_na(camera.fpa))
+    one = image_statistics(scene, integrator, window, *args)
+    truth = integrate_many(scene, [Job(integrator, window, camera.response_model)],
+                           emission_only=True)[0]
+    image = image_signal(scene, integrator, window, *args)
+    for name in ("mean", "std", "max"):
+        assert np.array_equal(getattr(one, name), getattr(truth, name)), name
+    assert one.n_frames == truth.n_frames == 3
+    assert np.array_equal(one.signal_mean, image)
+    # and what the measurement's statistics give today
+    (stats,) = acquisition.tensor_statistics(scene, [(camera, window)])
+    assert np.array_equal(stats.mean, one.mean)
+    assert np.max(np.abs(stats.signal_mean / one.signal_mean - 1)) < 1e-12
+
+
+def test_samples_below_the_table_take_the_exact_reference():
+    camera = psf_camera()
+    scene = stack_scene(cold=100.0)
+    subs = [r for r, _ in camera.response_model.sub_bands(8)]
+    window = Window(0.0, 3 * scene.dt)
+    compiled = rs.imaging.sample_signals(scene, window, subs)
+    reference = rs.imaging.sample_signals(scene, window, subs, engine="numpy")
+    assert np.max(np.abs(compiled / reference - 1)) < 1e-12
+
+
+def hot_disc(shape=(60, 70)):
+    y, x = np.indices(shape)
+    return np.where(np.hypot(y - 30, x - 25) < 6, 100.0, 1.0)
+
+
+def test_padding_leaves_less_than_the_stated_energy_of_the_contrast():
+    psfs = (GaussianBlur(1e-6), ScatterHalo(0.02, 2e-6))
+    dx, na, wavelength = 0.5e-6, 0.2, 4.5e-6
+    field = hot_disc()
+    energy, wide_energy = 1e-2, 1e-3
+    padded = blur_bands([field], [1.0], psfs, dx, [wavelength], na, energy=energy)
+    wide = blur_bands([field], [1.0], psfs, dx, [wavelength], na, energy=wide_energy)
+    pads = [padding(psfs, wavelength, na, e) / dx for e in (energy, wide_energy)]
+    assert pads[0] < pads[1] < 4 * min(field.shape)  # neither capped
+    error = np.abs(padded - wide).max()
+    assert 0 < error <= (energy + wide_energy) * (field.max() - 1.0)
+
+
+def test_merged_sub_bands_stay_within_the_kernel_distance_bound():
+    psfs = (Diffraction(),)
+    dx, na = 0.5e-6, 0.2
+    fields = [hot_disc(), 0.5 * hot_disc()]
+    waves = [4.50e-6, 4.52e-6]
+    shape = fft_shape(fields[0].shape, max(padding(psfs, w, na) for w in waves) / dx)
+    distance = _kernel_distance(*(_cached_transfer(psfs, shape, dx, w, na) for w in waves),
+                                shape)
+    apart = blur_bands(fields, [1.0, 0.5], psfs, dx, waves, na, tolerance=0.0)
+    merged = blur_bands(fields, [1.0, 0.5], psfs, dx, waves, na, tolerance=2 * distance)
+    error = np.abs(apart - merged).max()
+    assert 0 < error <= distance * (fields[1].max() - 0.5) * (1 + 1e-9)
