@@ -14,7 +14,8 @@ Every draw is a Dask task (the engine is :mod:`radiosim.scheduling`). Its seed i
 from one :class:`numpy.random.SeedSequence` (the draw's index picks its child), so a budget
 gives identical bits on any scheduler and any number of workers; draws are accumulated in index
 order. Tasks carry the scene as a recipe (scenes pickle as their parameters, or as the path of
-a memory-mapped stack), never its frames.
+a memory-mapped stack), never its frames; draws share running sums over the frames
+(:mod:`radiosim.budget_reuse`), so a draw is a blur and a read-out, not a pass over the frames.
 
 Memory is bounded in the number of draws (:mod:`radiosim.moments`): moments are streamed
 (Welford's update), and the coverage interval's quantiles come from a per-pixel histogram of
@@ -45,6 +46,7 @@ from typing import NamedTuple
 
 import numpy as np
 
+from radiosim import budget_reuse
 from radiosim.checks import check_count, check_positive
 from radiosim.config import si_value
 from radiosim.errors import RadiosimError, RadiosimWarning
@@ -470,16 +472,37 @@ class _Model:
     integration_time: float
     t_start: float
     inputs: dict
+    plan: budget_reuse.ReusePlan | None = None  # the draws' running sums, where they serve
 
     def evaluate(self, values: dict, noise_seed) -> np.ndarray:
-        """The apparent temperature [K] (NaN where flagged) with the inputs at ``values``."""
+        """The apparent temperature [K] (NaN where flagged) with the inputs at ``values``:
+        from the running sums of :mod:`radiosim.budget_reuse` where they serve, else
+        measured."""
         camera, scene = self.camera, self.scene
+        camera.response_model  # built before the inputs apply: the draws' cameras share it
         settings = {"t_start": self.t_start, "integration_time": self.integration_time}
         for name, value in values.items():
             camera, scene, settings = INPUTS[name].apply(camera, scene, settings, value)
-        m = camera.measure(scene, settings["integration_time"], settings["t_start"],
-                           np.random.default_rng(noise_seed))
+        rng = np.random.default_rng(noise_seed)
+        if self.plan is not None:
+            reading = budget_reuse.draw(self.plan, camera, scene, settings["integration_time"],
+                                        settings["t_start"], rng)
+            if reading is not None:
+                return reading
+        m = camera.measure(scene, settings["integration_time"], settings["t_start"], rng)
         return m.apparent_temperature.astype(np.float64)
+
+    def span(self) -> tuple[float, float]:
+        """The earliest start and latest end of any draw's window [s] (the inputs'
+        distributions less 1e-9 of probability at either end, as :func:`_check_domains`)."""
+        def reach(name):
+            dist = self.inputs.get(name)
+            if dist is None:
+                return 0.0, 0.0
+            return tuple(float(v) for v in dist.ppf(np.array([_OUTSIDE_DOMAIN,
+                                                              1 - _OUTSIDE_DOMAIN])))
+        (early, late), (_, longer) = reach("t_start"), reach("integration_time")
+        return self.t_start + early, self.t_start + late + self.integration_time + longer
 
 
 def _draw(model: _Model, seed: np.random.SeedSequence, vary, fixed_noise) -> np.ndarray:
@@ -575,7 +598,8 @@ def _significant_tolerance(u: np.ndarray, digits: int) -> np.ndarray:
 def propagate(camera, scene, integration_time: float, inputs: dict, draws: int | None = None,
               rng=None, scheduler=None, t_start: float | None = None, workers: int | None = None,
               batch: int = 50, digits: int = 2, max_draws: int = 10_000,
-              budget_draws: int | None = None, progress=None) -> UncertaintyResult:
+              budget_draws: int | None = None, progress=None,
+              reuse: bool = True) -> UncertaintyResult:
     """
     Propagate the ``inputs``' distributions through the camera's whole chain (GUM Supplement 1).
 
@@ -608,6 +632,11 @@ def propagate(camera, scene, integration_time: float, inputs: dict, draws: int |
         adaptive), or as ``progress(done, total, seconds_left)`` if it takes three arguments:
         the estimated time to ``total`` [s] from the batches so far (``None`` while adaptive
         or before the first batch).
+    reuse
+        Draws keep the running sums over frames of the scene's radiance between them
+        (:mod:`radiosim.budget_reuse`); ``False``: each draw makes its own, one pass over the
+        frames — the same bits, slower. Budgets the sums cannot serve are measured draw by
+        draw either way.
 
     Returns
     -------
@@ -630,6 +659,8 @@ def propagate(camera, scene, integration_time: float, inputs: dict, draws: int |
     start = camera.window(scene, t_int, t_start).start
     model = _Model(camera, scene, t_int, start, inputs)
     _check_domains(model)
+    model = dataclasses.replace(model, plan=budget_reuse.ReusePlan.for_budget(
+        camera, scene, *model.span(), reuse=reuse))
     nominal = camera.measure(scene, t_int, start, np.random.default_rng(noise_seed))
     engine, close = connect(scheduler, workers)
     # The draws are many: each distinct warning is raised once, below, with its count.
@@ -643,6 +674,8 @@ def propagate(camera, scene, integration_time: float, inputs: dict, draws: int |
         budget, gum_var = _budget(run, model, budget_seed, noise_seed, n_budget, nominal.shape)
     finally:
         close()
+        if model.plan is not None:
+            budget_reuse.release(model.plan)
     for text, count in caught.items():  # never silenced: once each, with its count
         warnings.warn(f"{text} (in {count} Monte Carlo evaluations)", RadiosimWarning,
                       stacklevel=2)

@@ -107,15 +107,22 @@ def bisect(f, lo, hi, tol=1e-9):
 
 
 @pytest.mark.parametrize("t_int", [1e-6, 3e-6, 10e-6, 73e-6, 1e-3])
-def test_linear_ideal_counts_are_K_R_T_t(t_int):
-    camera = Camera.linear_ideal(6e-6)
-    el = camera.electronics
-    assert (el.dark_current, el.offset, el.gain) == (0.0, 0.0, 1.0)  # ideal electronics
+def test_linear_counts_are_K_times_R_T_t_plus_dark_charge_plus_offset(t_int):
+    # A linear camera with electronics that are not the identity: K = 0.37 DN/e⁻, dark current
+    # 2.5e6 e⁻/s, offset 812 DN (no noise, no converter). The counts written out here:
+    # DN = K (R T t + I_dark t) + offset, with R = 1e6 e⁻ s⁻¹ K⁻¹ (the linear response's).
+    from radiosim.electronics import Electronics
+
+    camera = Camera.linear_ideal(6e-6).replace(electronics=Electronics(
+        shot_noise=False, gain=0.37, dark_current=2.5e6, offset=812.0))
     cal = camera.calibration(t_int)
     temperature = np.linspace(150.0, 3000.0, 1001)
-    K, R = el.gain, camera.linear_responsivity
-    expected = K * R * temperature * t_int + (el.dark_current * t_int * K + el.offset)
-    np.testing.assert_array_equal(cal.counts(temperature), expected)
+    expected = 0.37 * (1e6 * temperature * t_int + 2.5e6 * t_int) + 812.0
+    # The chain groups the same products differently: equal to a few units in the last place.
+    np.testing.assert_allclose(cal.counts(temperature), expected, rtol=4e-16 * 8, atol=0)
+    # The ideal camera's own electronics are the identity: DN = R T t exactly.
+    ideal = Camera.linear_ideal(6e-6).calibration(t_int)
+    np.testing.assert_array_equal(ideal.counts(temperature), 1e6 * temperature * t_int)
 
 
 @pytest.mark.parametrize("t_int", [1e-6, 3e-6, 10e-6, 73e-6, 1e-3])

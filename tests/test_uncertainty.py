@@ -251,3 +251,87 @@ def test_each_input_states_its_domain_as_a_record():
     assert domains["t_start"] == Domain(-2e-6, float("inf"), False)
     assert domains["integration_time"] == Domain(-5e-6, float("inf"), True)
     assert domains["registration_x"].low == -4e-6 and domains["registration_y"].low == -3e-6
+
+
+def moving_scene(n_frames=40):
+    """A hot band sweeping along x at 1 µm per frame over a 600 K plate: 16 × 24 samples."""
+    x = np.arange(24)[None, None, :]
+    k = np.arange(n_frames)[:, None, None]
+    frames = 600.0 + 400.0 * np.exp(-0.5 * ((x - 2.0 - 0.5 * k) / 2.0) ** 2)
+    return rs.FrameStack(np.broadcast_to(frames, (n_frames, 16, 24)).copy(), dt=1e-6, dx=1e-6,
+                         emissivity=0.3)
+
+
+CHIP_LIKE = {"emissivity": Uniform(0.25, 0.35), "psf_sigma": Uniform(0.0, 2e-6),
+             "t_start": Uniform(-3e-6, 3e-6), "calibration_scale": Normal(1.0, 0.01)}
+
+
+def test_a_draw_from_running_sums_is_the_measurement_to_rounding():
+    """A draw formed from the running sums (radiosim.budget_reuse: ε·Σ w_k L_k from prefix sums,
+    blurred once) against Camera.measure of the same perturbed camera and scene (ε·L summed
+    frame by frame): the same arithmetic up to the order of the sums, so the readings agree to
+    1e-12 relative (rounding; measured 2e-14) — noise-free electronics, so that no ADC step
+    amplifies a rounding."""
+    import dataclasses as dc
+
+    from radiosim import budget_reuse
+    from radiosim.uncertainty import _Model
+
+    camera, scene = ideal_planck(), moving_scene()
+    model = _Model(camera, scene, 5.5e-6, 10.3e-6, CHIP_LIKE)
+    plan = budget_reuse.ReusePlan.for_budget(camera, scene, *model.span())
+    assert (plan.origin, plan.stop) == (7, 19)  # 7.3 µs … 18.8 µs: frames 7 to 18
+    reused = dc.replace(model, plan=plan)
+    try:
+        for values in ({"emissivity": 0.3, "psf_sigma": 0.0, "t_start": 0.0,
+                        "calibration_scale": 1.0},
+                       {"emissivity": 0.27, "psf_sigma": 1.5e-6, "t_start": -2.9e-6,
+                        "calibration_scale": 1.01},
+                       {"emissivity": 0.34, "psf_sigma": 0.4e-6, "t_start": 2.45e-6,
+                        "calibration_scale": 0.99}):
+            got, expected = reused.evaluate(values, 1), model.evaluate(values, 1)
+            assert np.all(np.isfinite(expected))
+            np.testing.assert_allclose(got, expected, rtol=1e-12, atol=0)
+        assert len(budget_reuse._KEPT) == 1  # one set of sums, whatever the draws
+        assert budget_reuse._KEPT[plan.token].nbytes == 16 * 24 * 1 * (19 - 7 + 1) * 8
+    finally:
+        budget_reuse.release()
+
+
+def test_running_sums_give_each_window_its_weighted_mean():
+    """FrameSums.window_mean against the weighted sum of the frames' own signals, L(T_k) by
+    the response itself, with the fractional first and last weights of the integrator."""
+    from radiosim import budget_reuse
+    from radiosim.integrator import Window
+
+    camera, scene = ideal_planck(), moving_scene(12)
+    plan = budget_reuse.ReusePlan.for_budget(camera, scene, 1e-6, 11e-6)
+    sums = budget_reuse.FrameSums(plan)
+    response, black = camera.response_model, scene.with_emissivity(1.0)
+    for start, duration, weights in ((1.25e-6, 3.5e-6, [0.75, 1, 1, 0.75]),
+                                     (3e-6, 1e-6, [1]), (2.5e-6, 1.0e-6, [0.5, 0.5])):
+        first = int(start // 1e-6)
+        expected = sum(w / duration * 1e-6 * response.signal(black.sample(first + i))
+                       for i, w in enumerate(weights))
+        np.testing.assert_allclose(sums.window_mean(Window(start, duration))[0], expected,
+                                   rtol=1e-13)
+
+
+def test_budgets_give_the_same_bits_with_and_without_reuse_and_on_two_workers():
+    """The chip budget's inputs (emissivity, PSF σ, window start, calibration scale) and the
+    noise: draws from running sums kept between draws, draws that each make their own sums (one
+    pass over the frames), and the kept sums on a two-worker cluster give the same bits."""
+    camera = ideal_planck().replace(electronics=rs.Camera.preset("nist-ir").electronics)
+    kwargs = dict(draws=6, rng=23, t_start=10.3e-6, batch=3, budget_draws=2)
+    reused = propagate(camera, moving_scene(), 5.5e-6, CHIP_LIKE, scheduler="synchronous",
+                       **kwargs)
+    straight = propagate(camera, moving_scene(), 5.5e-6, CHIP_LIKE, scheduler="synchronous",
+                         reuse=False, **kwargs)
+    cluster = propagate(camera, moving_scene(), 5.5e-6, CHIP_LIKE, workers=2, **kwargs)
+    for other in (straight, cluster):
+        for name in ("mean", "std", "gum_std", "valid_fraction"):
+            assert np.array_equal(getattr(reused, name), getattr(other, name), equal_nan=True)
+        assert np.array_equal(np.array(reused.interval()), np.array(other.interval()),
+                              equal_nan=True)
+        assert reused.budget == other.budget
+    assert reused.std.min() > 0
