@@ -19,8 +19,8 @@ last frame l, equal weights c between) is
 
 A draw then forms its image as :func:`radiosim.imaging.image_signal` does, through
 :func:`radiosim.imaging.form_image` (the path, one blur of all sub-bands of the window mean with
-the draw's PSFs, the footprints), or, without an image stage, takes the footprint mean of ε Ē, and reads out
-(:func:`radiosim.acquisition.read_out`) with its own camera and noise generator.
+the draw's PSFs, the footprints), or, without an image stage, takes the footprint mean of ε Ē,
+and reads out (:func:`radiosim.acquisition.read_out`) with its own camera and noise generator.
 
 Exactness. The running sums start at a frame the budget fixes (:attr:`ReusePlan.origin`: the
 first frame the inputs' distributions can reach) and P_j depends only on the frames before j,
