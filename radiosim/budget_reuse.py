@@ -11,11 +11,11 @@ window-mean signal is linear in its emissivity and in the reflected term,
 
 (Ē at unit emissivity, emission only, per spectral sub-band), so a draw needs no pass over the
 frames. :class:`FrameSums` keeps, per sample and sub-band, the running sums
-P_j = Σ_{origin ≤ k < j} L(T_k) over the frames any draw's window can touch, and a window with
+P(j) = Σ L(T_k) for origin ≤ k < j, over the frames any draw's window can touch, and a window with
 the frame weights of :func:`radiosim.integrator.frame_weights` (a fractional first frame f and
 last frame l, equal weights c between) is
 
-    Ē = w_f (P_{f+1} − P_f) + c (P_l − P_{f+1}) + w_l (P_{l+1} − P_l).
+    Ē = w_f (P(f+1) − P(f)) + c (P(l) − P(f+1)) + w_l (P(l+1) − P(l)).
 
 A draw then forms its image as :func:`radiosim.imaging.image_signal` does, through
 :func:`radiosim.imaging.form_image` (the path, one blur of all sub-bands of the window mean with
@@ -129,7 +129,7 @@ class ReusePlan:
 class FrameSums:
     """
     Running sums over frames of each sample's radiance at unit emissivity, emission only, per
-    sub-band: ``sums[j - origin]`` = Σ_{origin ≤ k < j} L(T_k) [signal unit], for
+    sub-band: ``sums[j - origin]`` = Σ L(T_k) over origin ≤ k < j [signal unit], for
     j = origin … stop (module docstring).
 
     Parameters

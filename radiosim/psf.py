@@ -29,7 +29,7 @@ Models (each one published closed form):
     :meth:`radiosim.optics.Optics.object_na`); polychromatic through spectral sub-bands.
 -   :class:`GaussianBlur`: H = exp(−2π²σ²f²), aberrations and defocus lumped.
 -   :class:`ScatterHalo`: a fraction β of the light scattered into a wide halo with power-law
-    wings, h(r) = a / (2π (r² + a²)^{3/2}) (the 2-D Poisson kernel, wings ∝ r⁻³), whose OTF is
+    wings, h(r) = a / (2π (r² + a²)^(3/2)) (the 2-D Poisson kernel, wings ∝ r⁻³), whose OTF is
     exp(−2π a f) and whose encircled energy is 1 − a/√(r² + a²): the size-of-source effect.
 -   :class:`TabulatedPSF`: a measured PSF on a grid of cells [m], each cell's value its mean.
 
@@ -44,7 +44,7 @@ References
 -   Saunders, P. (2015). MSL Technical Guide 26: Size-of-source effect (the SSE and its
     measurement with discs of increasing diameter).
 -   Stein, E. M. & Weiss, G. (1971). Introduction to Fourier Analysis on Euclidean Spaces,
-    ch. I §1 (the Poisson kernel and its Fourier transform e^{−2π a f}, f the radial frequency).
+    ch. I §1 (the Poisson kernel and its Fourier transform exp(−2π a f), f the radial frequency).
 """
 
 from __future__ import annotations
@@ -214,7 +214,7 @@ class GaussianBlur(PSF):
 class ScatterHalo(PSF):
     """
     A fraction of the light scattered into a wide halo with power-law wings (the size-of-source
-    effect of real optics): h = (1 − β)·δ + β·a / (2π (r² + a²)^{3/2}).
+    effect of real optics): h = (1 − β)·δ + β·a / (2π (r² + a²)^(3/2)).
 
     Parameters
     ----------
@@ -725,7 +725,7 @@ def blur_bands(fields, surroundings, psfs, dx: float, wavelengths, object_na: fl
     it) and convolved circularly: each sample also receives the light of the field's periodic
     copies instead of the surroundings'. Those copies lie beyond the padding P (:func:`padding`
     at the longest wavelength) from every sample of the field, so the error at any sample is at
-    most ``energy`` × max |field − surroundings| per sub-band (the light beyond P), or the
+    most ``energy`` × max abs(field − surroundings) per sub-band (the light beyond P), or the
     light beyond :data:`_MAX_PAD` field lengths where the padding is capped there.
 
     The transforms take only the frequencies where the transfer can differ from 0: a PSF with
@@ -735,8 +735,8 @@ def blur_bands(fields, surroundings, psfs, dx: float, wavelengths, object_na: fl
     discrete Fourier transform, to rounding). Transfers are cached per PSFs, grid and
     wavelength; the spectra of all sub-bands add before one inverse transform (the blur is
     linear), and sub-bands whose kernels differ by at most ``tolerance`` in L1 norm are added
-    before one forward transform: their error is at most ``tolerance`` × max |field −
-    surroundings| of each sub-band so merged.
+    before one forward transform: their error is at most ``tolerance`` × max abs(field −
+    surroundings) of each sub-band so merged.
     """
     fields = [np.asarray(f, dtype=float) for f in fields]
     n_rows, n_cols = fields[0].shape

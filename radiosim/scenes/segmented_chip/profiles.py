@@ -51,10 +51,10 @@ def jaeger_band_source(p: ChipParameters, s_max: float, n_max: float, step: floa
     """
     Tabulate the secondary zone's shape I(s, n)·(1 − κ·exp(−n/λ)), normalised to a maximum of 1.
 
-    I(s, n) = ∫₀^s q(s′) (s − s′)^{−½} exp(−n² V_c / 4 a_s (s − s′)) ds′ is evaluated as a
+    I(s, n) = ∫₀ˢ q(s′) (s − s′)^(−½) exp(−n² V_c / 4 a_s (s − s′)) ds′ is evaluated as a
     discrete convolution of q (piecewise constant on cells of ``step``) with the kernel
     integrated exactly over each cell, using the antiderivative
-    G(r) = 2√r e^{−c/r} − 2√(πc) erfc(√(c/r)), c = n² V_c / 4 a_s.
+    G(r) = 2√r exp(−c/r) − 2√(πc) erfc(√(c/r)), c = n² V_c / 4 a_s.
 
     Returns
     -------
