@@ -139,9 +139,10 @@ def test_each_api_object_documented_once(html):
         obj = _resolve(entry)
         if not (isinstance(obj, type) or callable(obj)):
             continue
-        if id(obj) in seen and seen[id(obj)] != entry:
-            duplicates.append(f"{entry} is {seen[id(obj)]}")
-        seen.setdefault(id(obj), entry)
+        # keep each object alive: a bound method made for the lookup would free its id
+        if id(obj) in seen and seen[id(obj)][0] != entry:
+            duplicates.append(f"{entry} is {seen[id(obj)][0]}")
+        seen.setdefault(id(obj), (entry, obj))
     assert not duplicates, duplicates
 
 
