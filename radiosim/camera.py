@@ -272,6 +272,18 @@ class Camera:
         text = dumps_toml(data, tables=("optics", "fpa", "electronics"))
         return text if channels is None else text + "\n" + dumps_toml({"channels": channels})
 
+    def __repr__(self) -> str:
+        """One line: the name, response, array, band(s), f-number and converter (the whole
+        configuration is :meth:`to_toml`)."""
+        fpa, optics = self.fpa, self.optics
+        array = (f"{fpa.shape[1]} × {fpa.shape[0]} px" if fpa.shape else "any array")
+        bands = [c.band for c in self.channels] if self.channels else [optics.band]
+        band = " + ".join(f"{lo * 1e6:g}–{hi * 1e6:g} µm" for lo, hi in bands)
+        adc = self.electronics.adc_bits
+        return (f"Camera({self.name!r}: {self.response}, {array} of {fpa.pixel_pitch * 1e6:g} µm "
+                f"in object space, {band}, f/{optics.f_number:g}, "
+                f"{'no converter' if adc is None else f'{adc}-bit'})")
+
     def replace(self, **changes) -> Camera:
         """A copy with some fields changed (``dataclasses.replace``); it keeps this camera's
         response model (and its radiance tables) when the response, band and spectral curves

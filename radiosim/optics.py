@@ -167,6 +167,17 @@ class Optics:
         if self.emissivity is not None and not 0 <= self.emissivity <= 1:
             raise RadiosimError(f"optics emissivity must be in [0, 1], got {self.emissivity!r}")
 
+    def __repr__(self) -> str:
+        """One line: f-number, band, objective, PSFs (the curves by name, not their values)."""
+        def curve(value):
+            return getattr(value, "name", None) or f"{value:g}"
+
+        psf = ", ".join(type(p).__name__ for p in self.psf) if self.psf else "perfect lens"
+        na = "" if self.objective_na is None else f", objective NA {self.objective_na:g}"
+        return (f"Optics(f/{self.f_number:g}, {self.band[0] * 1e6:g}–{self.band[1] * 1e6:g} µm"
+                f"{na}, transmission {curve(self.transmission)}, filter "
+                f"{curve(self.spectral_filter)}, {psf})")
+
     def image_f_number(self, fpa: FocalPlaneArray) -> float:
         """
         The working image-space f-number [1]: the cold stop's, or the objective's image-side

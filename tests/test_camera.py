@@ -218,3 +218,27 @@ def test_a_rolling_shutter_past_the_scene_end_is_refused():
                                                     row_time=2e-6))
     with pytest.raises(RadiosimError, match="rolling shutter's last row"):
         camera.measure(band, 5e-6, t_start=0.0)
+
+
+def test_reprs_are_one_line_with_the_key_settings():
+    # print(camera) once dumped every spectral curve's values (43 kB); now one line each.
+    from radiosim.scenes import FrameStack, UniformBlackbody
+
+    camera = Camera.preset("nist-ir")
+    lines = {
+        "camera": (repr(camera), ["nist-ir", "planck", "160 × 120 px", "6 µm", "3.75–5.15 µm",
+                                  "f/2.5", "14-bit"]),
+        "channels": (repr(Camera.preset("two-colour")), ["3.8–4.2 µm + 4.6–5.1 µm"]),
+        "optics": (repr(Camera.preset("nist-ir-psf").optics),
+                   ["f/2.5", "optics_mwir_lens", "Diffraction", "ScatterHalo"]),
+        "scene": (repr(FrameStack(np.full((7, 4, 5), 600.0), dt=2e-6, dx=3e-6)),
+                  ["FrameStack", "4 × 5 samples of 3 µm", "7 frames of 2 µs"]),
+    }
+    scene = UniformBlackbody(800.0, shape=(12, 16), dx=6e-6, dt=1e-6)
+    m = Camera.linear_ideal(6e-6).measure(scene, 10e-6)
+    lines["measurement"] = (repr(m), ["linear-ideal", "12 × 16 px", "1e-05 s",
+                                      "800.0–800.0 K", "0 saturated"])
+    for what, (text, parts) in lines.items():
+        assert "\n" not in text and len(text) < 200, (what, text)
+        for part in parts:
+            assert part in text, (what, part, text)

@@ -310,6 +310,14 @@ class Scene(ABC):
         """The window (row start, stop) × (column start, stop) of this scene, as a scene."""
         return CroppedScene(self, rows, cols)
 
+    def __repr__(self) -> str:
+        """One line: type, grid, frames and emissivity (:meth:`describe` has the rest)."""
+        d = self.describe()
+        frames = (f"frames of {self.dt * 1e6:.4g} µs without end" if self.n_frames is None
+                  else f"{self.n_frames} frames of {self.dt * 1e6:.4g} µs")
+        return (f"{d['type']}({d['rows']} × {d['columns']} samples of {self.dx * 1e6:.4g} µm, "
+                f"{frames}, emissivity {d['emissivity']})")
+
     def describe(self) -> dict:
         """Plain metadata (str, int, float) describing the scene, with units in the keys."""
         emissivity = self.emissivity
