@@ -166,9 +166,17 @@ def write_budget(folder, result, name: str, camera, integration_time: float) -> 
 def budget_lines(result) -> list[str]:
     """The peak reading's budget as a text table (input, u(x), GUM and Monte Carlo
     contributions [K], share), then the peak pixel's reading, u and 95 % interval [°C]."""
-    lines = [f"{'input':<24}{'u(x)':>12}{'GUM [K]':>10}{'MC [K]':>10}{'share':>8}"]
+    from radiosim.uncertainty import INPUTS
+
+    lines = [f"{'input':<24}{'u(x)':>18}{'GUM [K]':>10}{'MC [K]':>10}{'share':>8}"]
     for r in (r for r in result.budget if r["quantity"] == "peak"):
-        lines.append(f"{r['input']:<24}{r['std_uncertainty']:>12.4g}"
+        record = INPUTS.get(r["input"])
+        if record is None or not math.isfinite(r["std_uncertainty"]):  # the temporal noise
+            u = "—"
+        else:  # in the unit the study file states it (µm, µs, K, or none)
+            unit = "" if record.unit == "1" else f" {record.edge_unit}"
+            u = f"{r['std_uncertainty'] / record.scale:.4g}{unit}"
+        lines.append(f"{r['input']:<24}{u:>18}"
                      f"{r['gum_contribution_K']:>10.3g}{r['mc_contribution_K']:>10.3g}"
                      f"{r['share_percent']:>7.1f}%")
     low, high = result.interval(0.95)

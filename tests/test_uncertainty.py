@@ -335,3 +335,25 @@ def test_budgets_give_the_same_bits_with_and_without_reuse_and_on_two_workers():
                               equal_nan=True)
         assert reused.budget == other.budget
     assert reused.std.min() > 0
+
+
+def test_the_budget_table_states_u_in_the_study_files_units():
+    # u(x) as the study file states the input (µm, µs, K, none), the temporal noise without
+    # one (it has no u(x) of its own): not SI values without a unit, not 'nan'.
+    from types import SimpleNamespace
+
+    from radiosim.reporting import budget_lines
+
+    rows = [dict(quantity="peak", input=name, std_uncertainty=u, gum_contribution_K=g,
+                 mc_contribution_K=g, share_percent=s)
+            for name, u, g, s in (("psf_sigma", 1.5e-6, 3.0, 30.0),
+                                  ("t_start", 2.0e-7, 2.0, 20.0),
+                                  ("emissivity", 0.05, 4.0, 45.0),
+                                  ("temporal noise", float("nan"), 1.0, 5.0))]
+    field = np.full((2, 2), 900.0)
+    result = SimpleNamespace(budget=rows, mean=field, std=field * 0 + 3.0, truth=field,
+                             interval=lambda p: (field - 6.0, field + 6.0))
+    lines = {line.split()[0]: line for line in budget_lines(result)[1:-1]}
+    assert "1.5 µm" in lines["psf_sigma"] and "0.2 µs" in lines["t_start"]
+    assert lines["emissivity"].split()[1] == "0.05"
+    assert "—" in lines["temporal"] and "nan" not in " ".join(lines.values())
