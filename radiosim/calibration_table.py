@@ -16,7 +16,8 @@ from radiosim.checks import check_count, check_time
 from radiosim.errors import RadiosimError
 from radiosim.units import to_celsius, to_kelvin
 
-__all__ = ["CalibrationTable", "read_calibration_table", "calibrate_from_table"]
+__all__ = ["CalibrationTable", "read_calibration_table", "calibrate_from_table",
+           "fitted_camera_toml"]
 
 
 @dataclass(frozen=True)
@@ -204,3 +205,51 @@ def calibrate_from_table(camera, path, integration_time: float, frames: int = 1,
         raise RadiosimError(f"{path}: {exc}") from None
     step(3, "fitted gain and offset")
     return fitted, residuals, table
+
+
+def fitted_camera_toml(original, fitted, source, table, integration_time: float) -> str:
+    """
+    The camera file of a calibration: ``fitted`` (named ``<name>-fitted``) as TOML, written
+    over the text of the camera file it came from (``source``: a TOML path, a preset's name, or
+    ``None`` for a camera without a file) so that the file's comments and layout stay and only the values the fit
+    changed are replaced; headed by a record of the fit — radiosim's version, the date (UTC),
+    the table's path and SHA-256, the integration time [s].
+    """
+    import datetime
+    import hashlib
+    from pathlib import Path
+
+    import tomlkit
+
+    from radiosim._version import __version__
+
+    table = Path(table)
+    digest = hashlib.sha256(table.read_bytes()).hexdigest()
+    stamp = datetime.datetime.now(datetime.timezone.utc).strftime("%Y-%m-%dT%H:%M:%SZ")
+    fitted = fitted.replace(name=f"{original.name}-fitted")
+    header = (f"# Calibrated by radiosim {__version__} on {stamp}: fitted to {table}\n"
+              f"# (sha256 {digest}) at {integration_time * 1e6:g} µs;\n"
+              "# the values the fit changed replace the original's, its comments kept.\n")
+    if source is not None and not str(source).endswith(".toml"):
+        from radiosim.presets import PRESET_DIRECTORY
+
+        source = PRESET_DIRECTORY / f"{source}.toml"
+        source = source if source.is_file() else None
+    if source is None:
+        return header + fitted.to_toml()
+    document = tomlkit.parse(Path(source).read_text(encoding="utf-8"))
+    _replace_changed(document, original.to_dict(), fitted.to_dict())
+    return header + tomlkit.dumps(document)
+
+
+def _replace_changed(document, before: dict, after: dict) -> None:
+    """Set in ``document`` (a tomlkit table) each value of ``after`` that differs from
+    ``before``'s, recursing into tables; untouched keys keep their text and comments."""
+    for key, value in after.items():
+        if isinstance(value, dict):
+            if key in document:
+                _replace_changed(document[key], before.get(key, {}), value)
+            elif value != before.get(key):
+                document[key] = value
+        elif value != before.get(key):
+            document[key] = value

@@ -422,7 +422,7 @@ def _uncertainty(args) -> int:
 
 
 def _calibrate(args) -> int:
-    from radiosim.calibration_table import calibrate_from_table
+    from radiosim.calibration_table import calibrate_from_table, fitted_camera_toml
     from radiosim.files import write_text
     from radiosim.reporting import calibration_lines
 
@@ -446,8 +446,9 @@ def _calibrate(args) -> int:
         progress.close()
     print("\n".join(calibration_lines(camera, fitted, table, residuals, path.name,
                                       args.integration_time)))
-    if args.out:
-        write_text(args.out, fitted.replace(name=f"{camera.name}-fitted").to_toml())
+    if args.out:  # over the camera file's text (its comments kept), with the fit's record
+        write_text(args.out, fitted_camera_toml(camera, fitted, args.camera, path,
+                                                args.integration_time))
         print(f"wrote {args.out}")
     return 0
 

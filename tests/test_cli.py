@@ -258,3 +258,31 @@ def test_workers_on_a_study_too_small_to_gain_run_in_this_process(tmp_path, caps
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "measuring in this process" in err[0], err
     assert (tmp_path / "out" / "results.csv").exists()
+
+
+def test_calibrate_writes_over_the_camera_file_keeping_its_comments(tmp_path, capsys):
+    # The fitted camera keeps the preset's comments and layout, changes only the fitted values
+    # and records the table it was fitted to: its path and SHA-256 (computed here).
+    import hashlib
+    import tomllib
+
+    from radiosim import Camera
+    from radiosim.presets import PRESET_DIRECTORY
+
+    t = np.linspace(350.0, 550.0, 6)  # [K]; nist-ir's counts at 100 µs, 3 % more gain
+    counts = Camera.preset("nist-ir").calibration(100e-6).counts(t) * 1.03 + 20.0
+    table = tmp_path / "table.csv"
+    table.write_text("temperature_K,counts\n" + "".join(f"{a},{c}\n" for a, c in zip(t, counts)))
+    out = tmp_path / "fitted.toml"
+    assert main(["calibrate", str(table), "--camera", "nist-ir", "--integration-time", "100us",
+                 "--out", str(out), "-q"]) == 0
+    text = out.read_text(encoding="utf-8")
+    preset = (PRESET_DIRECTORY / "nist-ir.toml").read_text(encoding="utf-8")
+    comments = [line for line in preset.splitlines() if line.startswith("#")]
+    assert all(line in text for line in comments)
+    assert hashlib.sha256(table.read_bytes()).hexdigest() in text and str(table) in text
+    written, original = tomllib.loads(text), tomllib.loads(preset)
+    assert written["name"] == "nist-ir-fitted"
+    assert written["electronics"]["gain_dn_per_e"] != original["electronics"]["gain_dn_per_e"]
+    assert written["optics"] == original["optics"] and written["fpa"] == original["fpa"]
+    assert Camera.from_toml(out).name == "nist-ir-fitted"  # a camera file radiosim reads
