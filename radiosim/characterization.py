@@ -51,7 +51,7 @@ from radiosim.integrator import integrate, integration_window
 from radiosim.psf import ScatterHalo
 from radiosim.scenes.analytic import UniformBlackbody
 from radiosim.scenes.framestack import FrameStack
-from radiosim.units import AMBIENT_TEMPERATURE
+from radiosim.units import AMBIENT_TEMPERATURE, CELSIUS_OFFSET
 
 __all__ = ["PhotonTransfer", "photon_transfer", "EmvaResult", "fit_emva1288",
            "SizeOfSource", "size_of_source", "HaloFit", "fit_scatter_halo", "SSE_DIAMETERS",
@@ -620,17 +620,30 @@ class Datasheet:
         matplotlib axes; ``name``: the camera's; ``integration_time`` [s]; saturation is drawn
         up to ``highest`` [K] (the calibration's top: +∞ means not within the range)."""
         ptc, (t_range, lowest, top), at = self.ptc, self.range, f"{integration_time * 1e6:g} µs"
-        axes[0].plot(ptc.mean - ptc.dark_mean, ptc.variance - ptc.dark_variance, "o")
+        fit = fit_emva1288(ptc)
+        signal, variance = ptc.mean - ptc.dark_mean, ptc.variance - ptc.dark_variance
+        axes[0].plot(signal, variance, "o", label="measured")
+        linear = np.linspace(0.0, signal[fit.linear_range].max(), 2)
+        axes[0].plot(linear, fit.gain * linear, "-", label=f"fit: K = {fit.gain:.4g} DN/e⁻")
+        peak = int(np.argmax(variance))  # the variance peak: saturation (EMVA 1288)
+        axes[0].plot(signal[peak], variance[peak], "s", mfc="none", ms=11,
+                     label="saturation (variance peak)")
         axes[0].set(xlabel="μ_y − μ_y,dark [DN]", ylabel="σ²_y − σ²_y,dark [DN²]",
                     title=f"{name}: photon transfer at {at}")
-        axes[1].semilogy(*self.netd, "o-")
-        axes[1].set(xlabel="blackbody temperature [K]", ylabel="NETD [K]",
+        axes[0].legend()
+        axes[1].semilogy(self.netd[0] - CELSIUS_OFFSET, self.netd[1], "o-")
+        axes[1].set(xlabel="blackbody temperature [°C]", ylabel="NETD [K]",
                     title=f"{name}: NETD at {at}")
+        capped = top > highest
         top = np.minimum(top, highest)
-        axes[2].fill_between(t_range * 1e6, lowest, top, alpha=0.3)
-        axes[2].semilogx(t_range * 1e6, lowest, label="lowest measurable (blank + 3σ)")
-        axes[2].semilogx(t_range * 1e6, top, label="saturation")
-        axes[2].set(xlabel="integration time [µs]", ylabel="temperature [K]",
+        low_c, top_c = lowest - CELSIUS_OFFSET, top - CELSIUS_OFFSET
+        axes[2].fill_between(t_range * 1e6, low_c, top_c, alpha=0.3)
+        axes[2].semilogx(t_range * 1e6, low_c, label="lowest measurable (blank + 3σ)")
+        axes[2].semilogx(t_range * 1e6, top_c, label="saturation" + (
+            " (the calibration's top where dashed)" if capped.any() else ""))
+        if capped.any():
+            axes[2].semilogx(t_range[capped] * 1e6, top_c[capped], "k--")
+        axes[2].set(xlabel="integration time [µs]", ylabel="temperature [°C]",
                     title=f"{name}: measurable range")
         axes[2].legend()
 

@@ -138,3 +138,36 @@ def test_fit_scatter_halo_refuses_bad_curves(diameters, sse):
 
     with pytest.raises(RadiosimError):
         fit_scatter_halo(diameters, sse)
+
+
+def test_datasheet_figures_show_the_fit_the_saturation_and_celsius(result):
+    # The photon-transfer figure carries its fit line (slope K) and marks the variance peak;
+    # the NETD and range figures speak °C as the study's figures do; where saturation lies
+    # above the calibration's top, the drawn top is the calibration's, dashed and said so.
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from radiosim.characterization import Datasheet
+
+    camera, ptc, fit = result
+    times = np.array([1e-6, 1e-5, 1e-4])
+    sheet = Datasheet(rows=[], ptc=ptc, netd=(np.array([400.0, 500.0]), np.array([0.5, 0.2])),
+                      range=(times, np.array([300.0, 250.0, 200.0]),
+                             np.array([3500.0, 1500.0, 700.0])))
+    fig, axes = plt.subplots(1, 3)
+    sheet.draw(axes, "nist-ir", T_INT, highest=3000.0)
+    measured, line, peak = axes[0].get_lines()
+    x, y = line.get_data()
+    assert y[-1] == pytest.approx(fit.gain * x[-1], rel=1e-12)  # σ² = K μ
+    variance = ptc.variance - ptc.dark_variance
+    assert peak.get_ydata()[0] == variance.max()
+    assert "°C" in axes[1].get_xlabel() and "°C" in axes[2].get_ylabel()
+    np.testing.assert_allclose(axes[1].get_lines()[0].get_xdata(), [126.85, 226.85])
+    low, top, dashed = axes[2].get_lines()
+    np.testing.assert_allclose(top.get_ydata(), [3000.0 - 273.15, 1500.0 - 273.15,
+                                                 700.0 - 273.15])
+    assert dashed.get_linestyle() == "--" and list(dashed.get_xdata()) == [1.0]
+    assert "calibration's top" in axes[2].get_legend().get_texts()[1].get_text()
+    plt.close(fig)
