@@ -149,10 +149,12 @@ def write_budget(folder, result, name: str, camera, integration_time: float) -> 
     written.append(folder / "uncertainty.exr")
     fig = figure(10, 4)
     ax1, ax2 = fig.subplots(1, 2)
-    image = ax1.imshow(result.std, cmap="viridis")
+    rows, cols = np.shape(result.std)
+    pitch = camera.fpa.pixel_pitch * 1e6  # [µm] in object space: the map's scale
+    image = ax1.imshow(result.std, cmap="viridis", extent=(0, cols * pitch, rows * pitch, 0))
     fig.colorbar(image, ax=ax1, label="standard uncertainty [K]")
     ax1.set_title(f"{name}: u(T_app), {result.draws} draws")
-    ax1.set_axis_off()
+    ax1.set(xlabel="x [µm, object space]", ylabel="y [µm]")
     peak = [r for r in result.budget if r["quantity"] == "peak"]
     ax2.barh([r["input"] for r in peak], [r["gum_contribution_K"] for r in peak], label="GUM")
     ax2.barh([r["input"] for r in peak], [r["mc_contribution_K"] for r in peak],
