@@ -211,9 +211,9 @@ def fitted_camera_toml(original, fitted, source, table, integration_time: float)
     """
     The camera file of a calibration: ``fitted`` (named ``<name>-fitted``) as TOML, written
     over the text of the camera file it came from (``source``: a TOML path, a preset's name, or
-    ``None`` for a camera without a file) so that the file's comments and layout stay and only the values the fit
-    changed are replaced; headed by a record of the fit — radiosim's version, the date (UTC),
-    the table's path and SHA-256, the integration time [s].
+    ``None`` for a camera without a file) so that the file's comments and layout stay and only
+    the values the fit changed are replaced; headed by a record of the fit — radiosim's
+    version, the date (UTC), the table's path and SHA-256, the integration time [s].
     """
     import datetime
     import hashlib
