@@ -43,6 +43,7 @@ from radiosim.kernels.merging import FRAME_BLOCK, FootprintGroup, crop
 from radiosim.kernels.merging import frame_runs as _runs
 from radiosim.response import Response
 from radiosim.scenes.base import Region, Scene, SceneFrame
+from radiosim.units import readable_times
 
 __all__ = [
     "Window",
@@ -315,10 +316,10 @@ def frame_weights(
     a = _snap(t_start / dt)
     b = _snap((t_start + duration) / dt)
     if n_frames is not None and b > n_frames:
+        (start, end, covered), unit = readable_times(t_start, t_start + duration, n_frames * dt)
         raise RadiosimError(
-            f"integration window {t_start:.6g}–{t_start + duration:.6g} s runs past the scene's "
-            f"last frame (the scene covers 0–{n_frames * dt:.6g} s, {n_frames} frames)"
-        )
+            f"integration window {start}–{end} {unit} runs past the scene's last frame (the "
+            f"scene covers 0–{covered} {unit}, {n_frames} frames)")
     first, stop = math.floor(a), math.ceil(b)
     k = np.arange(first, stop)
     overlap = np.minimum(b, k + 1) - np.maximum(a, k)

@@ -27,6 +27,7 @@ __all__ = [
     "TEMPERATURE_OFFSETS",
     "shift",
     "round_significant",
+    "readable_times",
     "parse_quantity",
     "to_si",
     "to_kelvin",
@@ -258,6 +259,23 @@ def whole_number(least: int, most: int | None = None, what: str = "a whole numbe
         return value
 
     return parse
+
+
+def readable_times(*seconds: float) -> tuple[list[str], str]:
+    """
+    Times [s] in one unit a reader takes in at a glance: µs below a millisecond, ms below a
+    second, else s (the unit of the largest); each to 6 significant digits.
+
+    Examples
+    --------
+    >>> readable_times(3e-6, 8e-6)
+    (['3', '8'], 'µs')
+    >>> readable_times(0.0, 0.0025)
+    (['0', '2.5'], 'ms')
+    """
+    largest = max((abs(float(t)) for t in seconds), default=0.0)
+    scale, unit = (1e-6, "µs") if largest < 1e-3 else (1e-3, "ms") if largest < 1 else (1, "s")
+    return [f"{round_significant(float(t) / scale, 6):g}" for t in seconds], unit
 
 
 def typed(value, unit: str = "s") -> str:

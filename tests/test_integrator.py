@@ -286,3 +286,16 @@ def test_user_built_and_integrator_footprints_share_one_compiled_kernel():
     before = len(accumulate_kernel.signatures)
     kernels.pixel_mean(frame, built, built)
     assert len(accumulate_kernel.signatures) == before
+
+
+def test_a_window_past_the_last_frame_is_stated_in_readable_units():
+    # "3–8 µs … 0–5 µs", not "3e-06–8e-06 s … 0–5e-06 s".
+    from radiosim.errors import RadiosimError
+    from radiosim.integrator import frame_weights
+
+    with pytest.raises(RadiosimError) as caught:
+        frame_weights(3e-6, 5e-6, 1e-6, 5)
+    assert "window 3–8 µs" in str(caught.value) and "covers 0–5 µs, 5 frames" in str(caught.value)
+    with pytest.raises(RadiosimError) as caught:
+        frame_weights(0.0, 2.5e-3, 1e-4, 20)
+    assert "window 0–2.5 ms" in str(caught.value) and "covers 0–2 ms" in str(caught.value)
