@@ -9,6 +9,7 @@ shifted by powers of ten with :mod:`decimal` in the test.
 """
 
 import csv
+import json
 import math
 import re
 from decimal import Decimal
@@ -175,6 +176,38 @@ def test_results_file_passes_the_cf_checks(study_run):
         assert not units & {"C", "us", "um", "um2"}
 
 
+def ioos_cf_report(path, tmp_path) -> dict:
+    """The IOOS compliance checker's CF-1.8 report on a file (its JSON output, as the
+    ``compliance-checker --test=cf:1.8 --criteria=strict`` command writes it): an
+    implementation of the conventions independent of this project's writer and of
+    :func:`cf_problems`."""
+    from compliance_checker import runner  # a test dependency (pyproject's [test] extra)
+    from compliance_checker.cf.cf import CF1_8Check
+
+    runner.CheckSuite.checkers["cf:1.8"] = CF1_8Check  # the CF suite alone (the others
+    # are the IOOS profiles, some deprecated: loading them all warns)
+    report = tmp_path / "cf-report.json"
+    runner.ComplianceChecker.run_checker(str(path), ["cf:1.8"], 2, "strict",
+                                         output_filename=str(report), output_format="json")
+    return json.loads(report.read_text(encoding="utf-8"))["cf:1.8"]
+
+
+def _failed_checks(report: dict) -> list[str]:
+    """Every check that lost points, as "name: messages" (errors are priority 3, warnings 2,
+    information 1)."""
+    return [f"{check['name']}: {check['msgs']}" for check in report["all_priorities"]
+            if check["value"][0] < check["value"][1]]
+
+
+def test_results_file_passes_the_ioos_compliance_checker(study_run, tmp_path):
+    """No error, no warning, no information from the IOOS checker's CF-1.8 suite."""
+    path, _, _ = study_run
+    report = ioos_cf_report(path, tmp_path)
+    assert _failed_checks(report) == []
+    assert (report["high_count"], report["medium_count"], report["low_count"]) == (0, 0, 0)
+    assert report["scored_points"] == report["possible_points"] > 100
+
+
 def test_read_results_gives_the_studys_rows(study_run):
     path, table, _ = study_run
     rows = read_results(path)
@@ -233,6 +266,13 @@ def test_a_measurement_file_passes_the_cf_checks(tmp_path, measurement):
         assert ds.apparent_temperature.ancillary_variables == ("saturated under_range "
                                                                "over_range")
         assert ds.attrs["history"].endswith("radiosim measure m.npy")
+
+
+def test_a_measurement_file_passes_the_ioos_compliance_checker(tmp_path, measurement):
+    path = write_netcdf(tmp_path / "m.nc", measurement, history="radiosim measure m.npy")
+    report = ioos_cf_report(path, tmp_path)
+    assert _failed_checks(report) == []
+    assert (report["high_count"], report["medium_count"], report["low_count"]) == (0, 0, 0)
 
 
 def test_old_files_read_or_name_the_difference(tmp_path, measurement, study_run):
