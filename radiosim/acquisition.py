@@ -34,6 +34,7 @@ from radiosim.measurement import Measurement
 from radiosim.optics import collect
 from radiosim.ratio import channel_cameras, combine
 from radiosim.scenes.base import Scene
+from radiosim.units import readable_time
 
 __all__ = ["readout_shape", "frame_period", "check_frame_period", "check_measurable", "frame_dtype",
            "is_rolling", "instrument_signal", "photoelectrons", "tensor_statistics",
@@ -78,7 +79,7 @@ def check_frame_period(camera, integration_time: float, what: str | None = None)
     period = 1.0 / camera.frame_rate  # [s]
     if needed > period * (1 + 1e-12):
         raise RadiosimError(
-            (what or f"integration time {integration_time:g} s")
+            (what or f"integration time {readable_time(integration_time)}")
             + (f" with its readout ({needed * 1e6:g} µs)" if needed != integration_time else "")
             + f" exceeds the frame period of {camera.name} ({period * 1e6:g} µs at "
             f"{camera.frame_rate:g} Hz); expected at most "
@@ -151,8 +152,9 @@ def rolling_statistics(camera, scene: Scene, window: Window, progress=None
     last = window.start + window.duration + delays[-1]
     if scene.duration is not None and last > scene.duration * (1 + 1e-12):
         raise RadiosimError(
-            f"the rolling shutter's last row integrates until {last:.6g} s, past the "
-            f"scene's end at {scene.duration:.6g} s (row time {camera.fpa.row_time:g} s × "
+            f"the rolling shutter's last row integrates until {readable_time(last)}, past the "
+            f"scene's end at {readable_time(scene.duration)} (row time "
+            f"{readable_time(camera.fpa.row_time)} × "
             f"{integrator.shape[0] - 1} rows)")
     jobs = [Job(integrator.pixel_rows(i, i + 1),
                 Window(window.start + delay, window.duration, window.alignment),
@@ -255,7 +257,7 @@ def read_out(camera, stats: TensorStatistics, window: Window, scene: Scene,
     if reading.saturated.any():
         warnings.warn(
             f"{camera.name}: {int(reading.saturated.sum())} of {reading.saturated.size} pixels "
-            f"saturated at {window.duration:g} s integration; their apparent temperature is "
+            f"saturated at {readable_time(window.duration)} integration; their apparent temperature is "
             "NaN", RadiosimWarning, stacklevel=3)
     return Measurement(
         apparent_temperature=reading.apparent_temperature, counts=exposure.counts,

@@ -59,6 +59,7 @@ from radiosim.electronics import Electronics, Exposure, apply_nonlinearity
 from radiosim.errors import RadiosimError, RadiosimWarning
 from radiosim.radiometry import CALIBRATION_RANGE
 from radiosim.response import Response, object_signal, observed_signal
+from radiosim.units import readable_time
 
 __all__ = ["Calibration", "Reading", "MIN_CALIBRATION_SPAN_DN", "NonUniformityCorrection",
            "replace_bad_pixels", "fit_calibration"]
@@ -414,7 +415,7 @@ class Calibration:
             step = (high - low) / max(span, 1e-300)
             warnings.warn(
                 f"the {self.response.name} response with these electronics spans only "
-                f"{span:.3g} DN over {low:g}–{high:g} K at {self.integration_time:g} s: one DN is "
+                f"{span:.3g} DN over {low:g}–{high:g} K at {readable_time(self.integration_time)}: one DN is "
                 f"about {step:.3g} K, so readings are coarse (raise the responsivity, gain or "
                 "integration time)", RadiosimWarning, stacklevel=stacklevel + 1)
 
@@ -501,7 +502,7 @@ def fit_calibration(camera, temperatures, counts, integration_time: float, frame
             bad = [(i, why) for i, why in bad if i not in over_well]
     if bad and not exclude_unusable:
         raise RadiosimError(
-            f"{camera.name} at {t_int:g} s: {len(bad)} calibration point(s) beyond the full well "
+            f"{camera.name} at {readable_time(t_int)}: {len(bad)} calibration point(s) beyond the full well "
             f"or the ADC's range: {'; '.join(why for _, why in bad)} — pass "
             "exclude_unusable=True to fit without them" +
             (" or fit_full_well=True to widen the well" if any("full well" in w for _, w in bad)

@@ -19,6 +19,7 @@ import numpy as np
 
 from radiosim._version import __version__
 from radiosim.errors import RadiosimError
+from radiosim.units import readable_time
 
 __all__ = ["Measurement", "Field", "FIELDS", "FLAGS", "SIGNAL_UNITS", "CONVENTIONS",
            "field_attributes", "global_attributes"]
@@ -279,7 +280,8 @@ class Measurement:
         valid = self.apparent_temperature[self.valid]
         reading = (f"{valid.min():.1f}–{valid.max():.1f} K" if valid.size else "no valid pixel")
         return (f"<Measurement {self.shape[0]} × {self.shape[1]} px by {name}: "
-                f"{self.integration_time:g} s from {self.t_start:g} s ({self.n_frames} frames, "
+                f"{readable_time(self.integration_time)} from {readable_time(self.t_start)} "
+                f"({self.n_frames} frames, "
                 f"{self.alignment}); reads {reading}; {int(self.saturated.sum())} saturated, "
                 f"{int(self.under_range.sum())} under range, "
                 f"{int(self.over_range.sum())} over range>")

@@ -27,6 +27,7 @@ __all__ = [
     "TEMPERATURE_OFFSETS",
     "shift",
     "round_significant",
+    "readable_time",
     "readable_times",
     "parse_quantity",
     "to_si",
@@ -276,6 +277,19 @@ def readable_times(*seconds: float) -> tuple[list[str], str]:
     largest = max((abs(float(t)) for t in seconds), default=0.0)
     scale, unit = (1e-6, "µs") if largest < 1e-3 else (1e-3, "ms") if largest < 1 else (1, "s")
     return [f"{round_significant(float(t) / scale, 6):g}" for t in seconds], unit
+
+
+def readable_time(seconds: float) -> str:
+    """
+    One time [s] as a reader takes it in (:func:`readable_times`), with its unit.
+
+    Examples
+    --------
+    >>> readable_time(5e-06), readable_time(0.0125), readable_time(2.0)
+    ('5 µs', '12.5 ms', '2 s')
+    """
+    (text,), unit = readable_times(seconds)
+    return f"{text} {unit}"
 
 
 def typed(value, unit: str = "s") -> str:

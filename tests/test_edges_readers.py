@@ -305,7 +305,7 @@ def test_fea_a_window_before_the_first_time_stamp_is_refused(tmp_path):
     scene = read_fea_nodes(ramp_csv(tmp_path, (5, 6, 7)), dx=1e-6)
     with pytest.raises(RadiosimError) as info:
         Camera.linear_ideal(2e-6).measure(scene, 1e-6, t_start=4e-6)
-    one_line(info, "nodes.csv", "first time stamp 5e-06 s", "frame 4")
+    one_line(info, "nodes.csv", "first time stamp 5 µs", "frame 4 covers 4–5 µs")
     # No start given: the window starts at the data's first time stamp (the file's own time),
     # not at t = 0 before it, and reads the first snapshot.
     m = Camera.linear_ideal(2e-6).measure(scene, 1e-6)
@@ -352,7 +352,7 @@ def test_fea_hold_with_an_origin_between_frame_edges_averages_the_held_field(tmp
     scene = read_fea_nodes(ramp_csv(tmp_path, (0.5, 1.5, 2.5)), dx=1e-6)
     assert scene.first_frame == 1 and scene.n_frames == 3
     np.testing.assert_allclose(scene.frame(1), (ramp(0.5) + ramp(1.5)) / 2, rtol=1e-12)
-    with pytest.raises(RadiosimError, match="before .*first time stamp 5e-07 s"):
+    with pytest.raises(RadiosimError, match="before .*first time stamp 0.5 µs"):
         scene.frame(0)
 
 

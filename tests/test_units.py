@@ -42,3 +42,18 @@ def test_check_count_integers_only():
     assert check_count(np.int32(4), "draws", 2, integers_only=True) == 4
     with pytest.raises(RadiosimError, match="draws must be a whole number ≥ 2, got 4.0"):
         check_count(4.0, "draws", 2, integers_only=True)
+
+
+def test_library_messages_give_times_in_readable_units():
+    """A time in a message is 6 µs or 2.5 ms, not 6e-06 s (whatever the reader typed, the
+    number is taken in at a glance), in errors and in a measurement's repr."""
+    from radiosim import Camera, UniformBlackbody
+    from radiosim.scenes import FrameStack
+
+    with pytest.raises(RadiosimError, match=r"event_time 6 µs is outside the stack "
+                                            r"\(0 to 5 µs\)") as info:
+        FrameStack(np.full((5, 4, 4), 600.0), 1e-6, 1e-6, event_time=6e-6)
+    assert "e-0" not in str(info.value)
+    measurement = Camera.linear_ideal(2e-6).measure(UniformBlackbody(600.0, (4, 4), 1e-6, 1e-6),
+                                                     2.5e-3)
+    assert "2.5 ms from 0 µs" in repr(measurement) and "e-0" not in repr(measurement)

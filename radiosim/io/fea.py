@@ -25,7 +25,8 @@ import numpy as np
 from radiosim.checks import check_positive
 from radiosim.errors import RadiosimError
 from radiosim.scenes.fea_nodes import INTERPOLATIONS, FeaMesh, FeaNodes, triangulate
-from radiosim.units import AMBIENT_TEMPERATURE, TEMPERATURE_OFFSETS, UNITS, to_kelvin
+from radiosim.units import (AMBIENT_TEMPERATURE, TEMPERATURE_OFFSETS, UNITS, readable_time,
+                            to_kelvin)
 
 __all__ = ["read_fea_nodes", "FeaNodes", "read_fea_mesh", "FeaMesh"]
 
@@ -328,7 +329,7 @@ def read_fea_nodes(path, dx, dt=None, units=None, fill=AMBIENT_TEMPERATURE, boun
     for k in range(times.size):
         mine = inverse == k
         if mine.sum() < 3:
-            raise RadiosimError(f"{path}: step {k} (t = {times[k]:g} s) has {mine.sum()} "
+            raise RadiosimError(f"{path}: step {k} (t = {readable_time(times[k])}) has {mine.sum()} "
                                 "node(s); at least 3 are needed")
         steps.append(_unique_nodes(path, k, times[k], np.flatnonzero(mine), xy[mine],
                                    temperature[mine], units))
@@ -347,7 +348,7 @@ def read_fea_nodes(path, dx, dt=None, units=None, fill=AMBIENT_TEMPERATURE, boun
         raise RadiosimError(f"{path}: a single step; pass dt [s]")
     origin, shape = _grid(xy, bounds, dx, str(path), f"µm data read as {units['length']}?")
     if max_edge is None:
-        tri = triangulate(steps[0][0], f"{path}: step 0 (t = {times[0]:g} s)")
+        tri = triangulate(steps[0][0], f"{path}: step 0 (t = {readable_time(times[0])})")
         corners = steps[0][0][tri.simplices]
         max_edge = 4 * float(np.median(np.linalg.norm(corners - np.roll(corners, 1, axis=1),
                                                       axis=2)))

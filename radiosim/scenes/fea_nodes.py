@@ -29,6 +29,7 @@ from scipy.spatial import Delaunay
 
 from radiosim.errors import RadiosimError
 from radiosim.scenes.base import Region, Scene, check_emissivity
+from radiosim.units import readable_time, readable_times
 
 __all__ = ["FeaNodes", "FeaMesh", "triangulate", "INTERPOLATIONS"]
 
@@ -91,10 +92,12 @@ class _Snapshots(Scene):
         """Frame ``k`` as (snapshot, weight) pairs."""
         a, b = k * self.dt, (k + 1) * self.dt
         if k < self.first_frame:
+            (low, high), unit = readable_times(a, b)
+            span = f"{low}–{high} {unit}"
             raise RadiosimError(
-                f"frame {k} covers {a:.6g}–{b:.6g} s, before {self._source}'s first time stamp "
-                f"{self.t0:.6g} s; windows are in the file's own time: start them at "
-                f"t_start ≥ {self.first_frame * self.dt:.6g} s")
+                f"frame {k} covers {span}, before {self._source}'s first time stamp "
+                f"{readable_time(self.t0)}; windows are in the file's own time: start them at "
+                f"t_start ≥ {readable_time(self.first_frame * self.dt)}")
         n = self.times.size
         if self.interpolation == "linear":
             u = _snap(((a + b) / 2 - self.t0) / self.step)
@@ -173,7 +176,7 @@ class FeaNodes(_Snapshots):
         cached = self._triangulations.get(k)  # one read: another thread may replace the dict
         if cached is None:
             points, _ = self._steps[k]
-            tri = triangulate(points, f"step {k} (t = {self.times[k]:g} s) of {self._source}")
+            tri = triangulate(points, f"step {k} (t = {readable_time(self.times[k])}) of {self._source}")
             corners = points[tri.simplices]
             edges = np.linalg.norm(corners - np.roll(corners, 1, axis=1), axis=2).max(axis=1)
             cached = (tri, edges <= self.max_edge)

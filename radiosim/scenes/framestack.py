@@ -9,7 +9,7 @@ import os
 import numpy as np
 
 from radiosim.errors import RadiosimError, RadiosimIOError
-from radiosim.units import TEMPERATURE_OFFSETS, UNITS, to_kelvin
+from radiosim.units import TEMPERATURE_OFFSETS, UNITS, readable_time, to_kelvin
 from radiosim.checks import check_non_negative
 from radiosim.scenes.base import Region, Scene, check_emissivity, check_grid
 
@@ -82,8 +82,8 @@ class FrameStack(Scene):
             event_time = check_non_negative(event_time, "event_time", "s")
             if not 0 <= event_time <= self.n_frames * self.dt:
                 raise RadiosimError(
-                    f"event_time {event_time:g} s is outside the stack (0 to "
-                    f"{self.n_frames * self.dt:g} s)"
+                    f"event_time {readable_time(event_time)} is outside the stack (0 to "
+                    f"{readable_time(self.n_frames * self.dt)})"
                 )
         self.event_time = event_time
         if units not in TEMPERATURE_OFFSETS:
