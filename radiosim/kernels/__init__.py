@@ -25,7 +25,8 @@ How the kernels are fast (see ``benchmarks/bench_kernels.py``):
     (no barrier per frame), and stops at its first frame with a status; those are handled in
     frame order, and the stopped threads go on;
 -   within a pixel row, the sample rows of its pieces are swept up to 12 at a time (all of a
-    pixel row of up to 12 pieces; generated sweeps ``_lin1`` … ``_lin12``), in chunks of 512
+    pixel row of up to 12 pieces; four rows at a time, then one, the sweep's partial sums in a
+    scratch row so the order of additions does not depend on the grouping), in chunks of 512
     slots that stay in the L1 cache, along the
     columns, in sample space: one accumulator slot per sample (holding the first column piece
     that reads it), plus a slot per "duplicate" piece (a pixel edge inside a sample: the
@@ -161,5 +162,4 @@ def dispatchers() -> tuple:
     for module in (intrinsics, sweeps, radiance, rows, bands):
         found += [v for v in vars(module).values()
                   if isinstance(v, numba.core.registry.CPUDispatcher)]
-    found += sweeps._LIN_SWEEPS
     return tuple(dict.fromkeys(found))

@@ -292,6 +292,7 @@ def _accumulate_rows(i_start, i_stop, base, row_length, rows, cols, acc, members
     u = slots[4 * stride:4 * stride + 2 * CHUNK]
     interval = slots[5 * stride:5 * stride + 2 * CHUNK].view(np.uint64)
     value = np.empty(CHUNK)
+    sums = np.empty(CHUNK)  # a sweep's Σ w (T − c) per slot (sweeps._lin)
     factor = np.empty(CHUNK)
     s1 = np.empty(n_pixels)
     s2 = np.empty(n_pixels)
@@ -349,7 +350,7 @@ def _accumulate_rows(i_start, i_stop, base, row_length, rows, cols, acc, members
                 offsets = o if part == 0 else dup_offsets
                 for lo in range(first, end, chunk):
                     hi = min(end, lo + chunk)
-                    _lin(n, p == start, lo, hi, src, offsets, ws, ce, a1, a2, am, an)
+                    _lin(n, p == start, lo, hi, src, offsets, ws, ce, a1, a2, am, an, sums)
                     if with_signal and part == 0 and mode != SIGNAL_INDEX:
                         _signal_rows(n, lo, hi, src, offsets, ws, grey_map, mo, use_map, grey,
                                      table_rows, table_key0, table_shift, table_last,
