@@ -173,11 +173,35 @@ class SubBandSignals:
         weights = self.weights[lo - self.first:lo - self.first + block.shape[0]]
         self._add(block, weights, frame, lo)
         if frame.reflected_temperature is not None:
-            reflection = _reflection(frame, self._complement)
             radiometric = [n for n, r in enumerate(self.responses) if r.radiometric]
-            if radiometric:
+            if radiometric and not self._add_uniform(block.shape[0], weights, frame, lo,
+                                                     radiometric):
+                reflection = _reflection(frame, self._complement)
                 t = np.broadcast_to(reflection.temperature, block.shape)
                 self._add(t, weights, reflection, lo, radiometric)
+
+    def _add_uniform(self, n_frames, weights, frame, index, which) -> bool:
+        """The reflected part of a grey frame (one scalar emissivity, no regions, one
+        reflected temperature) is the same at every sample: the kernel's sums for one sample
+        (the same operations as at each of the frame's samples) added to every sample.
+        Returns whether it was taken (else the caller takes the pass over the frame)."""
+        t_refl = frame.reflected_temperature
+        if not self.compiled or frame.regions is not None \
+                or isinstance(frame.emissivity, np.ndarray) or isinstance(t_refl, np.ndarray):
+            return False
+        one = SceneFrame(np.full((1, 1), t_refl, dtype=float), self._complement(frame.emissivity),
+                         None, None, frame.index)
+        tables = [self.responses[n].signal_table(one) for n in which]
+        if any(t is None or t.grey_scalar is None or t.index is not None for t in tables):
+            return False
+        block = np.full((n_frames, 1, 1), t_refl, dtype=float)
+        sums = np.zeros((len(tables), 1, 1))
+        status, _ = accumulate_bands(block, weights, tables, sums, frame_index=index)
+        if status != STATUS_OK:
+            return False
+        for row, n in enumerate(which):
+            self.out[n] += sums[row, 0, 0]
+        return True
 
     def _add(self, block, weights, frame, index, which=None):
         which = range(len(self.responses)) if which is None else which

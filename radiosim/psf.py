@@ -750,11 +750,16 @@ def blur_bands(fields, surroundings, psfs, dx: float, wavelengths, object_na: fl
     rows = functools.reduce(np.union1d, [t[0] for t in transfers])  # the union of supports
     n_freq = max(t[1] for t in transfers)
     spectrum = np.zeros((rows.size, n_freq), dtype=complex)
+    # The field less its surroundings, zero-padded to the transform's length once: each
+    # sub-band (group) writes its own part, the padding stays zero (the same transform as
+    # rfft(g, n), without a padded copy per sub-band).
+    padded = np.zeros((n_rows, shape[1]))
+    g = padded[:, :n_cols]
     for (first, members), (band_rows, band_freq, k) in zip(groups, transfers):
-        g = fields[members[0]] - float(surroundings[members[0]])
+        np.subtract(fields[members[0]], float(surroundings[members[0]]), out=g)
         for b in members[1:]:
-            g = g + (fields[b] - float(surroundings[b]))
-        part = sfft.rfft(g, shape[1], axis=1, workers=-1)[:, :band_freq]
+            g += fields[b] - float(surroundings[b])
+        part = sfft.rfft(padded, axis=1, workers=-1)[:, :band_freq]
         part = sfft.fft(part, shape[0], axis=0, workers=-1)[band_rows]
         part *= k
         if band_rows.size == rows.size and band_freq == n_freq:

@@ -90,6 +90,25 @@ def test_samples_below_the_table_take_the_exact_reference():
     assert np.max(np.abs(compiled / reference - 1)) < 1e-12
 
 
+def test_a_uniform_reflection_adds_the_same_bits_as_its_pass_over_the_frame(monkeypatch):
+    camera = psf_camera()
+    scene = FrameStack(RNG.uniform(300.0, 1100.0, (4, 12, 17)), dt=2e-7, dx=6.0e-6 / 9,
+                       emissivity=0.6).set_environment(reflected_temperature=293.15)
+    subs = [r for r, _ in camera.response_model.sub_bands(8)]
+    window = Window(0.3 * scene.dt, 3 * scene.dt)
+    taken = []
+    uniform = rs.imaging.SubBandSignals._add_uniform
+    monkeypatch.setattr(rs.imaging.SubBandSignals, "_add_uniform",
+                        lambda self, *a: taken.append(uniform(self, *a)) or taken[-1])
+    shortcut = rs.imaging.sample_signals(scene, window, subs)
+    assert taken and all(taken)
+    monkeypatch.setattr(rs.imaging.SubBandSignals, "_add_uniform", lambda self, *a: False)
+    full = rs.imaging.sample_signals(scene, window, subs)  # the kernel over every sample
+    assert np.array_equal(shortcut, full)
+    emission = rs.imaging.sample_signals(scene.set_environment(), window, subs)
+    assert np.all(full > emission)  # the reflection is there
+
+
 def hot_disc(shape=(60, 70)):
     y, x = np.indices(shape)
     return np.where(np.hypot(y - 30, x - 25) < 6, 100.0, 1.0)

@@ -4,10 +4,11 @@ sample resolution, of each sub-band's signal S_b(T) = L_b,e(T) · grey_e,b · gr
 stage's per-sample radiance, :func:`radiosim.imaging.sample_signals`).
 
 The sub-bands' :class:`~radiosim.kernels.table.SignalTable` share their temperature grid (the
-same range and intervals per octave): :func:`stack` stacks their cubic coefficients, one block
-per sub-band with the same rows, so that a sample's interval and position are found once (the
-bits of T, :func:`~radiosim.kernels.radiance._locate`) and every sub-band's cubic is read at
-that row of its block (eight samples at a time, as the other kernels). :func:`accumulate_bands` takes several frames per call, each
+same range and intervals per octave): :func:`stack` interleaves their cubic coefficients, the
+sub-bands' rows of one interval next to each other (one interval's data for every sub-band in
+four cache lines), so that a sample's interval and position are found once (the bits of T,
+:func:`~radiosim.kernels.radiance._locate`) and every sub-band's cubic is read at that
+interval (eight samples at a time, as the other kernels). :func:`accumulate_bands` takes several frames per call, each
 pixel row's sums kept in its thread until the block's frames are done. Tables that cannot
 share lookups go to the reference (:func:`stack` returns ``None``).
 
@@ -38,10 +39,10 @@ __all__ = ["StackedTables", "stack", "accumulate_bands", "band_kernel"]
 
 
 class StackedTables(NamedTuple):
-    """The radiance tables of several sub-bands on one grid, stacked: sub-band b's block of
-    ``coef`` (its ``b``-th part of equal size) holds its distinct tables' cubic rows one after
-    the other, distinct table j's interval k at row ``offset[j] + k`` of every block (four
-    coefficients a row, highest power of T − T_k first)."""
+    """The radiance tables of several sub-bands on one grid, interleaved: the distinct tables'
+    intervals one after the other (distinct table j's interval k is interval ``offset[j] + k``),
+    and interval n's rows of the B sub-bands next to each other: sub-band b's row of interval n
+    is row ``n · B + b`` of ``coef`` (four coefficients a row, highest power of T − T_k first)."""
 
     #: float64, read-only: the interleaved coefficients.
     coef: np.ndarray
@@ -85,8 +86,9 @@ def stack(tables: list[SignalTable]) -> StackedTables | None:
     blocks = [np.concatenate([t.unique_tables[j].coefficients for j in range(n_unique)])
               for t in tables]  # per sub-band, its distinct tables' rows one after the other
     unique = first.unique_tables
+    rows = np.stack([b.reshape(-1, 4) for b in blocks], axis=1)  # (intervals, sub-bands, 4)
     stacked = StackedTables(
-        coef=read_only(np.ascontiguousarray(np.concatenate(blocks).reshape(-1))),
+        coef=read_only(np.ascontiguousarray(rows.reshape(-1))),
         key0=np.array([u.key0 for u in unique], dtype=np.int64),
         shift=np.array([u.shift for u in unique], dtype=np.uint64),
         last=np.array([u.intervals - 1 for u in unique], dtype=np.int64),
@@ -129,8 +131,9 @@ def band_kernel(frames, weight, tables, emissivity, out, status):
     """out[b, i, j] += Σ_f weight[f] · S_b(T_f[i, j]) for the frames of ``frames``
     (:class:`~radiosim.kernels.bundles.FrameBlock`) and every sub-band b of ``tables``
     (:class:`StackedTables`): per pixel row (in parallel) and frame, each sample's interval
-    and position once (and its entry), then each sub-band's cubics, eight samples at a time,
-    from its own block of the stacked coefficients at that interval, accumulated. A row's sums
+    and position once (and its entry; the interval kept as its first row of ``coef``, times
+    the sub-bands), then each sub-band's cubics, eight samples at a time, from its row of that
+    interval (``coef`` from the sub-band's offset), accumulated. A row's sums
     are kept until the block's frames are done and added only if none of its samples has a
     status (``status[i]``: bits of :mod:`radiosim.kernels.codes`)."""
     n_bands, n_rows, n_cols = out.shape
@@ -143,8 +146,8 @@ def band_kernel(frames, weight, tables, emissivity, out, status):
     index_map = emissivity.index_map
     use_map = emissivity.use_map
     indexed = emissivity.mode == SIGNAL_INDEX
-    stride = np.uint64(coef.size // n_bands)
     one = np.uint64(1)
+    nb = np.uint64(n_bands)  # interval n, sub-band b: row n · nb + b of coef
     j0 = entry_table[0]  # the one table without an index map
     shift = tables.shift[j0]
     key0 = tables.key0[j0]
@@ -182,30 +185,30 @@ def band_kernel(frames, weight, tables, emissivity, out, status):
                     s = tables.shift[jt]
                     k, d = _locate(t, tables.key0[jt], s, ~((np.uint64(1) << s) - one),
                                    np.uint64(tables.last[jt]))
-                    interval[j] = k + tables.offset[jt]
+                    interval[j] = (k + tables.offset[jt]) * nb
                     position[j] = d
-            else:  # one table: its range checked from the row's extremes (a vector loop)
+            else:  # one table: its range checked by counts (a vector loop; NaN counts as bad)
                 n_bad = 0
-                t_low = INF
-                t_high = -INF
+                n_low = 0
+                n_high = 0
                 for j in range(n_cols):
                     t = np.float64(base[x0 + j])
                     n_bad += np.int64(not t > 0.0) + np.int64(t == INF)  # NaN, ≤ 0 K, +inf
-                    t_low = min(t_low, t)
-                    t_high = max(t_high, t)
+                    n_low += np.int64(t < t_min)
+                    n_high += np.int64(t > t_max)
                     k, d = _locate(t, key0, shift, mask, last)
-                    interval[j] = k + offset
+                    interval[j] = (k + offset) * nb
                     position[j] = d
                 if n_bad:
                     row_status |= STATUS_BAD_SAMPLE
-                if t_low < t_min:
+                if n_low:
                     row_status |= STATUS_BELOW_TABLE
-                if t_high > t_max:
+                if n_high:
                     row_status |= STATUS_ABOVE_TABLE
             if row_status != 0:
                 break
             for b in range(n_bands):
-                table = coef[np.uint64(b) * stride:]
+                table = coef[np.uint64(4 * b):]
                 if indexed:  # each sample's entry: its own grey factor
                     cubic(table, interval, position, value, n_cols)
                     for j in range(n_cols):
