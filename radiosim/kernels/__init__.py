@@ -18,15 +18,17 @@ quadrature (:func:`~radiosim.radiometry.band_radiance`).
 
 How the kernels are fast (see ``benchmarks/bench_kernels.py``):
 
--   pixel rows are split in one contiguous block per thread (``numba.prange``); a pixel row
+-   pixel rows are split in one contiguous block per thread (:func:`run_blocks`: radiosim's
+    own threads, the kernels releasing the GIL; numba's ``prange`` cost a second optimisation
+    of everything the loop calls, half the compile time); a pixel row
     writes only its own output row, so there are no races, and the result does not depend on
     the number of threads. Several frames go in one call (:func:`accumulate_merged` with a
     3-D block): each thread takes its rows through all of them without waiting for the other
     (no barrier per frame), and stops at its first frame with a status; those are handled in
     frame order, and the stopped threads go on;
 -   within a pixel row, the sample rows of its pieces are swept up to 12 at a time (all of a
-    pixel row of up to 12 pieces; four rows at a time, then one, the sweep's partial sums in a
-    scratch row so the order of additions does not depend on the grouping), in chunks of 512
+    pixel row of up to 12 pieces; eight, four, then one row at a time, the sweep's partial sums
+    in a scratch row so the order of additions does not depend on the grouping), in chunks of 512
     slots that stay in the L1 cache, along the
     columns, in sample space: one accumulator slot per sample (holding the first column piece
     that reads it), plus a slot per "duplicate" piece (a pixel edge inside a sample: the
@@ -115,10 +117,12 @@ from radiosim.kernels.launch import (accumulate, accumulate_merged, apply_thread
 from radiosim.kernels.reference import (Members, accumulate_merged_reference,
                                         accumulate_reference, pixel_mean_reference)
 from radiosim.kernels.table import RadianceKernelTable, SignalTable
+from radiosim.kernels.threads import run_blocks
 
 __all__ = [
     "fast_exp",
     "parallel_launch",
+    "run_blocks",
     "apply_thread_settings",
     "thread_count",
     "STATUS_OK",

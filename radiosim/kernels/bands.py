@@ -23,7 +23,6 @@ from typing import NamedTuple
 
 import numba
 import numpy as np
-from numba import prange
 
 from radiosim.errors import RadiosimError
 from radiosim.kernels.bundles import Emissivity, FrameBlock
@@ -34,6 +33,7 @@ from radiosim.kernels.layout import frames_of, read_only, rows_of
 from radiosim.kernels.packing import _ones, _uint8_index
 from radiosim.kernels.radiance import _cubic1, _locate, cubic
 from radiosim.kernels.table import SignalTable
+from radiosim.kernels.threads import run_blocks
 
 __all__ = ["StackedTables", "stack", "accumulate_bands", "band_kernel"]
 
@@ -126,11 +126,12 @@ def _band_pass(coef, interval, position, grey_map, g0, w, grey, use_map, acc, ou
             acc[out0 + k] += _cubic1(coef, interval[k], position[k]) * w
 
 
-@numba.njit(parallel=True, **JIT)
-def band_kernel(frames, weight, tables, emissivity, out, status):
+@numba.njit(**JIT)
+def band_kernel(block, n_blocks, frames, weight, tables, emissivity, out, status):
     """out[b, i, j] += Σ_f weight[f] · S_b(T_f[i, j]) for the frames of ``frames``
     (:class:`~radiosim.kernels.bundles.FrameBlock`) and every sub-band b of ``tables``
-    (:class:`StackedTables`): per pixel row (in parallel) and frame, each sample's interval
+    (:class:`StackedTables`): per pixel row of block ``block`` of ``n_blocks`` (one block per
+    thread, :func:`~radiosim.kernels.threads.run_blocks`) and frame, each sample's interval
     and position once (and its entry; the interval kept as its first row of ``coef``, times
     the sub-bands), then each sub-band's cubics, eight samples at a time, from its row of that
     interval (``coef`` from the sub-band's offset), accumulated. A row's sums
@@ -156,7 +157,7 @@ def band_kernel(frames, weight, tables, emissivity, out, status):
     offset = tables.offset[j0]
     t_min = tables.t_min[j0]
     t_max = tables.t_max[j0]
-    for i in prange(n_rows):
+    for i in range(block * n_rows // n_blocks, (block + 1) * n_rows // n_blocks):
         acc = np.zeros(n_bands * n_cols)
         interval = np.empty(n_cols, dtype=np.uint64)
         position = np.empty(n_cols)
@@ -257,9 +258,8 @@ def accumulate_bands(block, weights, tables: list[SignalTable], out: np.ndarray,
     caller redoes them with :func:`radiosim.kernels.reference.accumulate_bands_reference`
     (exact quadrature below the tables, the references' errors otherwise).
     """
-    from radiosim.kernels.launch import apply_thread_settings, parallel_launch
+    from radiosim.kernels.launch import thread_count
 
-    apply_thread_settings()  # before numba's parallel layer loads
     block = np.asarray(block)
     if block.ndim == 2:
         block = block[None]
@@ -277,9 +277,10 @@ def accumulate_bands(block, weights, tables: list[SignalTable], out: np.ndarray,
         return -1, np.arange(block.shape[1])  # the caller takes the reference
     base, row_length, frame_stride = frames_of(block)
     status = np.zeros(block.shape[1], dtype=np.int64)
-    with parallel_launch():
-        band_kernel(FrameBlock(base, row_length, frame_stride, block.shape[0]), weights,
-                    stacked, signs, out, status)
+    n_blocks = max(1, min(thread_count(), block.shape[1]))
+    run_blocks(band_kernel, n_blocks, n_blocks,
+               FrameBlock(base, row_length, frame_stride, block.shape[0]), weights, stacked,
+               signs, out, status)
     flagged = np.flatnonzero(status)
     result = int(np.bitwise_or.reduce(status[flagged])) if flagged.size else STATUS_OK
     return result, flagged

@@ -7,6 +7,12 @@ the parallel layer (:func:`apply_thread_settings`, :func:`thread_count`, :func:`
 
 Thread settings
 ---------------
+Since the kernels run their blocks on radiosim's own threads (:func:`run_blocks`), none of them
+is a numba parallel region any more; numba's threading layer is still what radiosim asks for
+the number of threads (:func:`thread_count`, so that ``numba.set_num_threads`` limits
+radiosim too), and the setting below still bounds its spin for any parallel code the process
+runs. What follows is how that setting is made.
+
 The compiled kernels run one short parallel region per call, many calls per second. numba runs
 them on its *threading layer*, chosen once per process when it first loads (numba's order: TBB
 if its library is installed, else OpenMP, else its own ``workqueue``; ``NUMBA_THREADING_LAYER``
@@ -54,6 +60,7 @@ from radiosim.kernels.reference import (Members, accumulate_numpy, checked_argum
 from radiosim.kernels.rows import accumulate_kernel
 from radiosim.kernels.sweeps import MAX_ROWS
 from radiosim.kernels.table import SignalTable
+from radiosim.kernels.threads import run_blocks
 
 __all__ = ["apply_thread_settings", "thread_count", "parallel_launch", "pixel_mean",
            "accumulate", "Members", "accumulate_merged", "warmup", "compile_pending",
@@ -358,8 +365,8 @@ def _launch(block, rows: KernelAxis, cols: KernelAxis, time_weight, reference, d
     acc = Accumulators(time_weight, reference, dev, sq, tmax, signal)
     status = np.zeros((n_frames, rows.n_pixels), dtype=np.int64)
     slots = cols.slots
-    previous = thread_count()  # once per launch: numba's getter costs ~0.1 ms
-    n_blocks = _blocks(rows.n_pixels, previous if threads is None else threads)
+    available = thread_count() if threads is None else threads  # (numba's getter: ~0.1 ms)
+    n_blocks = _blocks(rows.n_pixels, available)
     buffers = _buffers(n_blocks, max(1, slots.dup_source.size), slots.weight.size, base.dtype,
                        signs.index_map.dtype)
     members = merged if merged is not None else _NO_MEMBERS
@@ -367,29 +374,22 @@ def _launch(block, rows: KernelAxis, cols: KernelAxis, time_weight, reference, d
     start = np.zeros(n_blocks, dtype=np.int64)
     pending = np.full(n_blocks, -1, dtype=np.int64)  # a frame whose status awaits handling
     handled = STATUS_OK
-    changed = n_blocks != previous and n_blocks <= numba.config.NUMBA_NUM_THREADS
-    if changed:
-        numba.set_num_threads(n_blocks)
-    try:
-        while True:
-            run = np.where(pending >= 0, n_frames, start)
-            with parallel_launch():
-                stopped = accumulate_kernel(n_blocks, run, frames, row_pieces, slots, acc,
-                                            members, tables, signs, buffers, status)
-            ran = run < n_frames
-            pending[ran & (stopped < n_frames)] = stopped[ran & (stopped < n_frames)]
-            start[ran] = np.minimum(stopped[ran] + 1, n_frames)
-            if not np.any(pending >= 0):
-                return handled
-            # The earliest frame with a status: every block has either passed it cleanly or
-            # stopped at or after it, so its flagged rows are handled in frame order.
-            f = int(pending[pending >= 0].min())
-            result = int(np.bitwise_or.reduce(status[f]))
-            handled |= handle(f, (result, status[f], response))
-            pending[pending == f] = -1
-    finally:
-        if changed:
-            numba.set_num_threads(previous)
+    while True:
+        run = np.where(pending >= 0, n_frames, start)
+        stopped = np.array(run_blocks(accumulate_kernel, n_blocks, n_blocks, run, frames,
+                                      row_pieces, slots, acc, members, tables, signs, buffers,
+                                      status))
+        ran = run < n_frames
+        pending[ran & (stopped < n_frames)] = stopped[ran & (stopped < n_frames)]
+        start[ran] = np.minimum(stopped[ran] + 1, n_frames)
+        if not np.any(pending >= 0):
+            return handled
+        # The earliest frame with a status: every block has either passed it cleanly or
+        # stopped at or after it, so its flagged rows are handled in frame order.
+        f = int(pending[pending >= 0].min())
+        result = int(np.bitwise_or.reduce(status[f]))
+        handled |= handle(f, (result, status[f], response))
+        pending[pending == f] = -1
 
 
 def _finish(launched, frame2d, rows: KernelAxis, cols: KernelAxis, frame_index, response,

@@ -1,5 +1,5 @@
 """
-The parallel kernel: pixel rows in one block per thread (``numba.prange``), each row's sample
+The integrator's kernel: pixel rows in one block per thread (:mod:`radiosim.kernels.threads`), each row's sample
 rows swept (:mod:`radiosim.kernels.sweeps`) with their radiance
 (:mod:`radiosim.kernels.radiance`), the slots reduced to pixels and checked, and the pixels
 committed to the accumulators, or merged into several jobs' moments (Chan et al.).
@@ -11,7 +11,6 @@ from __future__ import annotations
 
 import numba
 import numpy as np
-from numba import prange
 
 from radiosim.kernels.bundles import ThreadBuffers
 from radiosim.kernels.codes import SIGNAL_INDEX, SIGNAL_MAP, SIGNAL_NONE, SIGNAL_SCALAR
@@ -381,35 +380,32 @@ def _accumulate_rows(i_start, i_stop, base, row_length, rows, cols, acc, members
                                 t_low, t_high, s1, s2, s3, sm, row_status)
 
 
-@numba.njit(parallel=True, **JIT)
-def accumulate_kernel(n_blocks, start, frames, rows, cols, acc, members, tables, emissivity,
+@numba.njit(**JIT)
+def accumulate_kernel(b, n_blocks, start, frames, rows, cols, acc, members, tables, emissivity,
                       buffers, status):
-    """The frames' pixel rows in ``n_blocks`` contiguous blocks, one per thread (block b uses
-    row b of ``buffers``); frame f starts at ``frames.base[f * frames.frame_stride]``, and the
-    merging weights (``members``) and ``status`` have one row per frame. Block b takes frames
-    start[b] … n_frames − 1 of its rows, one after the other, without waiting for the other
-    blocks (no barrier per frame), and stops after its first frame with a status. Returns,
-    per block, that frame, or n_frames. The bundles: :mod:`radiosim.kernels.bundles`."""
+    """Block ``b`` of the frames' pixel rows in ``n_blocks`` contiguous blocks, one per thread
+    (:func:`~radiosim.kernels.threads.run_blocks`; block b uses row b of ``buffers``); frame
+    f starts at ``frames.base[f * frames.frame_stride]``, and the merging weights
+    (``members``) and ``status`` have one row per frame. The block takes frames start[b] …
+    n_frames − 1 of its rows, one after the other, without waiting for the other blocks (no
+    barrier per frame), and stops after its first frame with a status. Returns that frame, or
+    n_frames. The bundles: :mod:`radiosim.kernels.bundles`."""
     n_frames = frames.n_frames
     frame_stride = frames.frame_stride
     base = frames.base
     n_rows = rows.bounds.size - 1
-    stopped = np.full(n_blocks, n_frames, dtype=np.int64)
-    for b in prange(n_blocks):
-        first_row = b * n_rows // n_blocks
-        stop_row = (b + 1) * n_rows // n_blocks
-        thread = ThreadBuffers(buffers.rows_w[b], buffers.rows_r[b], buffers.grey_w[b],
-                               buffers.grey_r[b], buffers.index_w[b], buffers.index_r[b],
-                               buffers.am[b], buffers.an[b])
-        for f in range(start[b], n_frames):
-            row_status = status[f]
-            _accumulate_rows(first_row, stop_row, base[f * frame_stride:], frames.row_length,
-                             rows, cols, acc, members, f, tables, emissivity, thread,
-                             row_status)
-            bad = 0
-            for i in range(first_row, stop_row):
-                bad |= row_status[i]
-            if bad != 0:
-                stopped[b] = f
-                break
-    return stopped
+    first_row = b * n_rows // n_blocks
+    stop_row = (b + 1) * n_rows // n_blocks
+    thread = ThreadBuffers(buffers.rows_w[b], buffers.rows_r[b], buffers.grey_w[b],
+                           buffers.grey_r[b], buffers.index_w[b], buffers.index_r[b],
+                           buffers.am[b], buffers.an[b])
+    for f in range(start[b], n_frames):
+        row_status = status[f]
+        _accumulate_rows(first_row, stop_row, base[f * frame_stride:], frames.row_length, rows,
+                         cols, acc, members, f, tables, emissivity, thread, row_status)
+        bad = 0
+        for i in range(first_row, stop_row):
+            bad |= row_status[i]
+        if bad != 0:
+            return f
+    return n_frames

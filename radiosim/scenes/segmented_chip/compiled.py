@@ -15,11 +15,11 @@ import math
 
 import numpy as np
 
-from radiosim.kernels import parallel_launch, thread_count
+from radiosim.kernels import run_blocks, thread_count
 from radiosim.scenes.base import Region
 from radiosim.scenes.segmented_chip.geometry import Geometry, RegionData
 from radiosim.scenes.segmented_chip.kernel import (PAD, KernelConstants, RunLayout,
-                                                   moving_terms_kernel)
+                                                   band_profile, moving_terms_kernel)
 from radiosim.scenes.segmented_chip.parameters import ChipParameters
 from radiosim.scenes.segmented_chip.profiles import FADE_REACH
 from radiosim.scenes.segmented_chip.reference import band_terms, forming_base, forming_reach, phase
@@ -186,10 +186,10 @@ def evaluate_compiled(p: ChipParameters, r: RegionData, layout: KernelLayout, t:
     regions = np.empty(r.shape, dtype=np.uint8) if want_regions else _NO_REGIONS
     threads, blocks = layout.blocks(forming)
     extremes = np.empty((threads, 2), dtype=np.int64)
-    with parallel_launch():
-        moving_terms_kernel(threads, blocks, r.static, r.regions, temperature, regions,
-                            want_regions, forming, r.y, frame, grid, terms, nodes, r.cos_field,
-                            r.sin_field, layout.run_layout, extremes)
+    profile = band_profile(grid, terms, nodes, frame.sin_tb)
+    run_blocks(moving_terms_kernel, threads, threads, blocks, r.static, r.regions, temperature,
+               regions, want_regions, forming, r.y, frame, profile, r.cos_field, r.sin_field,
+               layout.run_layout, extremes)
     # Every value finite and > 0 K (see moving_terms_kernel): the frame's check is done.
     clean = temperature.size == 0 or bool(extremes[:, 0].min() > 0
                                           and extremes[:, 1].max() < _INF_BITS)

@@ -32,7 +32,6 @@ from typing import NamedTuple
 
 import numba
 import numpy as np
-from numba import prange
 
 from radiosim.kernels import fast_exp
 
@@ -316,21 +315,28 @@ def _band_profile(grid, terms, nodes, sin_b):
     return profile
 
 
-@numba.njit(parallel=True, **_JIT)
-def moving_terms_kernel(threads, bounds, static, regions_static, out, regions_out,
-                        want_regions, forming, y, k, grid, terms, nodes, cos_field, sin_field,
-                        layout, extremes):
-    """The frame over the region: rows bounds[b] … bounds[b + 1] − 1 in block b, the blocks
-    dealt to ``threads`` threads in turn (so that each thread's work spans the frame, and the
-    threads' shares are even however the blocks' work was estimated). ``out`` (and, with
-    ``want_regions``, ``regions_out``) is written in full. ``layout`` (:class:`RunLayout`)
-    holds the runs, the fades and the columns' x coordinates and PAD more (any finite
-    values); ``k`` the scalars (:class:`KernelConstants`). The released bands' profile on ``grid`` is
-    computed first, from the bands' ``terms`` (ζ_k, σ_k², amplitude) on their ``nodes``.
+@numba.njit(**_JIT)
+def band_profile(grid, terms, nodes, sin_b):
+    """The released bands' profile on ``grid`` (:func:`_band_profile`), computed once per
+    frame before the threads of :func:`moving_terms_kernel` start."""
+    return _band_profile(grid, terms, nodes, sin_b)
+
+
+@numba.njit(**_JIT)
+def moving_terms_kernel(thread, threads, bounds, static, regions_static, out, regions_out,
+                        want_regions, forming, y, k, profile, cos_field, sin_field, layout,
+                        extremes):
+    """Thread ``thread``'s share (of ``threads``, each on its own thread:
+    :func:`radiosim.kernels.run_blocks`) of the frame over the region: rows bounds[b] …
+    bounds[b + 1] − 1 in block b, the blocks dealt to the threads in turn (so that each
+    thread's work spans the frame, and the threads' shares are even however the blocks' work
+    was estimated); together they write ``out`` (and, with ``want_regions``, ``regions_out``)
+    in full. ``layout`` (:class:`RunLayout`) holds the runs, the fades and the columns' x
+    coordinates and PAD more (any finite values); ``k`` the scalars (:class:`KernelConstants`);
+    ``profile`` the released bands' profile on the ζ grid (:func:`band_profile`).
     ``extremes[thread]``: the least and greatest bit pattern (as int64) of the values the
     thread wrote — as integers, positive finite floats keep their order, and any value ≤ 0 K
     gives one ≤ 0, any +inf or NaN one ≥ that of +inf (the frame's check, in registers)."""
-    profile = _band_profile(grid, terms, nodes, k.sin_tb)
     # f = base^m and σ where the exponent m has saturated at 1 (n beyond its reach), with the
     # arithmetic of _forming_values.
     f_saturated = _exp((k.exp_tip + k.exp_slope * 1.0) * k.log_base)
@@ -340,23 +346,22 @@ def moving_terms_kernel(threads, bounds, static, regions_static, out, regions_ou
     sigma_saturated *= sigma_saturated
     sigma_saturated *= -2.0
     n_blocks = bounds.size - 1
-    for thread in prange(threads):
-        scratch = np.empty((3, out.shape[1] + PAD))
-        bits = out.reshape(-1).view(np.int64)
-        n_cols = out.shape[1]
-        low = np.int64(0x7FFFFFFFFFFFFFFF)
-        high = -low
-        for b in range(thread, n_blocks, threads):
-            for i in range(bounds[b], bounds[b + 1]):
-                _frame_row(i, static, regions_static, out, regions_out, want_regions, forming,
-                           y, k, profile, cos_field, sin_field, layout, scratch, f_saturated,
-                           sigma_saturated)
-                for j in range(i * n_cols, (i + 1) * n_cols):
-                    v = bits[j]
-                    low = v if v < low else low
-                    high = v if v > high else high
-        extremes[thread, 0] = low
-        extremes[thread, 1] = high
+    scratch = np.empty((3, out.shape[1] + PAD))
+    bits = out.reshape(-1).view(np.int64)
+    n_cols = out.shape[1]
+    low = np.int64(0x7FFFFFFFFFFFFFFF)
+    high = -low
+    for b in range(thread, n_blocks, threads):
+        for i in range(bounds[b], bounds[b + 1]):
+            _frame_row(i, static, regions_static, out, regions_out, want_regions, forming,
+                       y, k, profile, cos_field, sin_field, layout, scratch, f_saturated,
+                       sigma_saturated)
+            for j in range(i * n_cols, (i + 1) * n_cols):
+                v = bits[j]
+                low = v if v < low else low
+                high = v if v > high else high
+    extremes[thread, 0] = low
+    extremes[thread, 1] = high
 
 
 @numba.njit(**_JIT)
