@@ -682,12 +682,55 @@ def _integrate_compiled(scene, accumulators, frames, region, progress, engine, o
             if progress is not None:
                 progress(done, len(frames))
         return [m.statistics() for m in merged]
-    for frame in _frames_inline_or_prefetched(scene, frames, region):
-        merge(frame.temperature, frame, frame.index, frame.index + 1)
-        done += 1
+    for sample, temperature, n in _stacked(_frames_inline_or_prefetched(scene, frames,
+                                                                        region)):
+        merge(temperature, sample, sample.index, sample.index + n)
+        done += n
         if progress is not None:
             progress(done, len(frames))
     return [m.statistics() for m in merged]
+
+
+#: Most bytes of a block of small generated frames stacked into one kernel call
+#: (:func:`_stacked`); a frame of more than a sixteenth of it goes alone.
+STACK_BYTES = 1 << 22
+
+
+def _stacked(samples):
+    """Scene frames as (first frame, temperature, frames): small frames that differ in
+    temperature only (same dtype and shape, the same emissivity, no region map, nothing
+    reflected) stacked into 3-D blocks of consecutive frames, up to :data:`FRAME_BLOCK` frames
+    or :data:`STACK_BYTES`, so that a scene that makes its frames one at a time (the chip) takes
+    one kernel call per block, not per frame (the kernel merges a block's frames one after the
+    other, exactly as frame by frame); any other frame alone, as it is (2-D)."""
+    first, held = None, []
+    for frame in samples:
+        t = frame.temperature
+        alone = not (isinstance(t, np.ndarray) and t.ndim == 2 and 16 * t.nbytes <= STACK_BYTES
+                     and frame.regions is None and frame.region_emissivity is None
+                     and frame.reflected_temperature is None)
+        if held and (alone or frame.index != first.index + len(held)
+                     or len(held) == FRAME_BLOCK or (len(held) + 1) * t.nbytes > STACK_BYTES
+                     or t.dtype != held[0].dtype or t.shape != held[0].shape
+                     or not _same_emissivity(first.emissivity, frame.emissivity)):
+            yield first, np.stack(held) if len(held) > 1 else held[0], len(held)
+            held = []
+        if alone:
+            yield frame, t, 1
+            continue
+        if not held:
+            first = frame
+        held.append(t)
+    if held:
+        yield first, np.stack(held) if len(held) > 1 else held[0], len(held)
+
+
+def _same_emissivity(e, f) -> bool:
+    """The same emissivity object, or views of the same memory (one signal table serves
+    both)."""
+    return e is f or (isinstance(e, np.ndarray) and isinstance(f, np.ndarray)
+                      and e.shape == f.shape and e.strides == f.strides and e.dtype == f.dtype
+                      and e.__array_interface__["data"][0] == f.__array_interface__["data"][0])
 
 
 class _Merged:

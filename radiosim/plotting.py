@@ -8,6 +8,7 @@ The paper's figures are in :mod:`radiosim.paper.figures`.
 
 from __future__ import annotations
 
+import functools
 import math
 from contextlib import contextmanager
 from pathlib import Path
@@ -16,7 +17,7 @@ import numpy as np
 
 from radiosim.errors import RadiosimError, RadiosimIOError
 
-__all__ = ["DPI", "figure", "fixed_axes", "few_ticks", "wrap_text", "title_block",
+__all__ = ["DPI", "figure", "fixed_axes", "few_ticks", "preload", "wrap_text", "title_block",
            "markdown_table", "load_results", "select", "plot_versus", "save_figure"]
 
 
@@ -64,15 +65,70 @@ def fixed_axes(fig, nrows: int, ncols: int, left: float, right: float, bottom: f
     return grid.subplots(**subplots)
 
 
-def few_ticks(ax, x: int = 5, y: int = 6):
-    """At most about ``x`` and ``y`` intervals between major ticks on ``ax``'s axes, at round
-    steps (1, 2, 2.5, 5 × 10ⁿ): a tick and its label cost a good part of a figure's drawing."""
+def few_ticks(ax, x: int | str = 5, y: int | str = 6):
+    """At most about ``x`` and ``y`` intervals between major ticks on ``ax``'s axes (``"auto"``:
+    as many as matplotlib's default locator gives), at round steps (1, 2, 2.5, 5 × 10ⁿ): a tick
+    and its label cost a good part of a figure's drawing.
+    Only the ticks inside the axes' limits are made (matplotlib makes a tick object for each
+    location its locator gives, also the ones beyond the limits it then leaves undrawn)."""
+    steps = [1, 2, 2.5, 5, 10]
+    ax.xaxis.set_major_locator(_in_view(nbins=x, steps=steps))
+    ax.yaxis.set_major_locator(_in_view(nbins=y, steps=steps))
+    return ax
+
+
+def _in_view(**kwargs):
+    """A :class:`matplotlib.ticker.MaxNLocator` of ``kwargs`` that gives only the locations
+    within its axis' view interval (to a millionth of it: matplotlib draws those it finds
+    inside)."""
+    return _in_view_class()(**kwargs)
+
+
+@functools.cache
+def _in_view_class():
     from matplotlib.ticker import MaxNLocator
 
-    steps = [1, 2, 2.5, 5, 10]
-    ax.xaxis.set_major_locator(MaxNLocator(nbins=x, steps=steps))
-    ax.yaxis.set_major_locator(MaxNLocator(nbins=y, steps=steps))
-    return ax
+    class InViewLocator(MaxNLocator):
+        def __call__(self):
+            locs = np.asarray(super().__call__())
+            lo, hi = sorted(self.axis.get_view_interval())
+            tol = 1e-6 * (hi - lo)
+            return locs[(locs >= lo - tol) & (locs <= hi + tol)]
+
+    return InViewLocator
+
+
+_PRELOAD: list = []
+
+
+def preload():
+    """
+    Import matplotlib's figure, Agg canvas, ticker, legend and colorbar modules and load its
+    default font on a background (daemon) thread, once per process, so that a figure drawn
+    later does not wait for them (a study's ``run`` calls it while it measures, through its
+    figures hook's ``prepare``); returns the thread. Any error is left for the figure that
+    needs the module to raise.
+    """
+    import threading
+
+    def load():
+        try:
+            import matplotlib.colorbar  # noqa: F401
+            import matplotlib.figure  # noqa: F401
+            import matplotlib.legend  # noqa: F401
+            import matplotlib.ticker  # noqa: F401
+            from matplotlib.backends import backend_agg  # noqa: F401
+            from matplotlib.font_manager import FontProperties, findfont, get_font
+
+            get_font(findfont(FontProperties()))
+        except Exception:  # noqa: BLE001  (the figure that needs it raises it)
+            pass
+
+    if not _PRELOAD:
+        thread = threading.Thread(target=load, name="radiosim-preload-plotting", daemon=True)
+        thread.start()
+        _PRELOAD.append(thread)
+    return _PRELOAD[0]
 
 
 def _text_width(fig, text: str, fontsize: float) -> float:

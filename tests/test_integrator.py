@@ -1,5 +1,6 @@
 """The integrator and the linear ideal camera against naive and brute-force references."""
 
+import dataclasses
 import tracemalloc
 
 import numpy as np
@@ -196,12 +197,15 @@ class _FrameByFrame(FrameStack):
         return None
 
 
-def test_blocks_of_frames_give_the_frame_by_frame_result():
+def test_blocks_of_frames_give_the_frame_by_frame_result(monkeypatch):
     # A stored stack is integrated in blocks of consecutive frames (one kernel call each);
     # windows that cross block boundaries, start mid-block or leave gaps between them give
-    # what frame-by-frame calls give.
+    # what frame-by-frame calls give (a scene of generated frames, not stacked: STACK_BYTES 0).
+    from radiosim import integrator
     from radiosim.camera import measure_many
     from radiosim.integrator import FRAME_BLOCK
+
+    monkeypatch.setattr(integrator, "STACK_BYTES", 0)
 
     rng = np.random.default_rng(11)
     dx, dt = 1e-6, 1e-6
@@ -299,3 +303,51 @@ def test_a_window_past_the_last_frame_is_stated_in_readable_units():
     with pytest.raises(RadiosimError) as caught:
         frame_weights(0.0, 2.5e-3, 1e-4, 20)
     assert "window 0–2.5 ms" in str(caught.value) and "covers 0–2 ms" in str(caught.value)
+
+
+def test_frames_made_one_at_a_time_are_stacked_into_blocks_with_the_same_bits(monkeypatch):
+    # A scene that makes its frames one at a time gets small frames stacked into blocks (one
+    # kernel call each): the same bits as one call per frame.
+    import radiosim.integrator as integrator
+    from radiosim.camera import measure_many
+
+    rng = np.random.default_rng(5)
+    stack = rng.uniform(290.0, 1200.0, (150, 12, 15))
+    scene = _FrameByFrame(stack, dt=1e-6, dx=1e-6)
+    nist = Camera.preset("nist-ir").with_pixel_pitch(4e-6)
+    linear = Camera.linear_ideal(3e-6)  # one camera, one response: one kernel pass
+    cases = [(linear, 140e-6, 0.0), (linear, 7.5e-6, 3e-6), (nist, 20e-6, 130e-6)]
+    calls = []
+    engine = integrator.get_engine(None)
+    monkeypatch.setattr(integrator, "get_engine", lambda name: dataclasses.replace(
+        engine, accumulate_merged=lambda *a, **k: calls.append(a[0].shape) or
+        engine.accumulate_merged(*a, **k)))
+    stacked = measure_many(scene, cases, rng=3)
+    assert max(len(shape) for shape in calls) == 3 and len(calls) < 10
+    calls.clear()
+    monkeypatch.setattr(integrator, "STACK_BYTES", 0)  # every frame alone
+    alone = measure_many(scene, cases, rng=3)
+    assert len(calls) > 150 and all(len(shape) == 2 for shape in calls)
+    for a, b in zip(stacked, alone):
+        for name in ("apparent_temperature", "tensor_mean", "signal_mean", "tensor_std",
+                     "tensor_max", "counts", "electrons"):
+            np.testing.assert_array_equal(getattr(a, name), getattr(b, name), name)
+
+
+def test_only_frames_that_differ_in_temperature_alone_are_stacked():
+    from radiosim.integrator import _stacked
+    from radiosim.scenes.base import SceneFrame
+
+    t = np.zeros((2, 3))
+    grey = np.full((2, 3), 0.5)
+    frames = [SceneFrame(t + k, 0.9, index=k) for k in range(4)]
+    frames += [SceneFrame(t, 0.9, index=5), SceneFrame(t, 0.8, index=6),  # a gap; ε changes
+               SceneFrame(t, grey, index=7), SceneFrame(t, grey[:], index=8),  # one map's views
+               SceneFrame(t, 1.0, regions=np.zeros((2, 3), int), region_emissivity={0: 1.0},
+                          index=9), SceneFrame(t, 1.0, index=10),
+               SceneFrame(t, 1.0, index=11, reflected_temperature=300.0)]
+    out = [(f.index, np.shape(temperature), n) for f, temperature, n in _stacked(frames)]
+    assert out == [(0, (4, 2, 3), 4), (5, (2, 3), 1), (6, (2, 3), 1), (7, (2, 2, 3), 2),
+                   (9, (2, 3), 1), (10, (2, 3), 1), (11, (2, 3), 1)]
+    first = next(iter(_stacked(frames[:4])))[1]
+    np.testing.assert_array_equal(first[:, 0, 0], [0, 1, 2, 3])

@@ -182,3 +182,30 @@ def test_save_figure_writes_a_png_of_the_figure_size(tmp_path):
     path = save_figure(fig, tmp_path / "a.png", dpi=50)
     with Image.open(path) as image:
         assert image.format == "PNG" and image.size == (200, 150)
+
+
+def test_few_ticks_makes_only_the_ticks_inside_the_limits():
+    from matplotlib.ticker import MaxNLocator
+
+    from radiosim.plotting import few_ticks
+
+    fig = figure(4, 3, layout=None)
+    ax = few_ticks(fig.add_subplot(), 5, "auto")
+    ax.set_xlim(0.3, 9.6)
+    ax.set_ylim(-1.7, 2.2)
+    assert list(ax.xaxis.get_major_locator()()) == [2, 4, 6, 8]  # 0 and 10 lie outside
+    default = MaxNLocator(nbins="auto", steps=[1, 2, 2.5, 5, 10])  # matplotlib's AutoLocator
+    default.set_axis(ax.yaxis)
+    assert list(ax.yaxis.get_major_locator()()) == [v for v in default() if -1.7 <= v <= 2.2]
+    fig.canvas.draw()
+    assert len(ax.xaxis.majorTicks) == 4
+
+
+def test_preload_imports_matplotlib_once_on_a_background_thread():
+    from radiosim.plotting import preload
+
+    thread = preload()
+    assert preload() is thread and thread.daemon
+    thread.join(30)
+    assert not thread.is_alive()
+    assert F.make_figures.prepare is preload  # a study calls it while it measures

@@ -181,3 +181,28 @@ def test_a_local_cluster_only_where_it_pays(caplog):
     assert each == pytest.approx(SECONDS_PER_SAMPLE * (field + pixel) / 44, rel=1e-9)
     assert not worth_a_cluster(44, each, 2, cores=2)[0]
     assert worth_a_cluster(44, 100 * each, 2, cores=2)[0]
+
+
+def test_a_pixel_crop_keeps_the_frames_it_made_for_the_history():
+    # The pixel sweep's crop keeps the frames measured over its whole extent: the history reads
+    # them back (the scene does not make them again) with the same values.
+    from radiosim import MovingGaussianBand
+    from radiosim.study import _KeptPixel
+
+    scene = MovingGaussianBand(shape=(20, 30), dx=1e-6, dt=1e-6)
+    crop = scene.crop((4, 13), (9, 18))
+    kept = _KeptPixel(crop)
+    assert (kept.shape, kept.offset, kept.dt, kept.describe()) == (
+        crop.shape, crop.offset, crop.dt, crop.describe())
+    whole = (slice(0, 9), slice(0, 9))
+    samples = [kept.sample_unchecked(k, whole) for k in range(5)]
+    kept.sample_unchecked(6, (slice(0, 3), slice(0, 9)))  # part of the crop: not kept
+    assert sorted(kept._kept) == list(range(5))
+    made = []
+    original = type(scene)._read
+    scene._read = lambda k, region: made.append(k) or original(scene, k, region)
+    for k, sample in enumerate(samples):
+        np.testing.assert_array_equal(kept.frame(k), crop.frame(k))
+        np.testing.assert_array_equal(kept.frame(k), sample.temperature)
+    assert made == list(range(5))  # only crop.frame made them again
+    assert kept.frame(6).shape == (9, 9) and made[-1] == 6

@@ -14,7 +14,7 @@ import numpy as np
 
 from radiosim.paper.columns import COLUMN_NAMES, column_index, has_columns
 from radiosim.plotting import (few_ticks, figure, fixed_axes, load_results, plot_versus,
-                               save_figure, select, title_block, wrap_text)
+                               preload, save_figure, select, title_block, wrap_text)
 from radiosim.units import CELSIUS_OFFSET
 
 __all__ = ["preview_scene", "plot_peak", "plot_column_i", "plot_column_profiles",
@@ -265,6 +265,7 @@ def plot_maps(folder, rows, cases, cache=None):
             ax = axes[r, c]
             image = ax.imshow(values, extent=extent, cmap="inferno", origin="upper", vmin=vmin,
                               vmax=vmax, interpolation="nearest")
+            few_ticks(ax, "auto", "auto")  # matplotlib's default ticks, the ones in view
             if shared and r < 2:
                 ax.set_xticks([])
             else:
@@ -337,3 +338,8 @@ def make_figures(folder, scene=None, camera="linear") -> list[Path]:
     if cases:
         save(plot_maps(folder, rows, cases, cache=cache), "fig09-11_maps.png")
     return written
+
+
+#: A study calls its figures hook's ``prepare`` when it starts measuring: matplotlib is then
+#: imported on a background thread meanwhile (:func:`radiosim.plotting.preload`).
+make_figures.prepare = preload
