@@ -358,7 +358,7 @@ class Calibration:
         t = self.integration_time
         if self.saturation_temperature == -math.inf:
             raise RadiosimError(
-                f"{camera} at {t:g} s integration: even the calibration range's lowest "
+                f"{camera} at {readable_time(t)} integration: even the calibration range's lowest "
                 f"temperature {low:g} K saturates (saturation charge "
                 f"{self.electronics.saturation_charge:.4g} e⁻ < "
                 f"{float(self.electronics.dark_current * t + self.photoelectrons(low)):.4g} e⁻ "
@@ -372,7 +372,7 @@ class Calibration:
             advice = ("lengthen the integration time" if reach == high
                       else "change the integration time or the gain")
             raise RadiosimError(
-                f"{camera} at {t:g} s integration: {what} gives {top:.6g} DN, below the "
+                f"{camera} at {readable_time(t)} integration: {what} gives {top:.6g} DN, below the "
                 f"detection limit {limit:.6g} DN (blank {self.blank_counts:.6g} DN + "
                 f"{self.detection_sigma:g} × σ {self.blank_noise_counts:.3g} DN): no reading is "
                 f"possible; {advice}")

@@ -43,7 +43,7 @@ from radiosim.kernels.merging import FRAME_BLOCK, FootprintGroup, crop
 from radiosim.kernels.merging import frame_runs as _runs
 from radiosim.response import Response
 from radiosim.scenes.base import Region, Scene, SceneFrame
-from radiosim.units import readable_times
+from radiosim.units import readable_time, readable_times
 
 __all__ = [
     "Window",
@@ -132,7 +132,7 @@ def integration_window(scene: Scene, duration: float, t_start: float | None = No
         if not math.isfinite(start):
             raise RadiosimError(f"t_start is {start}; expected a finite window start ≥ 0 [s]")
         if start < 0:
-            raise RadiosimError(f"t_start = {start:g} s is before the scene's first frame "
+            raise RadiosimError(f"t_start = {readable_time(start)} is before the scene's first frame "
                                 "(t = 0)")
         return Window(start, duration, "given")
     if scene.event_time is None:
@@ -141,7 +141,8 @@ def integration_window(scene: Scene, duration: float, t_start: float | None = No
     start = scene.event_time - 0.5 * duration
     if start < 0:
         raise RadiosimError(
-            f"a {duration:g} s window centred on the scene's event at {scene.event_time:g} s "
+            f"a {readable_time(duration)} window centred on the scene's event at "
+            f"{readable_time(scene.event_time)} "
             "would start before the first frame; give t_start"
         )
     return Window(start, duration, "centred")
@@ -311,7 +312,8 @@ def frame_weights(
         raise RadiosimError(f"integration time must be finite and > 0 [s], got {duration!r}")
     if not math.isfinite(t_start) or t_start < 0:
         raise RadiosimError(
-            f"integration window starts at {t_start!r} s, before the scene's first frame (t = 0)"
+            f"integration window starts at {readable_time(t_start) if math.isfinite(t_start) else t_start}, "
+            "before the scene's first frame (t = 0)"
         )
     a = _snap(t_start / dt)
     b = _snap((t_start + duration) / dt)

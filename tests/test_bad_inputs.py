@@ -421,7 +421,7 @@ def test_cli_negative_seed_real_process(processes):
     ("--pixel-pitch", "6", "6"),
     ("--fill", "-5K", "-5K"),
     ("--units", "F", "F"),
-    ("--start", "-3us", "-3e-06"),             # named in SI units
+    ("--start", "-3us", "-3 µs"),              # named in the unit typed, not 3e-06 s
 ])
 def test_cli_bad_option_value(tmp_path, capsys, option, value, named):
     npy = write_frames_npy(tmp_path / "s.npy")

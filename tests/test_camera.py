@@ -236,7 +236,7 @@ def test_reprs_are_one_line_with_the_key_settings():
     }
     scene = UniformBlackbody(800.0, shape=(12, 16), dx=6e-6, dt=1e-6)
     m = Camera.linear_ideal(6e-6).measure(scene, 10e-6)
-    lines["measurement"] = (repr(m), ["linear-ideal", "12 × 16 px", "1e-05 s",
+    lines["measurement"] = (repr(m), ["linear-ideal", "12 × 16 px", "10 µs",
                                       "800.0–800.0 K", "0 saturated"])
     for what, (text, parts) in lines.items():
         assert "\n" not in text and len(text) < 200, (what, text)

@@ -212,7 +212,7 @@ def _unique_nodes(path, k, t, rows, xy, temperature, units):
         j = int(first[inverse[i]])
         scale = LENGTH_UNITS[units["length"]]
         raise RadiosimError(
-            f"{path}: step {k} (t = {t:g} s) gives the node at x = {xy[i, 0] / scale:g}, "
+            f"{path}: step {k} (t = {readable_time(t)}) gives the node at x = {xy[i, 0] / scale:g}, "
             f"y = {xy[i, 1] / scale:g} {units['length']} two temperatures, "
             f"{temperature[j]:g} K (data row {rows[j] + 1}) and {temperature[i]:g} K (data row "
             f"{rows[i] + 1}); a node has one temperature per step")
