@@ -488,9 +488,10 @@ def _report(args) -> int:
     return 0
 
 
-#: Compile times [s] from an empty cache on 2 cores (measured; README): the variant a run needs
+#: Compile times [s] from an empty cache on 2 cores (measured by benchmarks/bench_cli.py and
+#: bench_compile.py; README): the variant a run needs
 #: (one frame type, with the chip's terms), and every variant (``radiosim warmup``).
-COMPILE_SECONDS, WARMUP_SECONDS = 60, 200
+COMPILE_SECONDS, WARMUP_SECONDS = 25, 55
 
 
 def _announce_compile(args, frame_dtype="float64", chip=False):

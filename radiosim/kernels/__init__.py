@@ -66,10 +66,10 @@ Nothing is compiled at import (importing costs numba's own import). The first ca
 frame dtype (float32, float64) compiles the one kernel that serves linear, Planck and every
 emissivity form (index maps are passed as uint8: other integer maps are converted, for tables
 of up to 255 entries) and caches it on disk (``cache=True``, in ``radiosim/__pycache__`` or
-``NUMBA_CACHE_DIR``); later processes load it in about 0.3 s. Compiling takes minutes on a
-2-core machine (``benchmarks/bench_compile.py`` lists it per function: most of it is LLVM
-optimising the parallel kernel and its row pass, into which the twelve generated sweeps are
-inlined, once per frame dtype). :func:`warmup` (``radiosim warmup``) compiles every variant
+``NUMBA_CACHE_DIR``); later processes load it in about 0.3 s. Compiling every kernel takes
+about 50 s on a 2-core machine (``benchmarks/bench_compile.py`` lists it per function: most of
+it is LLVM optimising the row pass, into which the sweeps and the radiance pass are inlined,
+once per frame dtype). :func:`warmup` (``radiosim warmup``) compiles every variant
 ahead of time, and :func:`compile_pending` tells, from the cache's index file, whether a
 launch would compile.
 

@@ -167,6 +167,13 @@ def _buffers(n_blocks: int, size: int, n_slots: int, dtype, index_dtype) -> Thre
     return cached
 
 
+#: Samples a launch needs per thread beyond the first (unless its ``threads`` are given): a
+#: block on another thread costs about 0.05 ms to hand over and collect, the time the kernel
+#: takes for some 10⁵ samples, so smaller launches (a small crop's single frames) run on the
+#: calling thread alone. The blocks write disjoint rows: the result is the same bits.
+SAMPLES_PER_THREAD = 1 << 17
+
+
 def _blocks(n_rows: int, threads: int | None = None) -> int:
     """Blocks of pixel rows: one per thread."""
     if threads is None:
@@ -367,6 +374,8 @@ def _launch(block, rows: KernelAxis, cols: KernelAxis, time_weight, reference, d
     slots = cols.slots
     available = thread_count() if threads is None else threads  # (numba's getter: ~0.1 ms)
     n_blocks = _blocks(rows.n_pixels, available)
+    if threads is None:  # a thread for every SAMPLES_PER_THREAD samples at least
+        n_blocks = max(1, min(n_blocks, block.size // SAMPLES_PER_THREAD))
     buffers = _buffers(n_blocks, max(1, slots.dup_source.size), slots.weight.size, base.dtype,
                        signs.index_map.dtype)
     members = merged if merged is not None else _NO_MEMBERS

@@ -28,6 +28,10 @@ __all__ = ["KernelLayout", "evaluate_compiled"]
 
 #: Blocks of rows per thread: dealt in turn, they even out the threads' shares.
 _BLOCKS = 8
+#: Work (the units of :attr:`KernelLayout.work`, about one per copied sample) a frame needs
+#: per thread beyond the first: a small region's frame (a pixel's crop) is made on the calling
+#: thread alone, the hand-over to another thread costing more than its share of the work.
+_WORK_PER_THREAD = 1 << 17
 
 _NO_PROFILE = np.zeros(2)
 _NO_TERMS = np.zeros((0, 3))
@@ -140,11 +144,12 @@ class KernelLayout:
         self._bounds: dict[tuple[int, bool], np.ndarray] = {}
 
     def blocks(self, forming: bool) -> tuple[int, np.ndarray]:
-        """The number of threads (numba's, at most one per row) and the row bounds of blocks of
-        about equal work, _BLOCKS per thread (with one thread, one block)."""
+        """The number of threads (numba's, at most one per row and per _WORK_PER_THREAD of
+        work) and the row bounds of blocks of about equal work, _BLOCKS per thread (with one
+        thread, one block)."""
         work = self.work[forming]
         rows = work.size - 1
-        threads = max(1, min(thread_count(), rows))
+        threads = max(1, min(thread_count(), rows, int(work[-1] // _WORK_PER_THREAD)))
         bounds = self._bounds.get((threads, forming))
         if bounds is None:
             count = max(1, min(threads * _BLOCKS, rows)) if threads > 1 else 1
