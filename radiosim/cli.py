@@ -491,7 +491,7 @@ def _report(args) -> int:
 #: Compile times [s] from an empty cache on 2 cores (measured by benchmarks/bench_cli.py and
 #: bench_compile.py; README): the variant a run needs
 #: (one frame type, with the chip's terms), and every variant (``radiosim warmup``).
-COMPILE_SECONDS, WARMUP_SECONDS = 25, 55
+COMPILE_SECONDS, WARMUP_SECONDS = 30, 60
 
 
 def _announce_compile(args, frame_dtype="float64", chip=False):
