@@ -1,6 +1,6 @@
 """
-The integrator's kernel: pixel rows in one block per thread (:mod:`radiosim.kernels.threads`), each row's sample
-rows swept (:mod:`radiosim.kernels.sweeps`) with their radiance
+The integrator's kernel: pixel rows in one block per thread (:mod:`radiosim.kernels.threads`),
+each row's sample rows swept (:mod:`radiosim.kernels.sweeps`) with their radiance
 (:mod:`radiosim.kernels.radiance`), the slots reduced to pixels and checked, and the pixels
 committed to the accumulators, or merged into several jobs' moments (Chan et al.).
 :func:`accumulate_kernel` takes several frames per call. Launched by
