@@ -16,8 +16,8 @@ folder, is integrated by 9 × 9-sample pixels. In one run it reports, per frame:
 
 Each time per frame is the best of ``--repeat`` passes over the frames ("pass"), given as a
 ratio to the streaming read's; "frame" is the fastest single frame of those passes, which is
-what a pass gives on an idle machine (on a loaded one, a thread of a parallel region that is
-descheduled stalls the whole frame for a time slice). The kernels run with numba's threads
+what a pass gives on an idle machine (on a loaded one, a block of a launch whose thread is
+descheduled stalls the whole frame for a time slice). The kernels run with numba's thread count
 (``--threads``, default all) and, in a second set of rows, with one. Run on demand:
 
     python benchmarks/bench_kernels.py [--frames 100] [--repeat 3] [--threads N] [--workdir DIR]

@@ -193,13 +193,47 @@ def test_memory_mapped_frames(tmp_path, tables):
 
 
 def test_thread_count_does_not_change_the_result():
+    # Every thread numba allows (given: a launch this small would run on one by default).
+    import numba
+
+    threads = numba.config.NUMBA_NUM_THREADS
+    if threads < 2:
+        pytest.skip("one thread on this machine")
     rows, cols = footprints(7.3, 1.0, 0.0)
     frames = scene_frames(np.float32)
     one = integrate(frames, rows, cols, None, lambda *a, **k: pixel_mean(*a, **k, threads=1),
                     lambda *a, **k: accumulate(*a, **k, threads=1))
-    every = integrate(frames, rows, cols, None, pixel_mean, accumulate)
+    every = integrate(frames, rows, cols, None,
+                      lambda *a, **k: pixel_mean(*a, **k, threads=threads),
+                      lambda *a, **k: accumulate(*a, **k, threads=threads))
     for a, b in zip(one[:5], every[:5]):
         np.testing.assert_array_equal(a, b)
+
+
+def test_run_blocks_waits_for_every_block_before_it_raises():
+    """A block's exception reaches the caller only once every block has finished (they write
+    the caller's arrays); results come in block order."""
+    import threading
+    import time
+
+    from radiosim.kernels import run_blocks
+
+    done = []
+    lock = threading.Lock()
+
+    def kernel(b, fail):
+        if b == fail:
+            raise ValueError(f"block {b}")
+        time.sleep(0.05 * b)
+        with lock:
+            done.append(b)
+        return b * b
+
+    assert run_blocks(kernel, 4, -1) == [0, 1, 4, 9]
+    done.clear()
+    with pytest.raises(ValueError, match="block 0"):
+        run_blocks(kernel, 4, 0)
+    assert sorted(done) == [1, 2, 3]  # the others had finished when it was raised
 
 
 def test_float32_frames_are_read_in_place():

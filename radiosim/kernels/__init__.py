@@ -82,7 +82,7 @@ The package, one concept per module (imports flow down this list):
     cubics by shuffles) and :data:`fast_exp`;
 -   :mod:`~radiosim.kernels.sweeps`: the generated row sweeps;
 -   :mod:`~radiosim.kernels.radiance`: the radiance pass (interval, position, cubic, grey);
--   :mod:`~radiosim.kernels.rows`: the parallel kernel (pixel rows, reduction to pixels,
+-   :mod:`~radiosim.kernels.rows`: the integrator's kernel (pixel rows, reduction to pixels,
     commit or merge);
 -   :mod:`~radiosim.kernels.layout`: footprint layouts and frame views;
 -   :mod:`~radiosim.kernels.table`: :class:`SignalTable`, the response's signal as tables

@@ -11,9 +11,10 @@ Since the kernels run their blocks on radiosim's own threads (:func:`run_blocks`
 is a numba parallel region any more; numba's threading layer is still what radiosim asks for
 the number of threads (:func:`thread_count`, so that ``numba.set_num_threads`` limits
 radiosim too), and the setting below still bounds its spin for any parallel code the process
-runs. What follows is how that setting is made.
+runs. What follows is how that setting is made, and why it was needed when the kernels were
+parallel regions.
 
-The compiled kernels run one short parallel region per call, many calls per second. numba runs
+Parallel kernels run one short parallel region per call, many calls per second. numba runs
 them on its *threading layer*, chosen once per process when it first loads (numba's order: TBB
 if its library is installed, else OpenMP, else its own ``workqueue``; ``NUMBA_THREADING_LAYER``
 chooses). With OpenMP (GNU libgomp, the usual layer on Linux) idle threads spin about 300 000
@@ -27,13 +28,14 @@ from the cache, its first call, or ``numba.get_num_threads()`` / ``numba.set_num
 ``import radiosim`` (and ``import radiosim.kernels``) leaves ``os.environ`` unchanged, so the
 setting is made by :func:`apply_thread_settings`, which every radiosim path that can load the
 layer calls first: the launch functions here, :func:`thread_count` (radiosim's only way of
-asking numba for its thread count) and :func:`parallel_launch` (the chip scene's kernel). An
+asking numba for its thread count) and :func:`parallel_launch`. An
 explicit ``GOMP_SPINCOUNT`` or ``OMP_WAIT_POLICY`` in the environment wins (it is left as it
 is). If the layer was loaded before radiosim's first launch (by the user's own numba code, or
 another library that loaded libgomp), the setting cannot take effect any more; this is logged
 (``logging.INFO``), and ``GOMP_SPINCOUNT=3000`` set before Python starts gives the same result.
 With the TBB or workqueue layers the setting does nothing (they do not spin this way);
-workqueue launches are serialised (:func:`parallel_launch`).
+workqueue launches are serialised (:func:`parallel_launch`, kept for parallel kernels: none of
+radiosim's is one now).
 """
 
 from __future__ import annotations
@@ -79,7 +81,7 @@ def apply_thread_settings() -> None:
     numba's threading layer loads (see the module's notes; idempotent, cheap after the first
     call). Every radiosim path that may load the layer calls it first.
 
-    The compiled kernels run one short parallel region per call. OpenMP's default waiting
+    A parallel kernel runs one short parallel region per call. OpenMP's default waiting
     spins idle threads for about 300 000 turns (milliseconds) between regions; on a 2-core
     machine they then compete with the thread that prepares the next frame, and a region can
     stall for milliseconds (measured: 8 ms per launch). Sleeping at once
@@ -124,9 +126,9 @@ _LAUNCH = threading.Lock()
 @contextlib.contextmanager
 def parallel_launch():
     """
-    Around every launch of a parallel kernel. numba's OpenMP and TBB threading layers take
-    launches from several threads at once (the integrator on the main thread, the chip scene on
-    the prefetch thread); its fallback layer, workqueue (e.g. on a machine without OpenMP),
+    Around every launch of a numba parallel kernel (none of radiosim's kernels is one now:
+    they run on :func:`run_blocks`). numba's OpenMP and TBB threading layers take launches from
+    several threads at once; its fallback layer, workqueue (e.g. on a machine without OpenMP),
     aborts the process if two launches overlap, so there they are serialised.
     """
     apply_thread_settings()
@@ -167,7 +169,7 @@ def _buffers(n_blocks: int, size: int, n_slots: int, dtype, index_dtype) -> Thre
     return cached
 
 
-#: Samples a launch needs per thread beyond the first (unless its ``threads`` are given): a
+#: Samples a launch needs per thread (unless its ``threads`` are given): a
 #: block on another thread costs about 0.05 ms to hand over and collect, the time the kernel
 #: takes for some 10⁵ samples, so smaller launches (a small crop's single frames) run on the
 #: calling thread alone. The blocks write disjoint rows: the result is the same bits.
@@ -261,9 +263,9 @@ def accumulate(frame, rows, cols, time_weight: float, reference: np.ndarray, dev
         Frame index k, for error messages.
     threads
         Threads (blocks of pixel rows) for this call; ``None``: numba's current number
-        (``numba.get_num_threads()``). On a machine whose cores are busy with other work
-        (e.g. a thread preparing the next frame), one thread can be faster: a descheduled
-        thread stalls the whole parallel region.
+        (``numba.get_num_threads()``), at most one per :data:`SAMPLES_PER_THREAD` samples of
+        the call. On a machine whose cores are busy with other work (e.g. a thread preparing
+        the next frame), one thread can be faster: the call waits for its slowest block.
 
     Returns
     -------

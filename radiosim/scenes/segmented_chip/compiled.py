@@ -29,7 +29,7 @@ __all__ = ["KernelLayout", "evaluate_compiled"]
 #: Blocks of rows per thread: dealt in turn, they even out the threads' shares.
 _BLOCKS = 8
 #: Work (the units of :attr:`KernelLayout.work`, about one per copied sample) a frame needs
-#: per thread beyond the first: a small region's frame (a pixel's crop) is made on the calling
+#: per thread: a small region's frame (a pixel's crop) is made on the calling
 #: thread alone, the hand-over to another thread costing more than its share of the work.
 _WORK_PER_THREAD = 1 << 17
 
