@@ -257,8 +257,8 @@ def read_out(camera, stats: TensorStatistics, window: Window, scene: Scene,
     if reading.saturated.any():
         warnings.warn(
             f"{camera.name}: {int(reading.saturated.sum())} of {reading.saturated.size} pixels "
-            f"saturated at {readable_time(window.duration)} integration; their apparent temperature is "
-            "NaN", RadiosimWarning, stacklevel=3)
+            f"saturated at {readable_time(window.duration)} integration; their apparent "
+            "temperature is NaN", RadiosimWarning, stacklevel=3)
     return Measurement(
         apparent_temperature=reading.apparent_temperature, counts=exposure.counts,
         electrons=exposure.electrons, saturated=reading.saturated,

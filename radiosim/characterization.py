@@ -76,6 +76,9 @@ class PhotonTransfer:
         Temporal variance σ²_y of each level [DN²].
     dark_mean, dark_variance : float
         The same without light [DN], [DN²].
+    saturated : numpy.ndarray or None
+        Fraction of the pixels saturated in either frame of each level's pair (the curve's
+        levels past the full well; their variance collapses, as EMVA 1288 expects).
     """
 
     temperature: np.ndarray
@@ -83,6 +86,7 @@ class PhotonTransfer:
     variance: np.ndarray
     dark_mean: float
     dark_variance: float
+    saturated: np.ndarray | None = None
 
 
 def photon_transfer(camera, integration_time: float, temperatures, pixels=(64, 64),
@@ -101,20 +105,29 @@ def photon_transfer(camera, integration_time: float, temperatures, pixels=(64, 6
     camera = camera.replace(fpa=dataclasses.replace(camera.fpa, shape=shape))
     dark_pair = [camera.electronics.expose(np.zeros(shape), integration_time, rng).counts
                  for _ in range(2)]
-    means, variances = [], []
+    means, variances, saturated = [], [], []
     for t in temperatures:
         scene = UniformBlackbody(t, shape=shape, dx=pitch, dt=integration_time)
-        with warnings.catch_warnings():
-            warnings.simplefilter("ignore", RadiosimWarning)
-            pair = [camera.measure(scene, integration_time, t_start=0.0, rng=rng).counts
-                    for _ in range(2)]
+        # A level past the full well is part of the curve (its variance collapses): its
+        # saturation is flagged in the result (``saturated``), not warned about per frame;
+        # any other warning reaches the caller.
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always", RadiosimWarning)
+            frames = [camera.measure(scene, integration_time, t_start=0.0, rng=rng)
+                      for _ in range(2)]
+        for w in caught:
+            if not (issubclass(w.category, RadiosimWarning)
+                    and " saturated at " in str(w.message)):
+                warnings.warn_explicit(w.message, w.category, w.filename, w.lineno)
+        pair = [m.counts for m in frames]
+        saturated.append(float(np.mean(frames[0].saturated | frames[1].saturated)))
         means.append(0.5 * (pair[0].mean() + pair[1].mean()))
         variances.append(np.var(pair[0] - pair[1]) / 2)
         if progress is not None:
             progress(f"flat-field pair at {t:.1f} K")
     return PhotonTransfer(temperatures, np.array(means), np.array(variances),
                           float(0.5 * (dark_pair[0].mean() + dark_pair[1].mean())),
-                          float(np.var(dark_pair[0] - dark_pair[1]) / 2))
+                          float(np.var(dark_pair[0] - dark_pair[1]) / 2), np.array(saturated))
 
 
 @dataclass(frozen=True)

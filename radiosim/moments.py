@@ -17,7 +17,7 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["PixelMoments", "HISTOGRAM_BINS"]
+__all__ = ["PixelMoments", "HISTOGRAM_BINS", "over_draws"]
 
 #: Bins of each pixel's histogram.
 HISTOGRAM_BINS = 400
@@ -92,3 +92,23 @@ class PixelMoments:
             target < 0) | (target > counts.sum(axis=-1))
         return np.where(bad, np.nan, value)
 
+
+def over_draws(reduce, stack: np.ndarray, least: int = 1, **options) -> np.ndarray:
+    """
+    ``reduce(stack, axis=0, **options)`` (a NaN-ignoring numpy reduction over the draws, axis
+    0) for each pixel with at least ``least`` draws that have a reading (not NaN); NaN for the
+    others, as their flag — without numpy's warnings about empty slices, which then never
+    arise.
+
+    Examples
+    --------
+    >>> stack = np.array([[1.0, np.nan], [3.0, np.nan]])
+    >>> over_draws(np.nanstd, stack, 2, ddof=1)
+    array([1.41421356,        nan])
+    """
+    counts = np.sum(~np.isnan(stack), axis=0)
+    out = np.full(stack.shape[1:], np.nan)
+    enough = counts >= least
+    if enough.any():
+        out[enough] = reduce(stack[:, enough], axis=0, **options)
+    return out

@@ -50,7 +50,7 @@ from radiosim import budget_reuse
 from radiosim.checks import check_count, check_positive
 from radiosim.config import si_value
 from radiosim.errors import RadiosimError, RadiosimWarning
-from radiosim.moments import HISTOGRAM_BINS, PixelMoments
+from radiosim.moments import HISTOGRAM_BINS, PixelMoments, over_draws
 from radiosim.psf import GaussianBlur, ScatterHalo
 # connect, SCHEDULER_TIMEOUT and recorded_warnings are also importable from here, as before.
 from radiosim.scheduling import (SCHEDULER_TIMEOUT, connect, recorded_warnings, recording_run,
@@ -473,6 +473,7 @@ class _Model:
     t_start: float
     inputs: dict
     plan: budget_reuse.ReusePlan | None = None  # the draws' running sums, where they serve
+    shape: tuple | None = None  # the nominal image's: every draw must see the same pixels
 
     def evaluate(self, values: dict, noise_seed) -> np.ndarray:
         """The apparent temperature [K] (NaN where flagged) with the inputs at ``values``:
@@ -484,13 +485,19 @@ class _Model:
         for name, value in values.items():
             camera, scene, settings = INPUTS[name].apply(camera, scene, settings, value)
         rng = np.random.default_rng(noise_seed)
-        if self.plan is not None:
-            reading = budget_reuse.draw(self.plan, camera, scene, settings["integration_time"],
-                                        settings["t_start"], rng)
-            if reading is not None:
-                return reading
-        m = camera.measure(scene, settings["integration_time"], settings["t_start"], rng)
-        return m.apparent_temperature.astype(np.float64)
+        reading = None if self.plan is None else budget_reuse.draw(
+            self.plan, camera, scene, settings["integration_time"], settings["t_start"], rng)
+        if reading is None:
+            reading = camera.measure(scene, settings["integration_time"], settings["t_start"],
+                                     rng).apparent_temperature.astype(np.float64)
+        if self.shape is not None and reading.shape != tuple(self.shape):
+            drawn = ", ".join(f"{k} = {v:.6g}" for k, v in values.items())
+            raise RadiosimError(f"a draw ({drawn}) sees {reading.shape[0]} × {reading.shape[1]} "
+                                f"pixels of the scene, the nominal camera {self.shape[0]} × "
+                                f"{self.shape[1]}: the inputs move the array past the scene's "
+                                "edge; leave the scene a margin around the array wider than "
+                                "their spread")
+        return reading
 
     def span(self) -> tuple[float, float]:
         """The earliest start and latest end of any draw's window [s] (the inputs'
@@ -659,9 +666,9 @@ def propagate(camera, scene, integration_time: float, inputs: dict, draws: int |
     start = camera.window(scene, t_int, t_start).start
     model = _Model(camera, scene, t_int, start, inputs)
     _check_domains(model)
-    model = dataclasses.replace(model, plan=budget_reuse.ReusePlan.for_budget(
-        camera, scene, *model.span(), reuse=reuse))
     nominal = camera.measure(scene, t_int, start, np.random.default_rng(noise_seed))
+    model = dataclasses.replace(model, plan=budget_reuse.ReusePlan.for_budget(
+        camera, scene, *model.span(), reuse=reuse), shape=nominal.shape)
     engine, close = connect(scheduler, workers)
     # The draws are many: each distinct warning is raised once, below, with its count.
     caught: dict[str, int] = {}
@@ -712,14 +719,13 @@ def _monte_carlo(run, model, seed, draws, batch, digits, max_draws, shape, progr
         if progress is not None:
             progress(done, draws)
         if draws is None:
-            stack = np.stack(results)
-            with warnings.catch_warnings():
-                warnings.simplefilter("ignore", RuntimeWarning)
-                batch_stats.append(np.stack([np.nanmean(stack, 0), np.nanstd(stack, 0, ddof=1),
-                                             np.nanquantile(stack, 0.025, 0),
-                                             np.nanquantile(stack, 0.975, 0)]))
+            stack = np.stack(results)  # NaN: a draw without a reading at the pixel
+            batch_stats.append(np.stack([
+                over_draws(np.nanmean, stack), over_draws(np.nanstd, stack, 2, ddof=1),
+                over_draws(np.nanquantile, stack, q=0.025),
+                over_draws(np.nanquantile, stack, q=0.975)]))
             if len(batch_stats) >= 2:
-                spread = np.nanstd(np.stack(batch_stats), axis=0, ddof=1) / math.sqrt(
+                spread = over_draws(np.nanstd, np.stack(batch_stats), 2, ddof=1) / math.sqrt(
                     len(batch_stats))
                 tolerance = _significant_tolerance(np.sqrt(moments.variance), digits)
                 readings = moments.n > 1
@@ -765,9 +771,7 @@ def _budget(run, model, seed, noise_seed, draws, shape):
         contributions[name] = _Contribution(dist, sensitivity, plus, minus, oat)
     noise = run(_draw, [(child, (), None) for child in children[-1].spawn(draws)],
                 shared=(model,))
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore", RuntimeWarning)
-        noise_var = np.nanvar(np.stack(noise), axis=0, ddof=1)
+    noise_var = over_draws(np.nanvar, np.stack(noise), 2, ddof=1)  # NaN: fewer than 2 readings
     gum_var = gum_var + noise_var
     for summary, reduce in _SUMMARIES.items():
         summary_rows = []

@@ -45,6 +45,21 @@ def test_saturation_capacity_is_at_the_variance_peak_below_the_well(result):
     assert 0.85 * full < fit.saturation_capacity < full
 
 
+def test_levels_past_the_well_are_flagged_not_warned(result):
+    """The curve's levels past the full well are part of it: each level says what fraction of
+    its pixels saturated (none where the mean charge is five shot-noise widths below the well,
+    all where the mean is clipped at the well), and no saturation warning reaches the caller
+    (pytest turns RadiosimWarning into an error)."""
+    camera, ptc, fit = result
+    full = camera.electronics.full_well
+    charge = (ptc.mean - ptc.dark_mean) / fit.gain  # [e⁻] per level, mean
+    spread = 5 * np.sqrt(ptc.variance) / fit.gain  # five temporal noise widths [e⁻]
+    clipped = charge > 0.995 * full  # a mean at the well: the most a pixel holds
+    assert ptc.saturated.shape == ptc.temperature.shape
+    assert np.all(ptc.saturated[(charge + spread < full) & ~clipped] == 0.0)
+    assert clipped.sum() >= 3 and np.all(ptc.saturated[clipped] == 1.0)
+
+
 def _independent_range(camera, t_int):
     """The noise floor and the saturation temperature from the radiometry alone: band radiance by
     quadrature, the étendue of the working cone written out, a bisection of our own."""

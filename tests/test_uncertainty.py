@@ -357,3 +357,17 @@ def test_the_budget_table_states_u_in_the_study_files_units():
     assert "1.5 µm" in lines["psf_sigma"] and "0.2 µs" in lines["t_start"]
     assert lines["emissivity"].split()[1] == "0.05"
     assert "—" in lines["temporal"] and "nan" not in " ".join(lines.values())
+
+
+def test_a_draw_that_moves_the_array_off_the_scene_is_named():
+    """18 pixels of 6 µm from x = 10 µm end at 118 µm of a 120 µm scene: a registration draw
+    of more than 2 µm leaves a column without scene, so that draw would see 17 columns. One
+    line naming the draw, not a broadcasting error (nor a silently smaller image)."""
+    camera = rs.Camera.linear_ideal(6e-6, shape=(3, 18))
+    camera = camera.replace(fpa=dataclasses.replace(camera.fpa, origin=(0.0, 10e-6)))
+    message = (r"a draw \(registration_x = .*\) sees 3 × 17 pixels of the scene, the nominal "
+               r"camera 3 × 18")
+    with pytest.raises(RadiosimError, match=message) as info:
+        propagate(camera, gradient_scene(), 2e-6, {"registration_x": Uniform(0.0, 4e-6)},
+                  draws=40, rng=3, t_start=0.0, budget_draws=20)
+    assert "\n" not in str(info.value)
