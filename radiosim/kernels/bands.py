@@ -28,7 +28,7 @@ from radiosim.errors import RadiosimError
 from radiosim.kernels.bundles import Emissivity, FrameBlock
 from radiosim.kernels.codes import (SIGNAL_INDEX, STATUS_ABOVE_TABLE, STATUS_BAD_INDEX,
                                     STATUS_BAD_SAMPLE, STATUS_BELOW_TABLE, STATUS_OK)
-from radiosim.kernels.intrinsics import INF, JIT, _cubic8_grey, _cubic8_map
+from radiosim.kernels.intrinsics import INF, INNER, JIT, _cubic8_grey, _cubic8_map
 from radiosim.kernels.layout import frames_of, read_only, rows_of
 from radiosim.kernels.packing import _ones, _uint8_index
 from radiosim.kernels.radiance import _cubic1, _locate, cubic
@@ -103,7 +103,7 @@ def stack(tables: list[SignalTable]) -> StackedTables | None:
     return stacked
 
 
-@numba.njit(**JIT)
+@numba.njit(**INNER)
 def _band_pass(coef, interval, position, grey_map, g0, w, grey, use_map, acc, out0, n):
     """acc[out0 + q] += the sub-band's signal at samples q < n (their intervals and positions
     in ``interval`` and ``position``, the sub-band's table from ``coef``): w · (v · (grey ·
@@ -217,10 +217,10 @@ def band_kernel(block, n_blocks, frames, weight, tables, emissivity, out, status
                         acc[b * n_cols + j] += w * (value[j] * (entry_grey[entry[j], b] * g))
                 elif use_map:
                     _band_pass(table, interval, position, grey_map, m_off, w, entry_grey[0, b],
-                               True, acc, b * n_cols, n_cols)
-                else:
-                    _band_pass(table, interval, position, grey_map, 0,
-                               w * (entry_grey[0, b] * emissivity.grey), 1.0, False, acc,
+                               use_map, acc, b * n_cols, n_cols)
+                else:  # the same argument types as above: one compilation of _band_pass
+                    _band_pass(table, interval, position, grey_map, np.int64(0),
+                               w * (entry_grey[0, b] * emissivity.grey), 1.0, use_map, acc,
                                b * n_cols, n_cols)
         status[i] = row_status
         if row_status == 0:

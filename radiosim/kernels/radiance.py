@@ -13,7 +13,8 @@ import numpy as np
 
 from radiosim.kernels.codes import (SIGNAL_MAP, SIGNAL_SCALAR, STATUS_ABOVE_TABLE,
                                     STATUS_BAD_INDEX, STATUS_BELOW_TABLE)
-from radiosim.kernels.intrinsics import JIT, _cubic8, _cubic8_grey, _cubic8_map, _cubic8_pair, _fma
+from radiosim.kernels.intrinsics import (INNER, JIT, _cubic8, _cubic8_grey, _cubic8_map,
+                                         _cubic8_pair, _fma)
 from radiosim.kernels.sweeps import CHUNK
 
 __all__ = ["cubic"]
@@ -31,7 +32,7 @@ def cubic(coef, interval, position, out, n):
         out[k] = _cubic1(coef, interval[k], position[k])
 
 
-@numba.njit(**JIT)
+@numba.njit(**INNER)
 def _locate(t, key0, shift, node_mask, last):
     """Interval index k and d = T − T_k [K] of a sample T [K] (float64): k = (bits(T) >> shift)
     − key0, clamped to ``last`` unsigned (a sample below the table, ≤ 0 or NaN wraps round and
@@ -43,7 +44,7 @@ def _locate(t, key0, shift, node_mask, last):
     return (k if k < last else last), t - np.uint64(bits & node_mask).view(np.float64)
 
 
-@numba.njit(**JIT)
+@numba.njit(**INNER)
 def _cubic1(coef, i, r):
     """The cubic of row i of ``coef`` at r, as one lane of :func:`_cubic8`: Horner with fused
     multiply-adds, ((a r + b) r + c) r + d each step rounded once."""
@@ -51,7 +52,7 @@ def _cubic1(coef, i, r):
     return _fma(_fma(_fma(coef[i], r, coef[i + 1]), r, coef[i + 2]), r, coef[i + 3])
 
 
-@numba.njit(**JIT)
+@numba.njit(**INNER)
 def _signal_one(src, xo, g, go, w, use_map, grey, coef, key0, shift, node_mask, last,
                 interval, u, a3, lo, hi):
     """a3[q] += w · S(src[xo + q]) for the slots lo ≤ q < hi of one sample row (modes SIGNAL_SCALAR
@@ -82,7 +83,7 @@ def _signal_one(src, xo, g, go, w, use_map, grey, coef, key0, shift, node_mask, 
             a3[lo + k] += _cubic1(coef, interval[k], u[k]) * wg
 
 
-@numba.njit(**JIT)
+@numba.njit(**INNER)
 def _signal_rows(n, lo, hi, src, o, ws, g, go, use_map, grey, coef, key0, shift, last,
                  interval, u, a3):
     """a3[q] += Σₕ ws[h] · S(src[o[h] + q]) over the sample rows h < n of a sweep and its slots lo ≤
@@ -102,7 +103,7 @@ def _signal_rows(n, lo, hi, src, o, ws, g, go, use_map, grey, coef, key0, shift,
         h += 1
 
 
-@numba.njit(**JIT)
+@numba.njit(**INNER)
 def _signal_two(src, xo, yo, wx, wy, coef, key0, shift, node_mask, last, interval, u, a3, lo,
                 hi):
     """a3[q] += wx · L(src[xo + q]) + wy · L(src[yo + q]) for lo ≤ q < hi (two sample rows of
@@ -128,7 +129,7 @@ def _signal_two(src, xo, yo, wx, wy, coef, key0, shift, node_mask, last, interva
                            _cubic1(coef, interval[k], u[k]) * wx)
 
 
-@numba.njit(**JIT)
+@numba.njit(**INNER)
 def _signal_row(x, g, e, used, w, mode, grey, use_map, tables, interval, u, value, factor, a3):
     """a3 += w · S(T) along one row of pieces ``x`` (grey map row ``g``, index map row ``e``), with
     S = L(T) · grey (SIGNAL_SCALAR), L(T) · (grey · map) (SIGNAL_MAP) or L_e(T) · grey_e (· map)

@@ -14,14 +14,14 @@ import numpy as np
 
 from radiosim.kernels.bundles import ThreadBuffers
 from radiosim.kernels.codes import SIGNAL_INDEX, SIGNAL_MAP, SIGNAL_NONE, SIGNAL_SCALAR
-from radiosim.kernels.intrinsics import INF, JIT
+from radiosim.kernels.intrinsics import INF, INNER, JIT
 from radiosim.kernels.radiance import _signal_row, _signal_rows
 from radiosim.kernels.sweeps import CHUNK, MAX_ROWS, _gather, _lin
 
 __all__ = ["accumulate_kernel"]
 
 
-@numba.njit(**JIT)
+@numba.njit(**INNER)
 def _setup_row(reference, i, slot_runs, with_signal, ce, a3):
     """Start pixel row i: ce = the reference c of each slot's pixel (run by run: slots
     ``slot_runs[r, 0]`` to ``slot_runs[r, 1] − 1`` belong to pixel ``slot_runs[r, 2]``), the
@@ -35,7 +35,7 @@ def _setup_row(reference, i, slot_runs, with_signal, ce, a3):
             a3[k] = 0.0
 
 
-@numba.njit(**JIT)
+@numba.njit(**INNER)
 def _pixel_done(j, v1, v2, v3, m, n, t_low, t_high, s1, s2, s3, sm):
     """Store pixel j's sums and maximum (m, n: its extremes in the frame's dtype, widened
     here) and return its status bits: 1 a bad sample (NaN in Σ w (T − c), +inf, ≤ 0 K), 2 one
@@ -45,7 +45,7 @@ def _pixel_done(j, v1, v2, v3, m, n, t_low, t_high, s1, s2, s3, sm):
     return bad | (np.int64(np.float64(n) < t_low) << 1) | (np.int64(np.float64(m) > t_high) << 2)
 
 
-@numba.njit(**JIT)
+@numba.njit(**INNER)
 def _pixel_sums(a1, a2, a3, am, an, slot_weight, slot_of_piece, col_bounds, identity,
                 with_signal, t_low, t_high, s1, s2, s3, sm):
     """Per pixel j: s1, s2, s3 = Σ w a1, Σ w a2, Σ w a3 and sm = max am over the slots of its
@@ -78,7 +78,7 @@ def _pixel_sums(a1, a2, a3, am, an, slot_weight, slot_of_piece, col_bounds, iden
     return status
 
 
-@numba.njit(**JIT)
+@numba.njit(**INNER)
 def _pixel_sums_regular(a1, a2, a3, am, an, slot_weight, slot_of_piece, col_bounds, identity,
                         with_signal, t_low, t_high, s1, s2, s3, sm):
     """:func:`_pixel_sums` for a layout whose pixels' interior pieces (all but the first and
@@ -133,7 +133,7 @@ def _pixel_sums_regular(a1, a2, a3, am, an, slot_weight, slot_of_piece, col_boun
     return status
 
 
-@numba.njit(**JIT)
+@numba.njit(**INNER)
 def _commit_row(i, a1, a2, a3, am, an, cols, acc, members, f, with_signal, t_low, t_high, s1,
                 s2, s3, sm, status):
     """Add the pieces to the row's pixels (pixel row ``i``) and check the slots they read (NaN
@@ -220,7 +220,7 @@ def _commit_row(i, a1, a2, a3, am, an, cols, acc, members, f, with_signal, t_low
     return 0
 
 
-@numba.njit(**JIT)
+@numba.njit(**INNER)
 def _rows12(row_source, p, n, length):
     """The uint64 offsets, in a flat array of rows of ``length`` elements, of sample rows
     ``row_source[p + h]`` for h < 12 (rows past n − 1 repeat the last)."""
@@ -233,14 +233,14 @@ def _rows12(row_source, p, n, length):
             _row(row_source, p, h + 10, n, length), _row(row_source, p, h + 11, n, length))
 
 
-@numba.njit(**JIT)
+@numba.njit(**INNER)
 def _row(row_source, p, h, n, length):
     """The uint64 offset of sample row ``row_source[p + min(h, n − 1)]`` in a flat array of
     rows of ``length`` elements."""
     return np.uint64(row_source[p + min(h, n - 1)] * length)
 
 
-@numba.njit(**JIT)
+@numba.njit(**INNER, inline="always")
 def _accumulate_rows(i_start, i_stop, base, row_length, rows, cols, acc, members, f, tables,
                      emissivity, thread, status):
     """Pixel rows i_start to i_stop − 1 of frame ``f`` (its samples from ``base``, rows

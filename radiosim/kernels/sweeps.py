@@ -12,7 +12,7 @@ from __future__ import annotations
 import numba
 import numpy as np
 
-from radiosim.kernels.intrinsics import INF, JIT, _fma
+from radiosim.kernels.intrinsics import INF, INNER, _fma
 
 __all__ = ["MAX_ROWS", "CHUNK", "BLOCKS"]
 
@@ -25,7 +25,7 @@ __all__ = ["MAX_ROWS", "CHUNK", "BLOCKS"]
 # indexing skips numba's negative-index wraparound.
 
 
-@numba.njit(**JIT)
+@numba.njit(**INNER)
 def _gather(row, cols, out):
     """out[q] = row[cols[q]]."""
     for q in range(out.size):
@@ -76,13 +76,13 @@ def _make_blocks():
     # them with the module; generated because each block size is its own unrolled loop body.
     namespace = {"np": np, "_fma": _fma, "__name__": __name__}
     exec(compile("".join(_rows_source(k) for k in BLOCKS), __file__, "exec"), namespace)
-    return tuple(numba.njit(**JIT)(namespace[f"_rows{k}"]) for k in BLOCKS)
+    return tuple(numba.njit(**INNER)(namespace[f"_rows{k}"]) for k in BLOCKS)
 
 
 _rows8, _rows4, _rows1 = _make_blocks()
 
 
-@numba.njit(**JIT)
+@numba.njit(**INNER)
 def _lin(n, first, lo, hi, src, o, ws, ce, a1, a2, am, an, s):
     """The sweep of ``n`` (1 … MAX_ROWS) sample rows (row h: ``src[o[h] + q]``, weight
     ``ws[h]``; ``o`` and ``ws`` arrays of MAX_ROWS) into the column accumulators of slots
@@ -97,7 +97,7 @@ def _lin(n, first, lo, hi, src, o, ws, ce, a1, a2, am, an, s):
             a2[q] = 0.0
             am[q] = -INF
             an[q] = INF
-    h = 0
+    h = np.int64(0)  # not a literal: one compilation of each block, not two
     while h + 8 <= n:
         _rows8(lo, hi, src, o, ws, h, ce, s, a2, am, an)
         h += 8

@@ -39,6 +39,11 @@ __all__ = ["KernelConstants", "RunLayout", "SET_PERIODIC", "SET_CHIP", "SET_FORM
            "PAD", "moving_terms_kernel", "kernel_coordinates"]
 
 _JIT = dict(cache=True, fastmath=False, nogil=True, error_model="numpy", boundscheck=False)
+# Helpers called only from compiled code get no CPython or C wrapper (each unboxes every
+# argument); those called from one place are inlined into it by numba (compiled once, not
+# once on their own and again inside their caller): 10 s of compile became 6–7 s.
+_INNER = dict(_JIT, no_cpython_wrapper=True, no_cfunc_wrapper=True)
+_ONCE = dict(_INNER, inline="always")
 
 
 class KernelConstants(NamedTuple):
@@ -101,7 +106,7 @@ PAD = 16
 _exp = fast_exp
 
 
-@numba.njit(**_JIT)
+@numba.njit(**_INNER)
 def _coordinates(xj, dyv, k):
     """(n, ζ) of the sample at x = ``xj``, y − y_tip = ``dyv``: Geometry's arithmetic."""
     dxv = xj - k.tip_x
@@ -111,13 +116,13 @@ def _coordinates(xj, dyv, k):
     return n, s - n / k.tan_tb
 
 
-@numba.njit(**_JIT)
+@numba.njit(**_INNER)
 def _padded(size):
     """``size`` rounded up to a multiple of PAD."""
     return (size + PAD - 1) // PAD * PAD
 
 
-@numba.njit(**_JIT)
+@numba.njit(**_INNER)
 def _chip_span(row, x, dyv, k, profile, fade, faded, position):
     """Released bands on the samples of ``row`` (x coordinates ``x``, padded): the ζ profile
     interpolated, faded at the rake face (``faded``: by ``fade``). ``position`` is scratch."""
@@ -136,7 +141,7 @@ def _chip_span(row, x, dyv, k, profile, fade, faded, position):
         row[j] += excess
 
 
-@numba.njit(**_JIT)
+@numba.njit(**_ONCE)
 def _forming_values(excess, f, xi, x, dyv, k, count):
     """The forming band's exp(ξ²/(−2σ²))·f on ``count`` samples (x coordinates ``x``) into
     ``excess``, 0 where |ξ| is beyond its reach (so that adding it changes nothing); ``f`` and
@@ -160,7 +165,7 @@ def _forming_values(excess, f, xi, x, dyv, k, count):
         excess[j] = value if abs(xi[j]) < reach else 0.0
 
 
-@numba.njit(**_JIT)
+@numba.njit(**_ONCE)
 def _forming_values_saturated(excess, x, dyv, k, count, f, sigma):
     """:func:`_forming_values` where every sample has n ≥ the exponent's reach: m = 1, so f
     and σ are the same for all (``f``, ``sigma``: computed as per sample, once)."""
@@ -173,7 +178,7 @@ def _forming_values_saturated(excess, x, dyv, k, count, f, sigma):
         excess[j] = value if abs(xi) < reach else 0.0
 
 
-@numba.njit(**_JIT)
+@numba.njit(**_INNER)
 def _forming_piece(excess, scratch_f, scratch_xi, x, dyv, k, count, saturated, f, sigma):
     """The forming band's values on a piece of a run, saturated or not."""
     if saturated:
@@ -182,7 +187,7 @@ def _forming_piece(excess, scratch_f, scratch_xi, x, dyv, k, count, saturated, f
         _forming_values(excess, scratch_f, scratch_xi, x, dyv, k, _padded(count))
 
 
-@numba.njit(**_JIT)
+@numba.njit(**_INNER)
 def _forming_add(row, excess, fade, faded, amplitude):
     """row += A·excess (·fade where ``faded``)."""
     for j in range(row.size):
@@ -192,7 +197,7 @@ def _forming_add(row, excess, fade, faded, amplitude):
         row[j] += amplitude * value
 
 
-@numba.njit(**_JIT)
+@numba.njit(**_ONCE)
 def _forming_run(row, x, dyv, k, scratch, fade, a, b, f, sigma):
     """The forming band on a run (x coordinates ``x``, padded; faded on its samples a … b − 1
     by ``fade``). The run is split where n crosses the exponent's reach (n is monotone along a
@@ -218,7 +223,7 @@ def _forming_run(row, x, dyv, k, scratch, fade, a, b, f, sigma):
     _forming_add(row[b:], excess[b:], fade, False, amplitude)
 
 
-@numba.njit(**_JIT)
+@numba.njit(**_ONCE)
 def _surface_span(row, region_row, want_regions, x, dyv, k):
     """The saw-tooth free surface on the samples of ``row``: beyond it, air."""
     d, pitch, min_t, span_t = k.d, k.pitch, k.min_t, k.span_t
@@ -235,21 +240,21 @@ def _surface_span(row, region_row, want_regions, x, dyv, k):
                 region_row[j] = 0  # REGIONS["air"]
 
 
-@numba.njit(**_JIT)
+@numba.njit(**_INNER)
 def _copy(target, source):
     """target[:] = source (a loop from 0: vectorised, and no call into numpy's copy)."""
     for j in range(target.size):
         target[j] = source[j]
 
 
-@numba.njit(**_JIT)
+@numba.njit(**_ONCE)
 def _modulation_span(row, cos_field, sin_field, ca, sa):
     """The travelling modulation on the samples of ``row``."""
     for j in range(row.size):
         row[j] += ca * cos_field[j] + sa * sin_field[j]
 
 
-@numba.njit(**_JIT)
+@numba.njit(**_ONCE)
 def _frame_row(i, static, regions_static, out, regions_out, want_regions, forming, y, k,
                profile, cos_field, sin_field, layout, scratch, f_saturated, sigma_saturated):
     """Row i of the frame: the static row, then the moving terms on the row's runs
@@ -301,7 +306,7 @@ def _frame_row(i, static, regions_static, out, regions_out, want_regions, formin
                       want_regions, x[j0:], dyv, k)
 
 
-@numba.njit(**_JIT)
+@numba.njit(**_ONCE)
 def _band_profile(grid, terms, nodes, sin_b):
     """:func:`~.reference.band_profile`'s arithmetic, with _exp."""
     profile = np.zeros(grid.size)
