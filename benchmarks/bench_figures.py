@@ -23,9 +23,10 @@ from pathlib import Path
 
 def _round(folder: Path, scene, out: Path) -> dict:
     """One round: every figure of :func:`radiosim.paper.figures.make_figures`, built and saved
-    into ``out``; seconds [s] per step."""
+    into ``out`` with the garbage collector held as :func:`~radiosim.paper.figures.make_figures`
+    holds it (its one pass at the end timed too); seconds [s] per step."""
     from radiosim.paper import figures as F
-    from radiosim.plotting import load_results, save_figure
+    from radiosim.plotting import collector_held, load_results, save_figure
 
     times, cpu = {}, {}
     t0, c0 = time.perf_counter(), time.process_time()
@@ -46,14 +47,19 @@ def _round(folder: Path, scene, out: Path) -> dict:
                                                                 cache=cache)),
              ("fig08_long_integration", lambda: F.plot_long_integration(rows, history)),
              ("fig09-11_maps", lambda: F.plot_maps(folder, rows, cases, cache=cache)))
-    for name, build in steps:
+    with collector_held():  # as make_figures
+        for name, build in steps:
+            t0, c0 = time.perf_counter(), time.process_time()
+            fig = build()
+            t1, c1 = time.perf_counter(), time.process_time()
+            save_figure(fig, out / f"{name}.png")
+            times[f"{name}: build"], cpu[f"{name}: build"] = t1 - t0, c1 - c0
+            times[f"{name}: save"] = time.perf_counter() - t1
+            cpu[f"{name}: save"] = time.process_time() - c1
+        del fig
         t0, c0 = time.perf_counter(), time.process_time()
-        fig = build()
-        t1, c1 = time.perf_counter(), time.process_time()
-        save_figure(fig, out / f"{name}.png")
-        times[f"{name}: build"], cpu[f"{name}: build"] = t1 - t0, c1 - c0
-        times[f"{name}: save"] = time.perf_counter() - t1
-        cpu[f"{name}: save"] = time.process_time() - c1
+    times["garbage collection, once"] = time.perf_counter() - t0  # collector_held's exit
+    cpu["garbage collection, once"] = time.process_time() - c0
     return times, cpu
 
 

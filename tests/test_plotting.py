@@ -209,3 +209,49 @@ def test_preload_imports_matplotlib_once_on_a_background_thread():
     thread.join(30)
     assert not thread.is_alive()
     assert F.make_figures.prepare is preload  # a study calls it while it measures
+
+
+def test_save_figure_writes_the_drawn_pixels_rgb_when_opaque_rgba_when_not(tmp_path):
+    from PIL import Image
+
+    fig = figure(2, 1, dpi=40, layout=None)
+    fig.add_subplot().plot([0, 1], [1, 0], color="red")
+    path = save_figure(fig, tmp_path / "opaque.png", dpi=40)
+    drawn = np.asarray(fig.canvas.buffer_rgba())
+    assert (drawn[..., 3] == 255).all()
+    with Image.open(path) as image:
+        assert image.mode == "RGB" and image.size == (80, 40)
+        np.testing.assert_array_equal(np.asarray(image), drawn[..., :3])  # the same pixels
+        assert image.info["Software"].startswith("Matplotlib version")
+        assert image.info["dpi"] == pytest.approx((40, 40), abs=0.01)
+    fig.patch.set_alpha(0.0)  # a transparent background keeps its alpha channel
+    path = save_figure(fig, tmp_path / "clear.png", dpi=40)
+    with Image.open(path) as image:
+        assert image.mode == "RGBA"
+        np.testing.assert_array_equal(np.asarray(image), np.asarray(fig.canvas.buffer_rgba()))
+        assert np.asarray(image)[0, 0, 3] == 0
+
+
+def test_collector_held_holds_the_collector_and_restores_its_state():
+    import gc
+
+    from radiosim.plotting import collector_held
+
+    assert gc.isenabled()
+    with collector_held():
+        assert not gc.isenabled()
+        with collector_held():
+            assert not gc.isenabled()
+        assert not gc.isenabled()  # the inner exit leaves the outer's hold
+    assert gc.isenabled()
+    gc.disable()
+    try:
+        with collector_held():
+            assert not gc.isenabled()
+        assert not gc.isenabled()  # a collector the caller held off stays off
+    finally:
+        gc.enable()
+    with pytest.raises(ZeroDivisionError):
+        with collector_held():
+            1 / 0
+    assert gc.isenabled()

@@ -13,8 +13,8 @@ from pathlib import Path
 import numpy as np
 
 from radiosim.paper.columns import COLUMN_NAMES, column_index, has_columns
-from radiosim.plotting import (few_ticks, figure, fixed_axes, load_results, plot_versus,
-                               preload, save_figure, select, title_block, wrap_text)
+from radiosim.plotting import (collector_held, few_ticks, figure, fixed_axes, load_results,
+                               plot_versus, preload, save_figure, select, title_block, wrap_text)
 from radiosim.units import CELSIUS_OFFSET
 
 __all__ = ["preview_scene", "plot_peak", "plot_column_i", "plot_column_profiles",
@@ -319,24 +319,28 @@ def make_figures(folder, scene=None, camera="linear") -> list[Path]:
     def save(fig, name):
         written.append(save_figure(fig, out / name))
 
-    sweeps = {r["sweep"] for r in rows}
-    if {"integration-time", "size-of-source"} <= sweeps:
-        save(plot_peak(rows), "fig05_peak.png")
-        if any(np.isfinite(r.get("column_I_C", math.nan)) for r in rows):
-            save(plot_column_i(rows), "fig07_column_I.png")
-    timed = [r for r in rows if r["sweep"] == "integration-time" and r["camera"] == camera]
-    if scene is not None and has_columns(scene) and timed and all(r.get("exr") for r in timed):
-        save(plot_column_profiles(rows, folder, scene, camera=camera, cache=cache),
-             "fig06_profiles.png")
-    if "long-integration" in sweeps:
-        save(plot_long_integration(rows, history), "fig08_long_integration.png")
-    cases = [r for r in rows if r["sweep"] == "size-of-source" and r["camera"] == camera
-             and round(r["pixel_samples"], 6) == 9]
-    cases += [r for r in rows if r["sweep"] == "integration-time" and r["camera"] == camera
-              and r["integration_time_us"] in (10, 45, 90)]
-    cases = [c for c in cases if c.get("exr")]
-    if cases:
-        save(plot_maps(folder, rows, cases, cache=cache), "fig09-11_maps.png")
+    # The collector held off: the figures' objects are freed at once at the end, and the
+    # process's old objects are not walked on the way (radiosim.plotting.collector_held).
+    with collector_held():
+        sweeps = {r["sweep"] for r in rows}
+        if {"integration-time", "size-of-source"} <= sweeps:
+            save(plot_peak(rows), "fig05_peak.png")
+            if any(np.isfinite(r.get("column_I_C", math.nan)) for r in rows):
+                save(plot_column_i(rows), "fig07_column_I.png")
+        timed = [r for r in rows if r["sweep"] == "integration-time" and r["camera"] == camera]
+        if (scene is not None and has_columns(scene) and timed
+                and all(r.get("exr") for r in timed)):
+            save(plot_column_profiles(rows, folder, scene, camera=camera, cache=cache),
+                 "fig06_profiles.png")
+        if "long-integration" in sweeps:
+            save(plot_long_integration(rows, history), "fig08_long_integration.png")
+        cases = [r for r in rows if r["sweep"] == "size-of-source" and r["camera"] == camera
+                 and round(r["pixel_samples"], 6) == 9]
+        cases += [r for r in rows if r["sweep"] == "integration-time" and r["camera"] == camera
+                  and r["integration_time_us"] in (10, 45, 90)]
+        cases = [c for c in cases if c.get("exr")]
+        if cases:
+            save(plot_maps(folder, rows, cases, cache=cache), "fig09-11_maps.png")
     return written
 
 
