@@ -79,6 +79,8 @@ def _run(args) -> int:
             print(f"  {study.description}")
         progress = _Progress("measurement", args.quiet)
         _announce_compile(args, chip=True)
+        if args.scheduler is None and args.workers is None:
+            _compile_integrator_aside()
         result = study.run(out.staging, rng=args.seed, write_exr=not args.no_exr,
                            progress=None if args.quiet else progress,
                            scheduler=args.scheduler, workers=args.workers,
@@ -512,17 +514,32 @@ def _announce_compile(args, frame_dtype="float64", chip=False):
               "(radiosim warmup does it ahead of time)", file=sys.stderr, flush=True)
 
 
+def _compile_integrator_aside(frame_dtype="float64") -> None:
+    """Have another process compile the integrator's kernel for ``frame_dtype`` frames, if the
+    cache lacks it, while this one compiles the scene's kernels (the second core); the first
+    launch waits for it (:mod:`radiosim.kernels.compiling`)."""
+    from radiosim.kernels import compile_in_background, compile_pending
+
+    if compile_pending((frame_dtype,)):
+        compile_in_background((frame_dtype,))
+
+
 def _warmup(args) -> int:
     import time
 
-    from radiosim.kernels import warmup
+    from radiosim.kernels import FRAME_DTYPES, compile_in_background, warmup
+    from radiosim.kernels.background import wait_for_background
     from radiosim.scenes import SegmentedChip
 
     began = time.perf_counter()
-    report = warmup(progress=_Progress("variant", args.quiet))
+    # One process per frame dtype compiles the integrator's and the image stage's kernels
+    # while this one compiles the chip's; then every variant is launched here (loaded).
+    compile_in_background(FRAME_DTYPES, bands=True)
     chip = SegmentedChip()  # its moving terms, on a small region at the band's time
     middle = tuple(slice(n // 2, n // 2 + 16) for n in chip.shape)
     chip.temperature(chip.event_time, middle), chip.regions(chip.event_time, middle)
+    wait_for_background()
+    report = warmup(progress=_Progress("variant", args.quiet))
     print(f"compiled radiosim's kernels in {time.perf_counter() - began:.0f} s "
           f"({report['variants']} kernel variants and the chip's moving terms; cached in "
           f"{report['cache']})")

@@ -90,7 +90,10 @@ The package, one concept per module (imports flow down this list):
 -   :mod:`~radiosim.kernels.packing`: the compiled engine's format of a :class:`SignalTable`;
 -   :mod:`~radiosim.kernels.messages`: the errors of a flagged frame;
 -   :mod:`~radiosim.kernels.reference`: the numpy oracles;
+-   :mod:`~radiosim.kernels.background`: the compiling processes a launch waits for;
 -   :mod:`~radiosim.kernels.launch`: the entry points, buffers, thread settings;
+-   :mod:`~radiosim.kernels.compiling`: compiling ahead of time (:func:`warmup`), and in
+    other processes while this one works (:func:`compile_in_background`);
 -   :mod:`~radiosim.kernels.engines`: the engines (compiled, numpy) and the choice between
     them. A GPU engine goes there: one new module and one entry in
     :data:`~radiosim.kernels.engines.ENGINES`;
@@ -110,16 +113,18 @@ from radiosim.kernels.codes import (SIGNAL_INDEX, SIGNAL_MAP, SIGNAL_NONE, SIGNA
                                     STATUS_ABOVE_TABLE, STATUS_BAD_INDEX, STATUS_BAD_SAMPLE,
                                     STATUS_BELOW_TABLE, STATUS_OK)
 from radiosim.kernels.engines import ENGINES, Engine, compiled_selected, get_engine, set_engine
-from radiosim.kernels.intrinsics import fast_exp
+from radiosim.kernels.intrinsics import FRAME_DTYPES, fast_exp
+from radiosim.kernels.compiling import (cache_location, compile_in_background, compile_pending,
+                                        warmup)
 from radiosim.kernels.launch import (accumulate, accumulate_merged, apply_thread_settings,
-                                     cache_location, compile_pending, parallel_launch,
-                                     pixel_mean, thread_count, warmup)
+                                     parallel_launch, pixel_mean, thread_count)
 from radiosim.kernels.reference import (Members, accumulate_merged_reference,
                                         accumulate_reference, pixel_mean_reference)
 from radiosim.kernels.table import RadianceKernelTable, SignalTable
 from radiosim.kernels.threads import run_blocks
 
 __all__ = [
+    "FRAME_DTYPES",
     "fast_exp",
     "parallel_launch",
     "run_blocks",
@@ -150,6 +155,7 @@ __all__ = [
     "compiled_selected",
     "dispatchers",
     "warmup",
+    "compile_in_background",
     "compile_pending",
     "cache_location",
 ]
@@ -162,7 +168,7 @@ def dispatchers() -> tuple:
 
     from radiosim.kernels import bands, intrinsics, radiance, rows, sweeps
 
-    found = []
+    found = [*rows.ACCUMULATE_KERNELS.values(), *bands.BAND_KERNELS.values()]
     for module in (intrinsics, sweeps, radiance, rows, bands):
         found += [v for v in vars(module).values()
                   if isinstance(v, numba.core.registry.CPUDispatcher)]

@@ -25,17 +25,18 @@ import numba
 import numpy as np
 
 from radiosim.errors import RadiosimError
+from radiosim.kernels.background import wait_for_background
 from radiosim.kernels.bundles import Emissivity, FrameBlock
 from radiosim.kernels.codes import (SIGNAL_INDEX, STATUS_ABOVE_TABLE, STATUS_BAD_INDEX,
                                     STATUS_BAD_SAMPLE, STATUS_BELOW_TABLE, STATUS_OK)
-from radiosim.kernels.intrinsics import INF, INNER, JIT, _cubic8_grey, _cubic8_map
+from radiosim.kernels.intrinsics import INF, INNER, _cubic8_grey, _cubic8_map, per_frame_dtype
 from radiosim.kernels.layout import frames_of, read_only, rows_of
 from radiosim.kernels.packing import _ones, _uint8_index
 from radiosim.kernels.radiance import _cubic1, _locate, cubic
 from radiosim.kernels.table import SignalTable
 from radiosim.kernels.threads import run_blocks
 
-__all__ = ["StackedTables", "stack", "accumulate_bands", "band_kernel"]
+__all__ = ["StackedTables", "stack", "accumulate_bands", "band_kernel", "BAND_KERNELS"]
 
 
 class StackedTables(NamedTuple):
@@ -126,7 +127,6 @@ def _band_pass(coef, interval, position, grey_map, g0, w, grey, use_map, acc, ou
             acc[out0 + k] += _cubic1(coef, interval[k], position[k]) * w
 
 
-@numba.njit(**JIT)
 def band_kernel(block, n_blocks, frames, weight, tables, emissivity, out, status):
     """out[b, i, j] += Σ_f weight[f] · S_b(T_f[i, j]) for the frames of ``frames``
     (:class:`~radiosim.kernels.bundles.FrameBlock`) and every sub-band b of ``tables``
@@ -229,6 +229,12 @@ def band_kernel(block, n_blocks, frames, weight, tables, emissivity, out, status
                     out[b, i, j] += acc[b * n_cols + j]
 
 
+
+#: The kernel compiled per frame dtype (own dispatchers and cache files); ``band_kernel`` is
+#: float64's.
+BAND_KERNELS = per_frame_dtype(band_kernel)
+band_kernel = BAND_KERNELS["float64"]
+
 def _emissivity(table: SignalTable, shape) -> Emissivity:
     """The kernel's emissivity maps for a frame region of ``shape``: S = L · grey_e · (grey
     map or scalar grey), the entry e from the index map (else 0)."""
@@ -278,7 +284,8 @@ def accumulate_bands(block, weights, tables: list[SignalTable], out: np.ndarray,
     base, row_length, frame_stride = frames_of(block)
     status = np.zeros(block.shape[1], dtype=np.int64)
     n_blocks = max(1, min(thread_count(), block.shape[1]))
-    run_blocks(band_kernel, n_blocks, n_blocks,
+    wait_for_background()  # kernels being compiled by another process: load them after
+    run_blocks(BAND_KERNELS[block.dtype.name], n_blocks, n_blocks,
                FrameBlock(base, row_length, frame_stride, block.shape[0]), weights, stacked,
                signs, out, status)
     flagged = np.flatnonzero(status)

@@ -49,6 +49,7 @@ import numba
 import numpy as np
 
 from radiosim.errors import RadiosimError
+from radiosim.kernels.background import wait_for_background
 from radiosim.kernels.bundles import (Accumulators, FrameBlock, Merging, RowPieces,
                                       ThreadBuffers)
 from radiosim.kernels.codes import (STATUS_ABOVE_TABLE, STATUS_BAD_INDEX, STATUS_BAD_SAMPLE,
@@ -59,14 +60,13 @@ from radiosim.kernels.messages import raise_above_table, raise_bad_index, raise_
 from radiosim.kernels.packing import NO_TABLES, emissivity, pack
 from radiosim.kernels.reference import (Members, accumulate_numpy, checked_arguments,
                                         merge_numpy)
-from radiosim.kernels.rows import accumulate_kernel
+from radiosim.kernels.rows import ACCUMULATE_KERNELS
 from radiosim.kernels.sweeps import MAX_ROWS
 from radiosim.kernels.table import SignalTable
 from radiosim.kernels.threads import run_blocks
 
 __all__ = ["apply_thread_settings", "thread_count", "parallel_launch", "pixel_mean",
-           "accumulate", "Members", "accumulate_merged", "warmup", "compile_pending",
-           "cache_location"]
+           "accumulate", "Members", "accumulate_merged"]
 
 _LOG = logging.getLogger(__name__)
 
@@ -382,12 +382,14 @@ def _launch(block, rows: KernelAxis, cols: KernelAxis, time_weight, reference, d
                        signs.index_map.dtype)
     members = merged if merged is not None else _NO_MEMBERS
     row_pieces = RowPieces(rows.source, rows.weight, rows.bounds)
+    wait_for_background()  # kernels being compiled by another process: load them after
+    kernel = ACCUMULATE_KERNELS[base.dtype.name]
     start = np.zeros(n_blocks, dtype=np.int64)
     pending = np.full(n_blocks, -1, dtype=np.int64)  # a frame whose status awaits handling
     handled = STATUS_OK
     while True:
         run = np.where(pending >= 0, n_frames, start)
-        stopped = np.array(run_blocks(accumulate_kernel, n_blocks, n_blocks, run, frames,
+        stopped = np.array(run_blocks(kernel, n_blocks, n_blocks, run, frames,
                                       row_pieces, slots, acc, members, tables, signs, buffers,
                                       status))
         ran = run < n_frames
@@ -435,149 +437,3 @@ def _finish(launched, frame2d, rows: KernelAxis, cols: KernelAxis, frame_index, 
     merge_numpy(flagged, part_dev[local], part_sq[local], part_max[local], part_signal[local],
                 reference, moments, weight, count, signal_weight, mean, m2, peak, signal)
     return STATUS_BELOW_TABLE
-
-
-# -- compiling ahead of time ----------------------------------------------------------------
-
-
-def _fresh_signatures(dispatcher) -> list:
-    """The signatures of ``dispatcher`` compiled in this process or held, fresh (stamped with
-    the current sources), in numba's on-disk cache, read from its small index file."""
-    try:
-        overloads = dispatcher._cache._cache_file._load_index()  # {} when missing or stale
-    except Exception:  # numba's private API moved, or an unreadable index: assume nothing
-        overloads = {}
-    return [key[0] for key in overloads] + list(dispatcher.signatures)
-
-
-def compile_pending(frame_dtypes=("float64",), index_dtypes=("uint8",), also=()) -> bool:
-    """
-    Whether launching the kernel on frames of ``frame_dtypes`` with index maps of
-    ``index_dtypes`` (uint8 also serves the linear response and grey maps), or any of the
-    numba dispatchers ``also`` (e.g. a scene's kernels), would compile: no fresh variant in
-    numba's on-disk cache and none compiled in this process. Cheap (reads the cache's index
-    files, compiles nothing): the command uses it to say, once, that a first run compiles.
-    """
-    names = accumulate_kernel.py_func.__code__.co_varnames
-    frames, signs = names.index("frames"), names.index("emissivity")
-    cached = set()
-    for signature in _fresh_signatures(accumulate_kernel):
-        try:  # the bundles' numba types: named tuples with their fields' types
-            base = signature[frames].types[signature[frames].fields.index("base")]
-            index = signature[signs].types[signature[signs].fields.index("index_map")]
-            cached.add((str(base.dtype), str(index.dtype)))
-        except (AttributeError, IndexError, TypeError, ValueError):
-            continue
-    # An index map of any integer type is launched as uint8 where its table has at most 255
-    # entries (every scene's region map): its variant is uint8's.
-    wanted = {(str(np.dtype(f)), "uint8") for f in frame_dtypes for _ in index_dtypes}
-    return not wanted <= cached or not all(_fresh_signatures(d) for d in also)
-
-
-def cache_location() -> str:
-    """Where numba keeps radiosim's compiled kernels (``NUMBA_CACHE_DIR``, else the package's
-    ``__pycache__`` folders, else numba's user-wide cache)."""
-    try:
-        return str(accumulate_kernel._cache.cache_path)
-    except AttributeError:
-        return os.environ.get("NUMBA_CACHE_DIR", "numba's cache")
-
-
-def _tiny_axis(n_pixels: int) -> KernelAxis:
-    """Pieces of a small axis: each pixel 2.5 samples wide, so pixel edges fall inside samples
-    (duplicate slots) as on a real camera."""
-    edges = np.arange(n_pixels + 1) * 2.5
-    source, weight, starts = [], [], []
-    for j in range(n_pixels):
-        starts.append(len(source))
-        a, b = edges[j], edges[j + 1]
-        for s in range(int(np.floor(a)), int(np.ceil(b))):
-            source.append(s)
-            weight.append((min(b, s + 1) - max(a, s)) / 2.5)
-    axis = type("Axis", (), {})()
-    axis.source, axis.weight, axis.starts = np.array(source), np.array(weight), np.array(starts)
-    return KernelAxis.of(axis, "warmup")
-
-
-def warmup(progress=None, memmap_dir=None) -> dict:
-    """
-    Compile (or load from numba's on-disk cache) every variant of the streaming kernel a
-    measurement can launch, on tiny frames: float32 and float64 frames, in memory and as
-    read-only numpy memory maps; no response (linear), and the radiance table (Planck) with a
-    grey scalar, a grey map, and emissivity index maps of uint8 and intp (converted to uint8:
-    one variant); through
-    :func:`pixel_mean`, :func:`accumulate` and :func:`accumulate_merged`; and the image stage's
-    sub-band kernel (:func:`radiosim.kernels.bands.accumulate_bands`). Later processes load
-    the compiled code from the cache (:func:`cache_location`) in well under a second.
-
-    Parameters
-    ----------
-    progress
-        Called as ``progress(done, total, label)`` after each variant.
-    memmap_dir
-        Folder for the small temporary memory-mapped file (default: the system's temporary
-        folder); it is removed after.
-
-    Returns
-    -------
-    dict
-        ``seconds`` (wall time [s]), ``compiled`` (signatures compiled or loaded in this call),
-        ``variants`` (variants launched), ``cache`` (:func:`cache_location`).
-    """
-    import tempfile
-    import time
-
-    from radiosim.kernels import dispatchers
-    from radiosim.kernels.bands import accumulate_bands
-    from radiosim.radiometry import BandRadianceTable
-
-    began = time.perf_counter()
-    before = sum(len(d.signatures) for d in dispatchers())
-    rows, cols = _tiny_axis(3), _tiny_axis(5)
-    shape = (rows.extent, cols.extent)
-    table = BandRadianceTable(temperature_range=(200.0, 800.0), per_octave=16)
-    grey_map = np.full(shape, 0.9)
-    responses = [("linear", None),
-                 ("Planck, grey", SignalTable(table, grey=0.9)),
-                 ("Planck, grey map", SignalTable(table, grey=grey_map))]
-    for name, dtype in (("uint8", np.uint8), ("intp", np.intp)):
-        index = (np.arange(shape[0] * shape[1]) % 2).astype(dtype).reshape(shape)
-        responses.append((f"Planck, {name} index map",
-                          SignalTable([table, table], grey=1.0, index=index,
-                                              entry_grey=[1.0, 0.8])))
-    frames = np.full((2, *shape), 300.0) + np.arange(shape[1]) * 0.5
-    total = 2 * 2 * len(responses)
-    done = 0
-    with tempfile.TemporaryDirectory(dir=memmap_dir) as folder:
-        for dtype in (np.float32, np.float64):
-            path = os.path.join(folder, f"frames-{np.dtype(dtype).name}.npy")
-            np.save(path, frames.astype(dtype))
-            for storage, block in (("in memory", frames.astype(dtype)),
-                                   ("memory map", np.load(path, mmap_mode="r"))):
-                for name, response in responses:
-                    _launch_tiny(block, rows, cols, response)
-                    done += 1
-                    if progress is not None:
-                        progress(done, total, f"{np.dtype(dtype).name} frames {storage}, {name}")
-                # The image stage's sub-bands from one lookup (one variant per frame dtype).
-                accumulate_bands(block, np.full(2, 0.5), [responses[1][1]] * 2,
-                                 np.zeros((2, *shape)))
-                del block  # the memory map's file is closed before its folder goes
-    after = sum(len(d.signatures) for d in dispatchers())
-    return {"seconds": time.perf_counter() - began, "compiled": after - before,
-            "variants": total, "cache": cache_location()}
-
-
-def _launch_tiny(block, rows: KernelAxis, cols: KernelAxis, response) -> None:
-    """One frame through :func:`pixel_mean` and :func:`accumulate`, two through
-    :func:`accumulate_merged`: every entry point of the kernel, for this block's type."""
-    shape = (rows.n_pixels, cols.n_pixels)
-    reference = pixel_mean(block[0], rows, cols)
-    dev, sq, signal = np.zeros(shape), np.zeros(shape), np.zeros(shape)
-    tmax = np.full(shape, -np.inf)
-    accumulate(block[0], rows, cols, 0.5, reference, dev, sq, tmax,
-               signal if response is not None else None, response)
-    n_jobs = 2
-    members = Members(n_jobs, shape)
-    accumulate_merged(block, rows, cols, reference.copy(), members, np.full((2, n_jobs), 0.5),
-                      np.full((2, n_jobs), 0.5), response)

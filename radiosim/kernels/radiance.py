@@ -20,7 +20,7 @@ from radiosim.kernels.sweeps import CHUNK
 __all__ = ["cubic"]
 
 
-@numba.njit(**JIT)
+@numba.njit(**dict(JIT, cache=False))  # a helper, also called from Python (tests)
 def cubic(coef, interval, position, out, n):
     """out[q] = the cubic of row interval[q] of ``coef`` at position[q], q < n (eight at a time
     by :func:`_cubic8`, the rest one by one with the same operations)."""

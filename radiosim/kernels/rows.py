@@ -14,11 +14,11 @@ import numpy as np
 
 from radiosim.kernels.bundles import ThreadBuffers
 from radiosim.kernels.codes import SIGNAL_INDEX, SIGNAL_MAP, SIGNAL_NONE, SIGNAL_SCALAR
-from radiosim.kernels.intrinsics import INF, INNER, JIT
+from radiosim.kernels.intrinsics import INF, INNER, per_frame_dtype
 from radiosim.kernels.radiance import _signal_row, _signal_rows
 from radiosim.kernels.sweeps import CHUNK, MAX_ROWS, _gather, _lin
 
-__all__ = ["accumulate_kernel"]
+__all__ = ["accumulate_kernel", "ACCUMULATE_KERNELS"]
 
 
 @numba.njit(**INNER)
@@ -380,7 +380,6 @@ def _accumulate_rows(i_start, i_stop, base, row_length, rows, cols, acc, members
                                 t_low, t_high, s1, s2, s3, sm, row_status)
 
 
-@numba.njit(**JIT)
 def accumulate_kernel(b, n_blocks, start, frames, rows, cols, acc, members, tables, emissivity,
                       buffers, status):
     """Block ``b`` of the frames' pixel rows in ``n_blocks`` contiguous blocks, one per thread
@@ -409,3 +408,9 @@ def accumulate_kernel(b, n_blocks, start, frames, rows, cols, acc, members, tabl
         if bad != 0:
             return f
     return n_frames
+
+
+#: The kernel compiled per frame dtype ({"float32": …, "float64": …}: own dispatchers and cache
+#: files); ``accumulate_kernel`` is float64's.
+ACCUMULATE_KERNELS = per_frame_dtype(accumulate_kernel)
+accumulate_kernel = ACCUMULATE_KERNELS["float64"]

@@ -40,9 +40,10 @@ __all__ = ["KernelConstants", "RunLayout", "SET_PERIODIC", "SET_CHIP", "SET_FORM
 
 _JIT = dict(cache=True, fastmath=False, nogil=True, error_model="numpy", boundscheck=False)
 # Helpers called only from compiled code get no CPython or C wrapper (each unboxes every
-# argument); those called from one place are inlined into it by numba (compiled once, not
-# once on their own and again inside their caller): 10 s of compile became 6–7 s.
-_INNER = dict(_JIT, no_cpython_wrapper=True, no_cfunc_wrapper=True)
+# argument) and no cache files of their own (the kernel's hold them); those called from one
+# place are inlined into it by numba (compiled once, not once on their own and again inside
+# their caller): 10 s of compile became 5–6 s.
+_INNER = dict(_JIT, cache=False, no_cpython_wrapper=True, no_cfunc_wrapper=True)
 _ONCE = dict(_INNER, inline="always")
 
 

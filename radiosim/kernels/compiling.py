@@ -1,0 +1,246 @@
+"""
+Compiling the kernels ahead of time, and in other processes.
+
+numba compiles an entry point at its first call with new argument types and keeps the machine
+code in its on-disk cache (:func:`cache_location`); a later process loads it in well under a
+second. Here:
+
+-   :func:`compile_pending` tells, from the cache's index files, whether a launch would compile;
+-   :func:`warmup` compiles (or loads) every variant a measurement can launch, on tiny frames,
+    in this process: for every frame dtype, or those asked for;
+-   :func:`compile_in_background` has another Python process compile the variants of some
+    frame dtypes while this one goes on (``radiosim run`` starts it and meanwhile compiles the
+    scene's own kernels; ``radiosim warmup`` runs one process per frame dtype: the two cores
+    compile at once). The first launch of a kernel here waits for those processes
+    (:func:`~radiosim.kernels.background.wait_for_background`), then loads what they cached.
+    The entry points have cache files of their own per frame dtype
+    (:func:`~radiosim.kernels.intrinsics.per_frame_dtype`) and the helpers none (``INNER``),
+    so no two processes ever write one function's cache index (numba writes it without a
+    lock). If such a process cannot start, fails or is stopped, this one compiles what it
+    needs itself, as it would without it: the results do not depend on which process
+    compiled.
+"""
+
+from __future__ import annotations
+
+import os
+import subprocess
+import sys
+
+import numpy as np
+
+from radiosim.kernels import background
+from radiosim.kernels.bands import BAND_KERNELS
+from radiosim.kernels.intrinsics import FRAME_DTYPES
+from radiosim.kernels.launch import accumulate, accumulate_merged, pixel_mean
+from radiosim.kernels.layout import KernelAxis
+from radiosim.kernels.reference import Members
+from radiosim.kernels.rows import ACCUMULATE_KERNELS
+from radiosim.kernels.table import SignalTable
+
+__all__ = ["compile_pending", "cache_location", "warmup", "compile_in_background"]
+
+
+def _fresh_signatures(dispatcher) -> list:
+    """The signatures of ``dispatcher`` compiled in this process or held, fresh (stamped with
+    the current sources), in numba's on-disk cache, read from its small index file."""
+    try:
+        overloads = dispatcher._cache._cache_file._load_index()  # {} when missing or stale
+    except Exception:  # numba's private API moved, or an unreadable index: assume nothing
+        overloads = {}
+    return [key[0] for key in overloads] + list(dispatcher.signatures)
+
+
+def _cached_variants(dispatcher) -> set:
+    """(frame dtype, index map dtype) of the fresh signatures of an integrator entry point."""
+    names = dispatcher.py_func.__code__.co_varnames
+    frames, signs = names.index("frames"), names.index("emissivity")
+    cached = set()
+    for signature in _fresh_signatures(dispatcher):
+        try:  # the bundles' numba types: named tuples with their fields' types
+            base = signature[frames].types[signature[frames].fields.index("base")]
+            index = signature[signs].types[signature[signs].fields.index("index_map")]
+            cached.add((str(base.dtype), str(index.dtype)))
+        except (AttributeError, IndexError, TypeError, ValueError):
+            continue
+    return cached
+
+
+def compile_pending(frame_dtypes=("float64",), index_dtypes=("uint8",), also=()) -> bool:
+    """
+    Whether launching the kernel on frames of ``frame_dtypes`` with index maps of
+    ``index_dtypes`` (uint8 also serves the linear response and grey maps), or any of the
+    numba dispatchers ``also`` (e.g. a scene's kernels), would compile: no fresh variant in
+    numba's on-disk cache and none compiled in this process. Cheap (reads the cache's index
+    files, compiles nothing): the command uses it to say, once, that a first run compiles.
+    """
+    for name in frame_dtypes:
+        dtype = np.dtype(name).name
+        kernel = ACCUMULATE_KERNELS.get(dtype)
+        # An index map of any integer type is launched as uint8 where its table has at most
+        # 255 entries (every scene's region map): its variant is uint8's.
+        if kernel is None or (dtype, "uint8") not in _cached_variants(kernel):
+            return True
+    return not all(_fresh_signatures(d) for d in also)
+
+
+def cache_location() -> str:
+    """Where numba keeps radiosim's compiled kernels (``NUMBA_CACHE_DIR``, else the package's
+    ``__pycache__`` folders, else numba's user-wide cache)."""
+    try:
+        return str(ACCUMULATE_KERNELS["float64"]._cache.cache_path)
+    except AttributeError:
+        return os.environ.get("NUMBA_CACHE_DIR", "numba's cache")
+
+
+def _tiny_axis(n_pixels: int) -> KernelAxis:
+    """Pieces of a small axis: each pixel 2.5 samples wide, so pixel edges fall inside samples
+    (duplicate slots) as on a real camera."""
+    edges = np.arange(n_pixels + 1) * 2.5
+    source, weight, starts = [], [], []
+    for j in range(n_pixels):
+        starts.append(len(source))
+        a, b = edges[j], edges[j + 1]
+        for s in range(int(np.floor(a)), int(np.ceil(b))):
+            source.append(s)
+            weight.append((min(b, s + 1) - max(a, s)) / 2.5)
+    axis = type("Axis", (), {})()
+    axis.source, axis.weight, axis.starts = np.array(source), np.array(weight), np.array(starts)
+    return KernelAxis.of(axis, "warmup")
+
+
+def warmup(progress=None, memmap_dir=None, frame_dtypes=FRAME_DTYPES, bands=True) -> dict:
+    """
+    Compile (or load from numba's on-disk cache) every variant of the streaming kernel a
+    measurement can launch, on tiny frames: frames of ``frame_dtypes`` (float32 and float64),
+    in memory and as read-only numpy memory maps; no response (linear), and the radiance table
+    (Planck) with a grey scalar, a grey map, and emissivity index maps of uint8 and intp
+    (converted to uint8: one variant); through :func:`pixel_mean`, :func:`accumulate` and
+    :func:`accumulate_merged`; and with ``bands`` the image stage's sub-band kernel
+    (:func:`radiosim.kernels.bands.accumulate_bands`). Later processes load the compiled code
+    from the cache (:func:`cache_location`) in well under a second.
+
+    Parameters
+    ----------
+    progress
+        Called as ``progress(done, total, label)`` after each variant.
+    memmap_dir
+        Folder for the small temporary memory-mapped file (default: the system's temporary
+        folder); it is removed after.
+    frame_dtypes
+        The frame dtypes to compile for (names or dtypes of :data:`FRAME_DTYPES`).
+    bands
+        Also the sub-band kernel, for each of those dtypes.
+
+    Returns
+    -------
+    dict
+        ``seconds`` (wall time [s]), ``compiled`` (signatures compiled or loaded in this call),
+        ``variants`` (variants launched), ``cache`` (:func:`cache_location`).
+    """
+    import tempfile
+    import time
+
+    from radiosim.kernels import dispatchers
+    from radiosim.kernels.bands import accumulate_bands
+    from radiosim.radiometry import BandRadianceTable
+
+    began = time.perf_counter()
+    before = sum(len(d.signatures) for d in dispatchers())
+    rows, cols = _tiny_axis(3), _tiny_axis(5)
+    shape = (rows.extent, cols.extent)
+    table = BandRadianceTable(temperature_range=(200.0, 800.0), per_octave=16)
+    grey_map = np.full(shape, 0.9)
+    responses = [("linear", None),
+                 ("Planck, grey", SignalTable(table, grey=0.9)),
+                 ("Planck, grey map", SignalTable(table, grey=grey_map))]
+    for name, dtype in (("uint8", np.uint8), ("intp", np.intp)):
+        index = (np.arange(shape[0] * shape[1]) % 2).astype(dtype).reshape(shape)
+        responses.append((f"Planck, {name} index map",
+                          SignalTable([table, table], grey=1.0, index=index,
+                                      entry_grey=[1.0, 0.8])))
+    frames = np.full((2, *shape), 300.0) + np.arange(shape[1]) * 0.5
+    dtypes = [np.dtype(d) for d in frame_dtypes]
+    total = len(dtypes) * 2 * len(responses)
+    done = 0
+    with tempfile.TemporaryDirectory(dir=memmap_dir) as folder:
+        for dtype in dtypes:
+            path = os.path.join(folder, f"frames-{dtype.name}.npy")
+            np.save(path, frames.astype(dtype))
+            for storage, block in (("in memory", frames.astype(dtype)),
+                                   ("memory map", np.load(path, mmap_mode="r"))):
+                for name, response in responses:
+                    _launch_tiny(block, rows, cols, response)
+                    done += 1
+                    if progress is not None:
+                        progress(done, total, f"{dtype.name} frames {storage}, {name}")
+                if bands:  # the image stage's sub-bands from one lookup (one variant per dtype)
+                    accumulate_bands(block, np.full(2, 0.5), [responses[1][1]] * 2,
+                                     np.zeros((2, *shape)))
+                del block  # the memory map's file is closed before its folder goes
+    after = sum(len(d.signatures) for d in dispatchers())
+    return {"seconds": time.perf_counter() - began, "compiled": after - before,
+            "variants": total, "cache": cache_location()}
+
+
+def _launch_tiny(block, rows: KernelAxis, cols: KernelAxis, response) -> None:
+    """One frame through :func:`pixel_mean` and :func:`accumulate`, two through
+    :func:`accumulate_merged`: every entry point of the kernel, for this block's type."""
+    shape = (rows.n_pixels, cols.n_pixels)
+    reference = pixel_mean(block[0], rows, cols)
+    dev, sq, signal = np.zeros(shape), np.zeros(shape), np.zeros(shape)
+    tmax = np.full(shape, -np.inf)
+    accumulate(block[0], rows, cols, 0.5, reference, dev, sq, tmax,
+               signal if response is not None else None, response)
+    n_jobs = 2
+    members = Members(n_jobs, shape)
+    accumulate_merged(block, rows, cols, reference.copy(), members, np.full((2, n_jobs), 0.5),
+                      np.full((2, n_jobs), 0.5), response)
+
+
+# -- other processes ----------------------------------------------------------------------------
+
+
+def _pending_dtypes(frame_dtypes, bands: bool) -> list[str]:
+    """The dtypes of ``frame_dtypes`` whose integrator (or, with ``bands``, sub-band) entry
+    point has no fresh variant in the cache."""
+    return [np.dtype(d).name for d in frame_dtypes
+            if compile_pending((d,)) or (bands and not _fresh_signatures(
+                BAND_KERNELS[np.dtype(d).name]))]
+
+
+def compile_in_background(frame_dtypes=("float64",), bands: bool = False) -> list:
+    """
+    Start compiling, each in another Python process, the kernel variants (:func:`warmup`) of
+    those ``frame_dtypes`` that numba's cache does not hold (with ``bands``, the sub-band
+    kernel's too), and return the processes started (none when all are cached). This process
+    goes on; its first kernel launch waits for them
+    (:func:`~radiosim.kernels.background.wait_for_background`). They write
+    nothing but numba's cache; their output is discarded; they stop when this process exits.
+    """
+    started = []
+    for dtype in _pending_dtypes(frame_dtypes, bands):
+        command = [sys.executable, "-c", _CHILD, dtype]
+        try:
+            process = subprocess.Popen(command + (["--bands"] if bands else []),
+                                       stdin=subprocess.DEVNULL, stdout=subprocess.DEVNULL,
+                                       stderr=subprocess.DEVNULL)
+        except OSError:  # cannot start one: this process compiles what it needs itself
+            continue
+        background.register(process)
+        started.append(process)
+    return started
+
+
+_CHILD = "import sys; from radiosim.kernels.compiling import _main; sys.exit(_main(sys.argv[1:]))"
+
+
+def _main(argv) -> int:
+    """The other process: ``python -c _CHILD DTYPE [DTYPE ...] [--bands]``."""
+    bands = "--bands" in argv
+    dtypes = [a for a in argv if a != "--bands"]
+    try:
+        warmup(frame_dtypes=dtypes, bands=bands)
+    except KeyboardInterrupt:  # the terminal's interrupt reaches this process too
+        return 130
+    return 0

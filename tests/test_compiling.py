@@ -1,0 +1,50 @@
+"""Compiling in other processes: the wait before a launch, and stopping what still runs."""
+
+import subprocess
+import sys
+import time
+
+from radiosim.kernels import background, compiling
+
+
+def _sleeper(seconds: float) -> subprocess.Popen:
+    return subprocess.Popen([sys.executable, "-c", f"import time; time.sleep({seconds})"])
+
+
+def test_a_launch_waits_for_the_compiling_processes_to_end():
+    processes = [_sleeper(0.3), _sleeper(0.1)]
+    for process in processes:
+        background.register(process)
+    began = time.perf_counter()
+    background.wait_for_background()
+    # Both have ended (their exit codes are known) and none is waited for any more.
+    assert all(p.poll() == 0 for p in processes)
+    assert time.perf_counter() - began >= 0.1 and not background._RUNNING
+    background.wait_for_background()  # none left: returns at once
+
+
+def test_processes_still_running_at_exit_are_stopped():
+    process = _sleeper(60)
+    background.register(process)
+    began = time.perf_counter()
+    background._stop()  # what atexit runs
+    assert process.poll() is not None and process.returncode != 0
+    assert time.perf_counter() - began < 10 and not background._RUNNING
+
+
+def test_nothing_is_started_for_variants_the_cache_holds():
+    # Compile float64's variants here (or load them), then ask for them in the background.
+    compiling.warmup(frame_dtypes=("float64",), bands=True)
+    assert not compiling.compile_pending(("float64",))
+    assert compiling.compile_in_background(("float64",), bands=True) == []
+    assert not background._RUNNING
+
+
+def test_a_failing_compiling_process_leaves_the_work_to_this_one(monkeypatch):
+    # The other process fails at once; the launch still runs (compiling here if it must).
+    monkeypatch.setattr(compiling, "_pending_dtypes", lambda dtypes, bands: ["float64"])
+    monkeypatch.setattr(compiling, "_CHILD", "import sys; sys.exit(3)")
+    started = compiling.compile_in_background(("float64",))
+    assert len(started) == 1
+    report = compiling.warmup(frame_dtypes=("float64",), bands=False)  # waits, then launches
+    assert started[0].returncode == 3 and report["variants"] == 10
