@@ -278,6 +278,50 @@ def test_with_two_responses_the_earliest_bad_frame_is_named():
             integrate_many(scene, jobs)
 
 
+def test_a_linear_and_a_radiometric_job_share_one_pass_with_the_results_of_two(monkeypatch):
+    # One footprint group, a linear and a Planck job: one kernel pass per block forms the
+    # moments and the signal (the Planck pass first, keeping its moments below the table);
+    # the results are those of two passes (linear moments, then the signal) bit for bit, also
+    # for pixel rows with samples below the table (150 K < 200 K), whose signal numpy redoes.
+    from radiosim.integrator import Job, integrate_many
+    from radiosim.kernels import launch
+    from radiosim.kernels.merging import FootprintGroup
+    from radiosim.response import PlanckResponse
+
+    dt = dx = 1e-6
+    stack = 400.0 + 500.0 * np.random.default_rng(3).random((12, 18, 18))
+    stack[2, 3, 5] = stack[7, 11, 2] = 150.0
+    group = FootprintIntegrator(axis_footprints(18, dx, 2.5e-6, 1.0, 10**6),
+                                axis_footprints(18, dx, 2.5e-6, 1.0, 10**6))
+    planck = PlanckResponse((3.8e-6, 5.1e-6), 1.0, temperature_range=(200.0, 1500.0))
+    jobs = [Job(group, Window(0.0, 9 * dt), LinearResponse()),
+            Job(group, Window(dt, 10 * dt), planck)]
+    calls = []
+    merged = launch.accumulate_merged
+    monkeypatch.setattr(launch, "accumulate_merged",
+                        lambda *a, **k: calls.append(k["keep_moments"]) or merged(*a, **k))
+    from radiosim.kernels import engines
+    monkeypatch.setitem(engines.ENGINES, "compiled", dataclasses.replace(
+        engines.ENGINES["compiled"], accumulate_merged=launch.accumulate_merged))
+
+    def two_passes(passes, sample):  # the linear pass, then the signal's
+        tables = [(response.signal_table(sample), members) for response, members in passes]
+        return [(t, m, False) for k, (t, m) in enumerate(tables) if k == 0 or t is not None]
+
+    for scene in (FrameStack(stack, dt=dt, dx=dx), _FrameByFrame(stack, dt=dt, dx=dx)):
+        calls.clear()
+        one = integrate_many(scene, jobs)
+        assert calls and all(calls)  # every call the fused one
+        with monkeypatch.context() as patched:
+            patched.setattr(FootprintGroup, "_ordered", staticmethod(two_passes))
+            calls.clear()
+            two = integrate_many(scene, jobs)
+            assert not any(calls) and len(calls) > 1
+        for a, b in zip(one, two):
+            for name in ("mean", "std", "max", "signal_mean"):
+                np.testing.assert_array_equal(getattr(a, name), getattr(b, name))
+
+
 def test_user_built_and_integrator_footprints_share_one_compiled_kernel():
     from radiosim import kernels
     from radiosim.integrator import AxisFootprints

@@ -98,6 +98,10 @@ class Merging(NamedTuple):
     merge: bool
     #: Merge the moments (else only the signals).
     moments: bool
+    #: With ``moments`` and a signal: a pixel row whose only status is samples below the table
+    #: still merges its moments (and moves its reference on), as a pass without the signal
+    #: would; its signal is left to the caller (the row's status says so).
+    keep_moments: bool
     #: (frames, jobs): each job's time weight of the frame (0: not in its window).
     weight: np.ndarray
     #: (frames, jobs): each job's total weight before the frame.

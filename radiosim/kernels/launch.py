@@ -297,7 +297,8 @@ def accumulate(frame, rows, cols, time_weight: float, reference: np.ndarray, dev
 def accumulate_merged(frame, rows, cols, reference: np.ndarray, members: Members,
                       weight: np.ndarray, signal_weight: np.ndarray,
                       response: SignalTable | None = None, *, moments: bool = True,
-                      frame_index: int = 0, threads: int | None = None) -> int:
+                      keep_moments: bool = False, frame_index: int = 0,
+                      threads: int | None = None) -> int:
     """
     One frame into the accumulators of several jobs on the same footprints, in one pass: the
     frame's per-pixel mean m = c + Σ w (T − c) and variance v = Σ w (T − c)² − (Σ w (T − c))²
@@ -308,6 +309,11 @@ def accumulate_merged(frame, rows, cols, reference: np.ndarray, members: Members
     second response on the same footprints) and ``reference`` is kept. ``members.count`` is
     updated here. Checks, errors and return value as :func:`accumulate`.
 
+    A pixel row with samples below the response's table is redone in numpy (exact quadrature);
+    with ``keep_moments`` only its signal is: its moments are the kernel's, exactly those a
+    pass without the response gives (one pass then serves a linear and a radiometric job,
+    with the results of two).
+
     ``frame`` may also be several consecutive frames (3-D: frames, rows, columns; frame
     indices ``frame_index``, ``frame_index + 1``, …) with ``weight`` and ``signal_weight`` one
     row per frame: they are merged one after the other, exactly as frame by frame, in one call
@@ -316,12 +322,14 @@ def accumulate_merged(frame, rows, cols, reference: np.ndarray, members: Members
     apply_thread_settings()  # before numba's parallel layer loads
     rows, cols, block, weight, signal_weight, counts = merged_arguments(
         frame, rows, cols, members, weight, signal_weight, moments)
-    merged = Merging(True, bool(moments), weight, counts[:-1], signal_weight, members.mean,
-                     members.m2, members.max, members.signal)
+    keep = bool(moments and keep_moments and response is not None)
+    merged = Merging(True, bool(moments), keep, weight, counts[:-1], signal_weight,
+                     members.mean, members.m2, members.max, members.signal)
 
     def handle(f, launched):
-        one = (bool(moments), weight[f], counts[f], signal_weight[f], members.mean, members.m2,
-               members.max, members.signal)
+        # Rows kept by the kernel (keep) merged their moments there: numpy adds the signal.
+        one = (bool(moments) and not keep, weight[f], counts[f], signal_weight[f],
+               members.mean, members.m2, members.max, members.signal)
         return _finish(launched, block[f], rows, cols, frame_index + f, response, 1.0,
                        reference, None, None, None, None, (one, members))
 
@@ -333,7 +341,7 @@ def accumulate_merged(frame, rows, cols, reference: np.ndarray, members: Members
     return status
 
 
-_NO_MEMBERS = Merging(False, False, np.zeros((1, 1)), np.zeros((1, 1)), np.zeros((1, 1)),
+_NO_MEMBERS = Merging(False, False, False, np.zeros((1, 1)), np.zeros((1, 1)), np.zeros((1, 1)),
                       np.zeros((1, 1, 1)), np.zeros((1, 1, 1)), np.zeros((1, 1, 1)),
                       np.zeros((1, 1, 1)))
 

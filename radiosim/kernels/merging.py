@@ -2,8 +2,9 @@
 Merging frames into jobs that share footprints, through an engine
 (:class:`~radiosim.kernels.engines.Engine`): a :class:`FootprintGroup` holds its members' stacked
 moments (:class:`~radiosim.kernels.Members`), takes one engine pass per frame (or block of up
-to :data:`FRAME_BLOCK` consecutive frames) and distinct response, and merges it into every
-member active in it. The integrator's compiled path
+to :data:`FRAME_BLOCK` consecutive frames) and distinct response with a signal table (the
+signal T needs none: a linear job's moments come from the first pass), and merges it into
+every member active in it. The integrator's compiled path
 (:func:`radiosim.integrator.integrate_many`) builds the groups and reads their moments.
 
 The members are the integrator's per-job records (``first``, ``stop``, ``weights``, ``job``
@@ -61,13 +62,14 @@ class FootprintGroup:
         """Merge frames ``start``, ``start + 1``, … (``temperature``: one 2-D frame over the
         group's region, or a 3-D block of consecutive frames; ``sample``: the first one's
         scene frame, for its emissivity) into the members active in them: one kernel pass per
-        distinct response (the first also forms the moments). Frames no member's window holds
+        distinct response with a signal table, or one pass if there is none (the first forms
+        the moments: :meth:`_ordered`). Frames no member's window holds
         are skipped (neither read nor checked, as frame by frame); with more than one pass,
         frames go one at a time, so that an error names the earliest bad frame of any pass."""
         block = temperature if temperature.ndim == 3 else temperature[None]
         n = block.shape[0]
         _, passes, active = self.passes(start, start + n)
-        step = n if len(passes) == 1 else 1
+        step = n if len(self._ordered(passes, sample)) == 1 else 1
         f = 0
         while f < n:
             if not active[f]:
@@ -88,10 +90,7 @@ class FootprintGroup:
             first = temperature if temperature.ndim == 2 else temperature[0]
             self.reference = self.engine.pixel_mean(first, rows, cols, frame_index=start)
         moments_done = False
-        for response, members in passes:
-            table = response.signal_table(sample)
-            if table is None and moments_done:
-                continue  # the signal is T: its statistics are formed once
+        for table, members, keep in self._ordered(passes, sample):
             signal_weight = np.zeros(weight.shape)
             if table is not None:
                 signal_weight[:, members] = weight[:, members]
@@ -99,8 +98,27 @@ class FootprintGroup:
                     self.members[b].has_signal = True
             self.engine.accumulate_merged(temperature, rows, cols, self.reference,
                                           self.state, weight, signal_weight, table,
-                                          moments=not moments_done, frame_index=start)
+                                          moments=not moments_done, keep_moments=keep,
+                                          frame_index=start)
             moments_done = True
+
+    @staticmethod
+    def _ordered(passes: list, sample) -> list:
+        """The engine passes of :meth:`passes`' responses: (signal table or None, members,
+        keep_moments). The first pass forms the moments (the signal T needs no pass of its
+        own); when the first response's signal is T and another's has a table, that table's
+        pass comes first and forms them (``keep_moments``: rows below its table keep the
+        moments a pass without it gives), so one pass reads the frame instead of two, with the
+        same results."""
+        tables = [(response.signal_table(sample), members) for response, members in passes]
+        if tables and tables[0][0] is None:
+            radiometric = [k for k, (table, _) in enumerate(tables) if table is not None]
+            if radiometric:
+                first = radiometric[0]
+                return ([(tables[first][0], tables[first][1], True)]
+                        + [(t, m, False) for k, (t, m) in enumerate(tables)
+                           if k != first and t is not None])
+        return [(t, m, False) for k, (t, m) in enumerate(tables) if k == 0 or t is not None]
 
 
 #: Consecutive frames one kernel call takes from a scene that holds its frames as one array

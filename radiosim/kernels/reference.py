@@ -128,11 +128,12 @@ def merge_numpy(rows, d, v1, t_max, s, reference, moments, weight, count, signal
 def accumulate_merged_reference(frame, rows, cols, reference: np.ndarray, members: Members,
                                 weight: np.ndarray, signal_weight: np.ndarray,
                                 response: SignalTable | None = None, *,
-                                moments: bool = True, frame_index: int = 0,
-                                threads: int | None = None) -> int:
+                                moments: bool = True, keep_moments: bool = False,
+                                frame_index: int = 0, threads: int | None = None) -> int:
     """:func:`~radiosim.kernels.launch.accumulate_merged` in plain numpy: each frame's sums by
     :func:`accumulate_reference`, merged by :func:`merge_numpy`. Same arguments (``threads``
-    is accepted and unused), checks, errors and return value."""
+    and ``keep_moments`` are accepted and unused: numpy's moments do not depend on the
+    response), checks, errors and return value."""
     rows, cols, block, weight, signal_weight, counts = merged_arguments(
         frame, rows, cols, members, weight, signal_weight, moments)
     n_frames = block.shape[0]

@@ -13,7 +13,8 @@ import numba
 import numpy as np
 
 from radiosim.kernels.bundles import ThreadBuffers
-from radiosim.kernels.codes import SIGNAL_INDEX, SIGNAL_MAP, SIGNAL_NONE, SIGNAL_SCALAR
+from radiosim.kernels.codes import (SIGNAL_INDEX, SIGNAL_MAP, SIGNAL_NONE, SIGNAL_SCALAR,
+                                    STATUS_BELOW_TABLE)
 from radiosim.kernels.intrinsics import INF, INNER, per_frame_dtype
 from radiosim.kernels.radiance import _signal_row, _signal_rows
 from radiosim.kernels.sweeps import CHUNK, MAX_ROWS, _gather, _lin
@@ -152,7 +153,9 @@ def _commit_row(i, a1, a2, a3, am, an, cols, acc, members, f, with_signal, t_low
     into every member job b of weight w_b = weight[f, b] > 0 (Chan et al.: δ = m − mean,
     M2 += w_b v + δ² n_b w_b / n', mean += δ w_b / n', n' = n_b + w_b; the maximum), unless
     ``moments`` is off; signals add signal_weight[f, b] × Σ w S; and the reference row becomes
-    m (the next frame's c)."""
+    m (the next frame's c). With ``members.keep_moments``, a row whose only status is samples
+    below the table merges its moments and reference all the same (not its signal) and
+    returns that status."""
     slot_weight = cols.weight
     slot_of_piece = cols.of_piece
     col_bounds = cols.bounds
@@ -167,7 +170,9 @@ def _commit_row(i, a1, a2, a3, am, an, cols, acc, members, f, with_signal, t_low
     else:
         status |= _pixel_sums(a1, a2, a3, am, an, slot_weight, slot_of_piece, col_bounds,
                               identity, with_signal, t_low, t_high, s1, s2, s3, sm)
-    if status:
+    kept = (status == STATUS_BELOW_TABLE and members.merge and members.moments
+            and members.keep_moments)
+    if status and not kept:
         return status
     if not members.merge:  # the accumulators indexed [i, j], [b, i, j]: no row views (a view
         # of an array is a reference count, an atomic operation the threads would share)
@@ -194,7 +199,7 @@ def _commit_row(i, a1, a2, a3, am, an, cols, acc, members, f, with_signal, t_low
     m_signal = members.signal
     for b in range(member_weight.shape[1]):
         w = signal_weight[f, b]
-        if with_signal and w > 0.0:
+        if with_signal and w > 0.0 and not kept:
             for j in range(n_pixels):
                 m_signal[b, i, j] += w * s3[j]
     if members.moments:
@@ -217,7 +222,7 @@ def _commit_row(i, a1, a2, a3, am, an, cols, acc, members, f, with_signal, t_low
                     m_max[b, i, j] = sm[j] if sm[j] > m else m
         for j in range(n_pixels):
             reference[i, j] = s1[j]
-    return 0
+    return status  # 0, or STATUS_BELOW_TABLE for a row whose signal the caller redoes
 
 
 @numba.njit(**INNER)
