@@ -65,13 +65,17 @@ How the kernels are fast (see ``benchmarks/bench_kernels.py``):
 Nothing is compiled at import (importing costs numba's own import). The first call with a new
 frame dtype (float32, float64) compiles the one kernel that serves linear, Planck and every
 emissivity form (index maps are passed as uint8: other integer maps are converted, for tables
-of up to 255 entries) and caches it on disk (``cache=True``, in ``radiosim/__pycache__`` or
-``NUMBA_CACHE_DIR``); later processes load it in about 0.3 s. Compiling every kernel takes
-about 50 s on a 2-core machine (``benchmarks/bench_compile.py`` lists it per function: most of
-it is LLVM optimising the row pass, into which the sweeps and the radiance pass are inlined,
-once per frame dtype). :func:`warmup` (``radiosim warmup``) compiles every variant
-ahead of time, and :func:`compile_pending` tells, from the cache's index file, whether a
-launch would compile.
+of up to 255 entries) and caches it on disk (``cache=True``, in ``radiosim/kernels/__pycache__``
+or ``NUMBA_CACHE_DIR``); later processes load it in about 0.3 s. Each frame dtype has an entry
+point of its own (:data:`~radiosim.kernels.rows.ACCUMULATE_KERNELS`); the helpers it calls have
+no Python wrapper and no cache files of their own (``INNER``), and the row pass is inlined into
+it. Compiling every kernel costs about 30 s of CPU on a 2-core machine
+(``benchmarks/bench_compile.py`` lists it per function: most of it is LLVM optimising the row
+pass, once per frame dtype); ``radiosim warmup`` spreads it over the cores (a process per frame
+dtype, :mod:`~radiosim.kernels.compiling`), and ``radiosim run`` compiles the integrator in
+another process while it compiles the chip's kernels. :func:`warmup` compiles every variant
+ahead of time in this process, and :func:`compile_pending` tells, from the cache's index files,
+whether a launch would compile.
 
 The package, one concept per module (imports flow down this list):
 
