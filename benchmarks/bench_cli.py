@@ -15,7 +15,11 @@ ratios next to the issue's targets.
 
 Everything is written in a temporary folder, removed at the end; numba's cache for the runs is
 in it too (the user's cache is neither read nor written; matplotlib's font cache is read
-where it is, as every run reads it). The machine's load shows in the
+where it is, as every run reads it), and so is Python's bytecode cache
+(``PYTHONPYCACHEPREFIX``, ``PYTHONDONTWRITEBYTECODE`` unset): the first process writes it, as
+``pip install`` does for an installed package, and the others read it, as a user's runs do
+(without it, every process of an editable install under ``PYTHONDONTWRITEBYTECODE``
+compiles radiosim's sources again, about 0.3 s). The machine's load shows in the
 numbers: run it on a quiet host for the README's times. Run on demand:
 
     python benchmarks/bench_cli.py [--repeat 5]
@@ -88,7 +92,9 @@ def main(argv=None):
     if not Path(radiosim[0]).is_file():
         radiosim = [python, "-c", "import sys; from radiosim.cli import main; sys.exit(main())"]
     tmp = Path(tempfile.mkdtemp(prefix="bench_cli_"))
-    env = dict(os.environ, NUMBA_CACHE_DIR=str(tmp / "numba-cache"))
+    env = dict(os.environ, NUMBA_CACHE_DIR=str(tmp / "numba-cache"),
+               PYTHONPYCACHEPREFIX=str(tmp / "bytecode"))
+    env.pop("PYTHONDONTWRITEBYTECODE", None)
     rows = []  # (what, seconds, ratio to numpy's import or None, target text, met)
     try:
         numpy = _best([python, "-c", "import numpy"], env, args.repeat)

@@ -17,7 +17,7 @@ import numpy as np
 
 from radiosim.kernels import run_blocks, thread_count
 from radiosim.scenes.base import Region
-from radiosim.scenes.segmented_chip.geometry import Geometry, RegionData
+from radiosim.scenes.segmented_chip.geometry import Geometry, RegionData, rake_fade_of
 from radiosim.scenes.segmented_chip.kernel import (PAD, KernelConstants, RunLayout,
                                                    band_profile, moving_terms_kernel)
 from radiosim.scenes.segmented_chip.parameters import ChipParameters
@@ -81,7 +81,6 @@ class KernelLayout:
         # (an exact no-op) elsewhere, as both the reference's terms have it.
         rs, cs = region
         n_sub = g.n[rs, cs].reshape(-1)
-        fade_sub = g.rake_fade[rs, cs].reshape(-1)
         threshold = FADE_REACH * p.rake_fade
         near = np.zeros(rows * cols, dtype=bool)
         near[r.chip] = near[r.forming] = True
@@ -98,7 +97,8 @@ class KernelLayout:
                     lo = int(near[starts[i]] - i * cols)
                     hi = int(near[starts[i + 1] - 1] - i * cols) + 1
                     span = slice(i * cols + lo, i * cols + hi)
-                    values.append(np.where(n_sub[span] < threshold, fade_sub[span], 1.0))
+                    values.append(np.where(n_sub[span] < threshold,
+                                           rake_fade_of(p, n_sub[span]), 1.0))
                     fade_rows[i, 1] = lo
                     offset += hi - lo
             fade_rows[rows, 0] = offset
