@@ -84,7 +84,7 @@ def _run(args) -> int:
         progress = _Progress("measurement", args.quiet)
         _announce_compile(args, chip=True)
         if args.scheduler is None and args.workers is None:
-            _compile_integrator_aside()
+            _compile_integrator_aside(study.scene)
         result = study.run(out.staging, rng=args.seed, write_exr=not args.no_exr,
                            progress=None if args.quiet else progress,
                            scheduler=args.scheduler, workers=args.workers,
@@ -519,14 +519,20 @@ def _announce_compile(args, frame_dtype="float64", chip=False):
               "(radiosim warmup does it ahead of time)", file=sys.stderr, flush=True)
 
 
-def _compile_integrator_aside(frame_dtype="float64") -> None:
-    """Have another process compile the integrator's kernel for ``frame_dtype`` frames, if the
-    cache lacks it, while this one compiles the scene's kernels (the second core); the first
-    launch waits for it (:mod:`radiosim.kernels.compiling`)."""
-    from radiosim.kernels import compile_in_background, compile_pending
+def _compile_integrator_aside(scene) -> None:
+    """For a segmented chip, have another process compile the integrator's kernel for its
+    frames, if the cache lacks it, while this one compiles the chip's kernels (the second
+    core); the first launch waits for it (:mod:`radiosim.kernels.compiling`). Other scenes
+    have nothing to compile meanwhile: their kernels compile here, at the first launch."""
+    import numpy as np
 
-    if compile_pending((frame_dtype,)):
-        compile_in_background((frame_dtype,))
+    from radiosim.acquisition import frame_dtype
+    from radiosim.kernels import compile_in_background, compile_pending
+    from radiosim.scenes import SegmentedChip
+
+    dtype = np.dtype(frame_dtype(scene)).name if isinstance(scene, SegmentedChip) else None
+    if dtype is not None and compile_pending((dtype,)):
+        compile_in_background((dtype,))
 
 
 def _warmup(args) -> int:
