@@ -30,7 +30,7 @@ from radiosim.errors import RadiosimError, RadiosimIOError
 
 __all__ = ["atomic_write", "atomic_path", "write_text", "OutputFolder", "MANIFEST",
            "native_output_silenced", "check_output_folder", "check_not_an_input", "safe_name",
-           "is_staging", "RUN_MARKER", "check_name", "check_output_file"]
+           "is_staging", "RUN_MARKER", "check_name", "check_output_file", "BackgroundWrites"]
 
 _NATIVE = threading.Lock()
 
@@ -341,6 +341,67 @@ def check_name(name, what: str) -> str:
         raise RadiosimError(f"{what} {name!r} cannot name files: give a name without path "
                             "separators (/ or \\), control characters, or only dots")
     return text
+
+
+class BackgroundWrites:
+    """
+    File writes done on one background thread while the caller goes on, in the order they
+    were asked for: ``writes(path, *args)`` calls ``write(path, *args)`` there.
+
+    Used as a context manager: on leaving it, every write asked for has finished (complete
+    or absent: the writer is an atomic one), also through an interrupt or the body's
+    exception (raised after). Then the first write that failed is raised, and
+    :attr:`failed` holds the paths of those that failed.
+
+    Examples
+    --------
+    >>> import pathlib, tempfile
+    >>> folder = pathlib.Path(tempfile.mkdtemp())
+    >>> with BackgroundWrites(write_text) as writes:
+    ...     writes(folder / "a.txt", "one")
+    >>> (folder / "a.txt").read_text()
+    'one'
+    """
+
+    def __init__(self, write):
+        self._write = write
+        self._pool = None
+        self._pending: list = []
+        self.failed: list[Path] = []
+
+    def __call__(self, path, *args) -> None:
+        if self._pool is None:
+            from concurrent.futures import ThreadPoolExecutor
+
+            self._pool = ThreadPoolExecutor(max_workers=1, thread_name_prefix="radiosim-write")
+        self._pending.append((path, self._pool.submit(self._write, path, *args)))
+
+    def __enter__(self) -> BackgroundWrites:
+        return self
+
+    def __exit__(self, kind, value, traceback) -> None:
+        from concurrent.futures import wait
+
+        interrupted = None
+        while self._pending:
+            try:
+                wait([future for _, future in self._pending])
+                break
+            except BaseException as exc:  # noqa: BLE001 (raised once the writes are done)
+                interrupted = exc
+        first = None
+        for path, future in self._pending:
+            if future.exception() is not None:
+                self.failed.append(Path(path))
+                first = first or future.exception()
+        self._pending = []
+        if self._pool is not None:
+            self._pool.shutdown(wait=True)
+            self._pool = None
+        if interrupted is not None:
+            raise interrupted
+        if first is not None and kind is None:
+            raise first
 
 
 class OutputFolder:

@@ -463,6 +463,8 @@ class Study:
         if scheduler is None and workers is not None and cluster == "auto":
             workers = local_workers(workers, len(plan), self._seconds_per_measurement(plan))
         summary, pick_pixel = self.hook("summary"), self.hook("pixel")
+        if scheduler is None and workers is None:
+            self._prepare_kernels()
         columns = self.columns()
         folder = None
         if out is not None and not is_staging(out):
@@ -523,6 +525,21 @@ class Study:
                             path.rmdir()
         return result
 
+    def _prepare_kernels(self):
+        """Load the kernels this process's measurements will launch (the scene's own and the
+        integrator's for its frames' dtype) from numba's cache on a background thread, while
+        the plan is checked and the scene's static fields are built
+        (:func:`radiosim.kernels.compiling.load_in_background`: nothing is compiled there)."""
+        from radiosim.acquisition import frame_dtype
+        from radiosim.kernels import compiled_selected
+        from radiosim.kernels.compiling import load_in_background
+        from radiosim.kernels.rows import ACCUMULATE_KERNELS
+
+        if compiled_selected():
+            scene = self.scene
+            integrator = ACCUMULATE_KERNELS.get(np.dtype(frame_dtype(scene)).name)
+            load_in_background([*scene.compiled_kernels(), integrator])
+
     def _prepare_figures(self):
         """Call the figures hook's ``prepare``, if it has one."""
         try:
@@ -542,8 +559,9 @@ class Study:
         pass over its frames where the camera module offers it; the warnings each case raises
         go to its row and are raised again here, in the plan's order.
         """
+        from radiosim.files import BackgroundWrites
         from radiosim.integrator import frame_weights
-        from radiosim.io.exr import write_exr as write
+        from radiosim.io.exr import write_exr
 
         pixels = {}
         cases = []
@@ -581,6 +599,20 @@ class Study:
                         "digits (times) or 4 (pitches)"),
                         "sweeps")
                 files[filename] = what
+        # The EXR files are written on a thread of their own while the next group measures;
+        # a row whose file could not be written is not a completed row.
+        write = BackgroundWrites(write_exr)
+        try:
+            with write:
+                self._measure_groups(cases, seeds, run, result, summary, exr_dir, write,
+                                     history, progress)
+        finally:
+            failed = {f"exr/{path.name}" for path in write.failed}
+            result.rows[:] = [r for r in result.rows if r.get("exr") not in failed]
+
+    def _measure_groups(self, cases, seeds, run, result, summary, exr_dir, write, history,
+                        progress):
+        """:meth:`_measure_all`'s measurements, group by group, and their rows."""
         # Consecutive cases on one scene (the same object) share a group: one pass over it.
         groups = [list(g) for _, g in itertools.groupby(cases, key=lambda c: id(c.scene))]
         done = 0
@@ -598,7 +630,7 @@ class Study:
             for case, (m, caught) in zip(group, outcomes):
                 done += 1
                 for text in caught:  # to the caller, as raised: never silenced
-                    warnings.warn(text, RadiosimWarning, stacklevel=3)
+                    warnings.warn(text, RadiosimWarning, stacklevel=4)
                 row = self._row(case, m, summary, exr_dir, write, history)
                 row["warnings"] = " | ".join(dict.fromkeys(caught))
                 result.rows.append(row)

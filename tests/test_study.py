@@ -206,3 +206,39 @@ def test_a_pixel_crop_keeps_the_frames_it_made_for_the_history():
         np.testing.assert_array_equal(kept.frame(k), sample.temperature)
     assert made == list(range(5))  # only crop.frame made them again
     assert kept.frame(6).shape == (9, 9) and made[-1] == 6
+
+
+def test_an_exr_file_that_cannot_be_written_fails_the_run_and_drops_its_row(tmp_path,
+                                                                             monkeypatch):
+    # The EXR files are written on a thread of their own: a file that fails (a full disk)
+    # still ends the run with its one-line error, and the completed rows kept beside the
+    # output list only measurements whose file exists.
+    import radiosim.io.exr as exr
+    from radiosim.errors import RadiosimIOError
+
+    stack = tmp_path / "s.npy"
+    np.save(stack, np.full((20, 12, 12), 400.0))
+    study = Study.from_dict({
+        "name": "frames",
+        "scene": {"type": "frames", "path": str(stack), "dt_us": 1.0, "dx_um": 1.0,
+                  "units": "K"},
+        "cameras": {"c": {"preset": "linear-ideal", "pixel_pitch_um": 3.0}},
+        "sweeps": [{"name": "s", "cameras": ["c"], "integration_time_us": [2, 4, 6]}],
+    })
+    write = exr.write_exr
+
+    def full_at_4us(path, measurement):
+        if "_4us_" in path.name:
+            raise RadiosimIOError(f"cannot write {path}: No space left on device")
+        return write(path, measurement)
+
+    monkeypatch.setattr(exr, "write_exr", full_at_4us)
+    out = tmp_path / "out"
+    with pytest.raises(RadiosimIOError, match="_4us_.*No space left"):
+        study.run(out)
+    kept = [p for p in tmp_path.iterdir() if p.name.startswith("out")]
+    assert len(kept) == 1  # the completed measurements, kept beside the named folder
+    table = (kept[0] / "results.csv").read_text().splitlines()
+    files = sorted(p.name for p in (kept[0] / "exr").iterdir())
+    assert len(table) == 3 and len(files) == 2  # header, 2 µs and 6 µs; their two files
+    assert all(f"exr/{name}" in "\n".join(table) for name in files)

@@ -26,6 +26,7 @@ from __future__ import annotations
 import os
 import subprocess
 import sys
+import threading
 
 import numpy as np
 
@@ -38,7 +39,8 @@ from radiosim.kernels.reference import Members
 from radiosim.kernels.rows import ACCUMULATE_KERNELS
 from radiosim.kernels.table import SignalTable
 
-__all__ = ["compile_pending", "cache_location", "warmup", "compile_in_background"]
+__all__ = ["compile_pending", "cache_location", "warmup", "compile_in_background",
+           "load_in_background"]
 
 
 def _fresh_signatures(dispatcher) -> list:
@@ -244,3 +246,36 @@ def _main(argv) -> int:
     except KeyboardInterrupt:  # the terminal's interrupt reaches this process too
         return 130
     return 0
+
+
+# -- loading ahead of time ----------------------------------------------------------------------
+
+
+def load_in_background(dispatchers) -> threading.Thread | None:
+    """
+    Load into this process, on a background thread, the variants of ``dispatchers`` that
+    numba's cache holds fresh and this process has not loaded yet (numba's registries with
+    the first: about 0.6 s for the chip's and the integrator's kernels), while this thread
+    goes on (a study checks its plan and builds its scene's static fields meanwhile). Nothing
+    is compiled: a variant the cache lacks is not among them, and compiles at its first call.
+    A launch meanwhile waits for numba's compiler lock, then finds the variant loaded. Returns
+    the thread, or ``None`` when there is nothing to load.
+    """
+    wanted = [(d, signature) for d in dispatchers if d is not None
+              for signature in _fresh_signatures(d) if signature not in d.signatures]
+    if not wanted:
+        return None
+    thread = threading.Thread(target=_load, args=(wanted,), daemon=True,
+                              name="radiosim-kernel-loader")
+    thread.start()
+    return thread
+
+
+def _load(wanted) -> None:
+    """:func:`load_in_background`'s thread: each (dispatcher, signature) from the cache."""
+    for dispatcher, signature in wanted:
+        try:
+            dispatcher.compile(signature)
+        except Exception:  # noqa: BLE001 - a variant that does not load is loaded (or
+            # compiled) by its first call, which reports what goes wrong there
+            return
