@@ -48,3 +48,17 @@ def test_a_failing_compiling_process_leaves_the_work_to_this_one(monkeypatch):
     assert len(started) == 1
     report = compiling.warmup(frame_dtypes=("float64",), bands=False)  # waits, then launches
     assert started[0].returncode == 3 and report["variants"] == 10
+
+
+def test_a_new_process_loads_the_cached_kernels_on_a_thread_without_compiling():
+    compiling.warmup(frame_dtypes=("float64",), bands=False)  # cached (or loaded) here first
+    code = ("from radiosim.kernels.compiling import load_in_background; "
+            "from radiosim.kernels.rows import ACCUMULATE_KERNELS as K; d = K['float64']; "
+            "t = load_in_background([d]); t.join(); "
+            "print(len(d.signatures), sum(d.stats.cache_hits.values()), "
+            "sum(d.stats.cache_misses.values()), load_in_background([d]))")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                         check=True)
+    loaded, hits, misses, again = out.stdout.split()
+    # Every cached variant loaded from the cache, none compiled; then nothing left to load.
+    assert int(loaded) >= 1 and int(hits) == int(loaded) and misses == "0" and again == "None"
