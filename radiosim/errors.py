@@ -117,10 +117,14 @@ def on_interrupt(signum, frame):
 
 
 def _end_children():
-    """Kill this process's multiprocessing children (a local Dask cluster's workers), if
-    any: quietly, and before the cleanup talks to them."""
+    """Kill this process's multiprocessing children (a local Dask cluster's workers) and the
+    processes compiling kernels for it, if any: quietly, and before the cleanup talks to
+    them."""
     import sys
 
+    background = sys.modules.get("radiosim.kernels.background")
+    if background is not None:  # processes compiling kernels (radiosim.kernels.compiling)
+        background.stop_all()
     if "multiprocessing" not in sys.modules:
         return
     import multiprocessing

@@ -1,5 +1,6 @@
 """Compiling in other processes: the wait before a launch, and stopping what still runs."""
 
+import os
 import subprocess
 import sys
 import time
@@ -27,7 +28,7 @@ def test_processes_still_running_at_exit_are_stopped():
     process = _sleeper(60)
     background.register(process)
     began = time.perf_counter()
-    background._stop()  # what atexit runs
+    background.stop_all()  # what atexit and an interrupted command's exit run
     assert process.poll() is not None and process.returncode != 0
     assert time.perf_counter() - began < 10 and not background._RUNNING
 
@@ -62,3 +63,38 @@ def test_a_new_process_loads_the_cached_kernels_on_a_thread_without_compiling():
     loaded, hits, misses, again = out.stdout.split()
     # Every cached variant loaded from the cache, none compiled; then nothing left to load.
     assert int(loaded) >= 1 and int(hits) == int(loaded) and misses == "0" and again == "None"
+
+
+def test_an_interrupted_command_stops_the_compiling_processes():
+    # An interrupted command ends without the interpreter's exit handlers
+    # (radiosim.errors.exit_interrupted): its children are ended on the way out all the same.
+    from radiosim import errors
+
+    process = _sleeper(60)
+    background.register(process)
+    errors._end_children()
+    assert process.wait(timeout=10) != 0 and not background._RUNNING
+
+
+def test_a_compiling_process_ends_with_the_process_that_started_it(tmp_path):
+    # Its parent killed (no exit handler ran), the compiling process does not go on alone.
+    code = ("import subprocess, sys; p = subprocess.Popen([sys.executable, '-c', "
+            "'import sys, time; from radiosim.kernels import compiling; "
+            "compiling.warmup = lambda **k: time.sleep(60); "
+            "sys.exit(compiling._main([\"float64\"]))']); print(p.pid, flush=True); "
+            "import time; time.sleep(60)")
+    parent = subprocess.Popen([sys.executable, "-c", code], stdout=subprocess.PIPE, text=True)
+    child = int(parent.stdout.readline())
+    time.sleep(1.0)
+    parent.kill()
+    parent.wait()
+    deadline = time.monotonic() + 10
+    while time.monotonic() < deadline:
+        try:
+            os.kill(child, 0)
+        except ProcessLookupError:
+            break
+        time.sleep(0.2)
+    else:
+        os.kill(child, 9)
+        raise AssertionError("the compiling process outlived its parent by 10 s")

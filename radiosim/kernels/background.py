@@ -13,7 +13,7 @@ import atexit
 import subprocess
 import threading
 
-__all__ = ["register", "wait_for_background"]
+__all__ = ["register", "wait_for_background", "stop_all"]
 
 _RUNNING: list = []  # started and not yet waited for
 _LOCK = threading.Lock()
@@ -36,12 +36,12 @@ def wait_for_background() -> None:
                 _RUNNING[0].wait()
                 _RUNNING.pop(0)
         except BaseException:
-            _stop()
+            stop_all()
             raise
 
 
 @atexit.register
-def _stop() -> None:
+def stop_all() -> None:
     """Stop the compiling processes still running (this process is exiting, or was interrupted
     while it waited): numba writes each cache file whole (to a temporary name, then renamed),
     so at worst a variant stays uncached."""

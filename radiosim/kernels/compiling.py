@@ -215,7 +215,8 @@ def compile_in_background(frame_dtypes=("float64",), bands: bool = False) -> lis
     """
     Start compiling, each in another Python process, the kernel variants (:func:`warmup`) of
     those ``frame_dtypes`` that numba's cache does not hold (with ``bands``, the sub-band
-    kernel's too), and return the processes started (none when all are cached). This process
+    kernel's too), and return the processes started (none when all are cached; each process's
+    ``frame_dtype`` says which it compiles). This process
     goes on; its first kernel launch waits for them
     (:func:`~radiosim.kernels.background.wait_for_background`). They write
     nothing but numba's cache; their output is discarded; they stop when this process exits.
@@ -229,6 +230,7 @@ def compile_in_background(frame_dtypes=("float64",), bands: bool = False) -> lis
                                        stderr=subprocess.DEVNULL)
         except OSError:  # cannot start one: this process compiles what it needs itself
             continue
+        process.frame_dtype = dtype
         background.register(process)
         started.append(process)
     return started
@@ -237,10 +239,21 @@ def compile_in_background(frame_dtypes=("float64",), bands: bool = False) -> lis
 _CHILD = "import sys; from radiosim.kernels.compiling import _main; sys.exit(_main(sys.argv[1:]))"
 
 
+def _end_with_parent(parent: int) -> None:
+    """The other process's watch: it ends when the process that started it has ended without
+    stopping it (killed), instead of compiling on for no one."""
+    import time
+
+    while os.getppid() == parent:
+        time.sleep(0.5)
+    os._exit(1)
+
+
 def _main(argv) -> int:
     """The other process: ``python -c _CHILD DTYPE [DTYPE ...] [--bands]``."""
     bands = "--bands" in argv
     dtypes = [a for a in argv if a != "--bands"]
+    threading.Thread(target=_end_with_parent, args=(os.getppid(),), daemon=True).start()
     try:
         warmup(frame_dtypes=dtypes, bands=bands)
     except KeyboardInterrupt:  # the terminal's interrupt reaches this process too
