@@ -65,21 +65,35 @@ class FootprintGroup:
         distinct response with a signal table, or one pass if there is none (the first forms
         the moments: :meth:`_ordered`). Frames no member's window holds
         are skipped (neither read nor checked, as frame by frame); with more than one pass,
-        frames go one at a time, so that an error names the earliest bad frame of any pass."""
+        frames go one at a time, so that an error names the earliest bad frame of any pass.
+        Consecutive frames go together only while the same responses are active in the same
+        order (their passes are then those of each frame alone)."""
         block = temperature if temperature.ndim == 3 else temperature[None]
         n = block.shape[0]
-        _, passes, active = self.passes(start, start + n)
-        step = n if len(self._ordered(passes, sample)) == 1 else 1
+        order = self._responses_by_frame(start, n)
         f = 0
         while f < n:
-            if not active[f]:
+            if not order[f]:
                 f += 1
                 continue
+            _, passes, _ = self.passes(start + f, start + f + 1)
+            step = n if len(self._ordered(passes, sample)) == 1 else 1
             g = f + 1
-            while g < n and active[g] and g - f < step:
+            while g < n and order[g] == order[f] and g - f < step:
                 g += 1
             self._merge_run(block[f:g] if g - f > 1 else block[f], sample, start + f)
             f = g
+
+    def _responses_by_frame(self, start: int, n: int) -> list[tuple]:
+        """For frames start … start + n − 1: the responses of the members whose windows hold
+        it, in the order of their first such member (as :meth:`passes` orders them); empty
+        where none does."""
+        order = [[] for _ in range(n)]
+        for m in self.members:
+            for k in range(max(start, m.first) - start, min(start + n, m.stop) - start):
+                if id(m.job.response) not in order[k]:
+                    order[k].append(id(m.job.response))
+        return [tuple(o) for o in order]
 
     def _merge_run(self, temperature: np.ndarray, sample, start: int):
         """:meth:`merge` of consecutive frames that members' windows hold."""
