@@ -507,7 +507,10 @@ def _announce_compile(args, frame_dtype="float64", chip=False):
     Not in a log: there an error stays the one line on stderr."""
     if args.quiet or not sys.stderr.isatty():
         return
-    from radiosim.kernels import compile_pending
+    from radiosim.kernels import compile_pending, compiled_selected
+
+    if not compiled_selected():  # the numpy engine compiles nothing
+        return
 
     also = ()
     if chip:
@@ -527,9 +530,11 @@ def _compile_integrator_aside(scene) -> None:
     import numpy as np
 
     from radiosim.acquisition import frame_dtype
-    from radiosim.kernels import compile_in_background, compile_pending
+    from radiosim.kernels import compile_in_background, compile_pending, compiled_selected
     from radiosim.scenes import SegmentedChip
 
+    if not compiled_selected():  # the numpy engine: nothing to compile
+        return
     dtype = np.dtype(frame_dtype(scene)).name if isinstance(scene, SegmentedChip) else None
     if dtype is not None and compile_pending((dtype,)):
         compile_in_background((dtype,))

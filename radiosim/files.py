@@ -348,10 +348,12 @@ class BackgroundWrites:
     File writes done on one background thread while the caller goes on, in the order they
     were asked for: ``writes(path, *args)`` calls ``write(path, *args)`` there.
 
-    Used as a context manager: on leaving it, every write asked for has finished (complete
-    or absent: the writer is an atomic one), also through an interrupt or the body's
-    exception (raised after). Then the first write that failed is raised, and
-    :attr:`failed` holds the paths of those that failed.
+    A write that has failed is raised by the next one asked for (the caller stops there, as
+    it would have with the write in its own hands). Used as a context manager: on leaving it,
+    every write asked for has finished (complete or absent: the writer is an atomic one), also
+    through an interrupt or the body's exception (raised after; then the writes not yet
+    started are not done). The first failure is raised, and :attr:`failed` holds the paths of
+    the writes that failed or were not done.
 
     Examples
     --------
@@ -370,6 +372,9 @@ class BackgroundWrites:
         self.failed: list[Path] = []
 
     def __call__(self, path, *args) -> None:
+        for _, future in self._pending:
+            if future.done() and future.exception() is not None:
+                raise future.exception()
         if self._pool is None:
             from concurrent.futures import ThreadPoolExecutor
 
@@ -382,6 +387,9 @@ class BackgroundWrites:
     def __exit__(self, kind, value, traceback) -> None:
         from concurrent.futures import wait
 
+        if kind is not None:  # the body failed or was interrupted: no new write starts
+            for _, future in self._pending:
+                future.cancel()
         interrupted = None
         while self._pending:
             try:
@@ -389,11 +397,14 @@ class BackgroundWrites:
                 break
             except BaseException as exc:  # noqa: BLE001 (raised once the writes are done)
                 interrupted = exc
+                for _, future in self._pending:
+                    future.cancel()
         first = None
         for path, future in self._pending:
-            if future.exception() is not None:
+            if future.cancelled() or future.exception() is not None:
                 self.failed.append(Path(path))
-                first = first or future.exception()
+                if not future.cancelled():
+                    first = first or future.exception()
         self._pending = []
         if self._pool is not None:
             self._pool.shutdown(wait=True)

@@ -65,15 +65,26 @@ def test_a_new_process_loads_the_cached_kernels_on_a_thread_without_compiling():
     assert int(loaded) >= 1 and int(hits) == int(loaded) and misses == "0" and again == "None"
 
 
-def test_an_interrupted_command_stops_the_compiling_processes():
+def test_an_interrupted_command_stops_the_compiling_processes(tmp_path):
     # An interrupted command ends without the interpreter's exit handlers
     # (radiosim.errors.exit_interrupted): its children are ended on the way out all the same.
+    # Killed at once (a handler may run while the process is being waited for) and reaped,
+    # its working folder removed.
     from radiosim import errors
 
-    process = _sleeper(60)
-    background.register(process)
+    process, folder = _sleeper(60), tmp_path / "work"
+    folder.mkdir()
+    background.register(process, str(folder))
+    began = time.perf_counter()
     errors._end_children()
-    assert process.wait(timeout=10) != 0 and not background._RUNNING
+    assert time.perf_counter() - began < 2 and not background._RUNNING
+    assert not folder.exists()
+    try:
+        os.kill(process.pid, 0)
+    except ProcessLookupError:
+        pass  # ended and reaped
+    else:
+        raise AssertionError("the compiling process still runs")
 
 
 def test_a_compiling_process_ends_with_the_process_that_started_it(tmp_path):

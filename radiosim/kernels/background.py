@@ -3,26 +3,36 @@ The compiling processes this one has started
 (:func:`radiosim.kernels.compiling.compile_in_background`), and the wait for them before a
 kernel launches: :func:`wait_for_background` returns at once when there are none (the launch
 functions call it every time), else waits until they have ended, so that the launch loads from
-numba's cache what they compiled instead of compiling it a second time. Processes still running
-when this one exits are stopped.
+numba's cache what they compiled instead of compiling it a second time. Each process works in a
+folder of its own that this process made and removes once the process has ended. Processes
+still running when this one exits, or is interrupted, are stopped.
 """
 
 from __future__ import annotations
 
 import atexit
+import os
+import shutil
+import signal
 import subprocess
 import threading
 
 __all__ = ["register", "wait_for_background", "stop_all"]
 
-_RUNNING: list = []  # started and not yet waited for
+_RUNNING: list = []  # (process, its folder): started and not yet waited for
 _LOCK = threading.Lock()
 
 
-def register(process: subprocess.Popen) -> None:
-    """Count ``process`` (a compiling process) among those a launch waits for."""
+def register(process: subprocess.Popen, folder: str | None = None) -> None:
+    """Count ``process`` (a compiling process) among those a launch waits for; ``folder``
+    (its working folder) is removed once it has ended."""
     with _LOCK:
-        _RUNNING.append(process)
+        _RUNNING.append((process, folder))
+
+
+def _remove(folder) -> None:
+    if folder is not None:
+        shutil.rmtree(folder, ignore_errors=True)
 
 
 def wait_for_background() -> None:
@@ -33,23 +43,37 @@ def wait_for_background() -> None:
     with _LOCK:
         try:
             while _RUNNING:
-                _RUNNING[0].wait()
+                process, folder = _RUNNING[0]
+                process.wait()
                 _RUNNING.pop(0)
+                _remove(folder)
         except BaseException:
-            stop_all()
+            stop_all(at_once=True)
             raise
 
 
 @atexit.register
-def stop_all() -> None:
-    """Stop the compiling processes still running (this process is exiting, or was interrupted
-    while it waited): numba writes each cache file whole (to a temporary name, then renamed),
-    so at worst a variant stays uncached."""
+def stop_all(at_once: bool = False) -> None:
+    """
+    Stop the compiling processes still running and remove their folders: asked to end
+    (SIGTERM), given 5 s, then killed; with ``at_once`` (an interrupt: also from a signal
+    handler, where a process being waited for cannot be polled) killed at once and reaped
+    directly. numba writes each cache file under a temporary name, then renames it: at worst a
+    variant stays uncached.
+    """
     while _RUNNING:
-        process = _RUNNING.pop()
-        if process.poll() is None:
+        process, folder = _RUNNING.pop()
+        if at_once and process.returncode is None:  # (a reaped process's id may be reused)
+            try:
+                os.kill(process.pid, signal.SIGKILL)
+                os.waitpid(process.pid, 0)
+            except (ProcessLookupError, ChildProcessError):
+                pass  # it had ended, and was reaped
+        elif process.poll() is None:
             process.terminate()
             try:
                 process.wait(timeout=5)
             except subprocess.TimeoutExpired:
                 process.kill()
+                process.wait()
+        _remove(folder)

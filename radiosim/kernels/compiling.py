@@ -45,12 +45,16 @@ __all__ = ["compile_pending", "cache_location", "warmup", "compile_in_background
 
 def _fresh_signatures(dispatcher) -> list:
     """The signatures of ``dispatcher`` compiled in this process or held, fresh (stamped with
-    the current sources), in numba's on-disk cache, read from its small index file."""
+    the current sources) and loadable here (compiled for this machine's CPU, from this
+    bytecode: the whole index key), in numba's on-disk cache, read from its small index file."""
     try:
-        overloads = dispatcher._cache._cache_file._load_index()  # {} when missing or stale
+        cache = dispatcher._cache
+        overloads = cache._cache_file._load_index()  # {} when missing or stale
+        codegen = dispatcher.targetctx.codegen()
+        keys = [key for key in overloads if key == cache._index_key(key[0], codegen)]
     except Exception:  # numba's private API moved, or an unreadable index: assume nothing
-        overloads = {}
-    return [key[0] for key in overloads] + list(dispatcher.signatures)
+        keys = []
+    return [key[0] for key in keys] + list(dispatcher.signatures)
 
 
 def _cached_variants(dispatcher) -> set:
@@ -216,22 +220,33 @@ def compile_in_background(frame_dtypes=("float64",), bands: bool = False) -> lis
     Start compiling, each in another Python process, the kernel variants (:func:`warmup`) of
     those ``frame_dtypes`` that numba's cache does not hold (with ``bands``, the sub-band
     kernel's too), and return the processes started (none when all are cached; each process's
-    ``frame_dtype`` says which it compiles). This process
-    goes on; its first kernel launch waits for them
-    (:func:`~radiosim.kernels.background.wait_for_background`). They write
-    nothing but numba's cache; their output is discarded; they stop when this process exits.
+    ``frame_dtype`` says which it compiles). This process goes on; its first kernel launch
+    waits for them (:func:`~radiosim.kernels.background.wait_for_background`). They write
+    nothing but numba's cache and their own temporary folder (made here, their working
+    folder, removed once they have ended); they import this process's radiosim; their output
+    is discarded; they stop when this process exits or is interrupted, and end by themselves
+    if it is killed.
     """
+    import tempfile
+
+    package = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
+    paths = [package, os.environ.get("PYTHONPATH", "")]
+    env = dict(os.environ, PYTHONPATH=os.pathsep.join(p for p in paths if p))
     started = []
     for dtype in _pending_dtypes(frame_dtypes, bands):
-        command = [sys.executable, "-c", _CHILD, dtype]
+        folder = None
         try:
-            process = subprocess.Popen(command + (["--bands"] if bands else []),
-                                       stdin=subprocess.DEVNULL, stdout=subprocess.DEVNULL,
-                                       stderr=subprocess.DEVNULL)
-        except OSError:  # cannot start one: this process compiles what it needs itself
+            folder = tempfile.mkdtemp(prefix="radiosim-compiling-")
+            command = [sys.executable, "-c", _CHILD, dtype, "--memmap-dir", folder]
+            process = subprocess.Popen(command + (["--bands"] if bands else []), cwd=folder,
+                                       env=env, stdin=subprocess.DEVNULL,
+                                       stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+        except (OSError, TypeError, ValueError):  # cannot start one (no interpreter to run,
+            if folder is not None:  # no temporary folder): this process compiles itself
+                os.rmdir(folder)
             continue
         process.frame_dtype = dtype
-        background.register(process)
+        background.register(process, folder)
         started.append(process)
     return started
 
@@ -250,12 +265,18 @@ def _end_with_parent(parent: int) -> None:
 
 
 def _main(argv) -> int:
-    """The other process: ``python -c _CHILD DTYPE [DTYPE ...] [--bands]``."""
+    """The other process: ``python -c _CHILD DTYPE [DTYPE ...] [--bands] [--memmap-dir DIR]``."""
+    argv = list(argv)
+    memmap_dir = None
+    if "--memmap-dir" in argv:
+        at = argv.index("--memmap-dir")
+        memmap_dir = argv[at + 1]
+        del argv[at:at + 2]
     bands = "--bands" in argv
     dtypes = [a for a in argv if a != "--bands"]
     threading.Thread(target=_end_with_parent, args=(os.getppid(),), daemon=True).start()
     try:
-        warmup(frame_dtypes=dtypes, bands=bands)
+        warmup(memmap_dir=memmap_dir, frame_dtypes=dtypes, bands=bands)
     except KeyboardInterrupt:  # the terminal's interrupt reaches this process too
         return 130
     return 0
