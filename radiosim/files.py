@@ -351,9 +351,9 @@ class BackgroundWrites:
     A write that has failed is raised by the next one asked for (the caller stops there, as
     it would have with the write in its own hands). Used as a context manager: on leaving it,
     every write asked for has finished (complete or absent: the writer is an atomic one), also
-    through an interrupt or the body's exception (raised after; then the writes not yet
-    started are not done). The first failure is raised, and :attr:`failed` holds the paths of
-    the writes that failed or were not done.
+    through the body's exception or an interrupt (raised after; on an interrupt the writes
+    not yet started are not done). The first failure is raised, and :attr:`failed` holds the
+    paths of the writes that failed or were not done.
 
     Examples
     --------
@@ -387,9 +387,9 @@ class BackgroundWrites:
     def __exit__(self, kind, value, traceback) -> None:
         from concurrent.futures import wait
 
-        if kind is not None:  # the body failed or was interrupted: no new write starts
-            for _, future in self._pending:
-                future.cancel()
+        if kind is not None and not issubclass(kind, Exception):  # interrupted: no new write
+            for _, future in self._pending:  # starts (those asked for after a failure are
+                future.cancel()  # of completed work: they are done)
         interrupted = None
         while self._pending:
             try:

@@ -248,8 +248,9 @@ def test_an_exr_file_that_cannot_be_written_fails_the_run_and_drops_its_row(tmp_
 
 
 def test_background_writes_stop_at_the_first_failure_and_skip_the_rest_on_an_error(tmp_path):
-    # A failed write is raised by the next write asked for; on the body's error the writes
-    # not yet started are not done, and are counted as not written.
+    # A failed write is raised by the next write asked for; after the body's error every
+    # write asked for is done, after an interrupt those not yet started are not (and are
+    # counted as not written).
     import threading
 
     from radiosim.files import BackgroundWrites
@@ -270,13 +271,18 @@ def test_background_writes_stop_at_the_first_failure_and_skip_the_rest_on_an_err
             time.sleep(0.2)  # the failure is known by now
             writes(tmp_path / "b", "y")  # raises it
     assert writes.failed == [tmp_path / "bad"] and not (tmp_path / "b").exists()
-    gate.clear()
-    writes = BackgroundWrites(write)
-    with pytest.raises(KeyError):
-        with writes:
-            writes(tmp_path / "c", "1")  # started: waits for the gate, then completes
-            writes(tmp_path / "d", "2")  # not started when the body fails: not done
-            threading.Timer(0.3, gate.set).start()  # the gate opens while __exit__ waits
-            raise KeyError("the body's error")
-    assert (tmp_path / "c").read_text() == "1" and not (tmp_path / "d").exists()
-    assert writes.failed == [tmp_path / "d"]
+    for error, first, second in ((KeyError, tmp_path / "c", tmp_path / "d"),
+                                 (KeyboardInterrupt, tmp_path / "e", tmp_path / "f")):
+        gate.clear()
+        writes = BackgroundWrites(write)
+        with pytest.raises(error):
+            with writes:
+                writes(first, "1")  # started: waits for the gate, then completes
+                writes(second, "2")  # not started when the body fails
+                threading.Timer(0.3, gate.set).start()  # the gate opens while __exit__ waits
+                raise error("the body's error")
+        assert first.read_text() == "1"
+        if error is KeyError:  # a failed body's writes are of completed work: done
+            assert second.read_text() == "2" and writes.failed == []
+        else:  # interrupted: those not started are not done
+            assert not second.exists() and writes.failed == [second]
