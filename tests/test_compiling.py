@@ -89,11 +89,12 @@ def test_an_interrupted_command_stops_the_compiling_processes(tmp_path):
 
 def test_a_compiling_process_ends_with_the_process_that_started_it(tmp_path):
     # Its parent killed (no exit handler ran), the compiling process does not go on alone.
-    code = ("import subprocess, sys; p = subprocess.Popen([sys.executable, '-c', "
+    # (The parent killed 1 s in: the compiling process may still be importing radiosim.)
+    code = ("import os, subprocess, sys; p = subprocess.Popen([sys.executable, '-c', "
             "'import sys, time; from radiosim.kernels import compiling; "
             "compiling.warmup = lambda **k: time.sleep(60); "
-            "sys.exit(compiling._main([\"float64\"]))']); print(p.pid, flush=True); "
-            "import time; time.sleep(60)")
+            "sys.exit(compiling._main(sys.argv[1:]))', 'float64', '--parent', "
+            "str(os.getpid())]); print(p.pid, flush=True); import time; time.sleep(60)")
     parent = subprocess.Popen([sys.executable, "-c", code], stdout=subprocess.PIPE, text=True)
     child = int(parent.stdout.readline())
     time.sleep(1.0)
@@ -102,8 +103,10 @@ def test_a_compiling_process_ends_with_the_process_that_started_it(tmp_path):
     deadline = time.monotonic() + 10
     while time.monotonic() < deadline:
         try:
-            os.kill(child, 0)
-        except ProcessLookupError:
+            with open(f"/proc/{child}/stat") as stat:  # ended: gone, or a zombie not yet
+                if stat.read().rsplit(")", 1)[1].split()[0] == "Z":  # reaped by its new parent
+                    break
+        except FileNotFoundError:
             break
         time.sleep(0.2)
     else:

@@ -237,7 +237,8 @@ def compile_in_background(frame_dtypes=("float64",), bands: bool = False) -> lis
         folder = None
         try:
             folder = tempfile.mkdtemp(prefix="radiosim-compiling-")
-            command = [sys.executable, "-c", _CHILD, dtype, "--memmap-dir", folder]
+            command = [sys.executable, "-c", _CHILD, dtype, "--memmap-dir", folder,
+                       "--parent", str(os.getpid())]
             process = subprocess.Popen(command + (["--bands"] if bands else []), cwd=folder,
                                        env=env, stdin=subprocess.DEVNULL,
                                        stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
@@ -265,16 +266,21 @@ def _end_with_parent(parent: int) -> None:
 
 
 def _main(argv) -> int:
-    """The other process: ``python -c _CHILD DTYPE [DTYPE ...] [--bands] [--memmap-dir DIR]``."""
+    """The other process: ``python -c _CHILD DTYPE [DTYPE ...] [--bands] [--memmap-dir DIR]
+    [--parent PID]`` (the process that started it: it ends when that one has, even before
+    this one got here)."""
     argv = list(argv)
-    memmap_dir = None
-    if "--memmap-dir" in argv:
-        at = argv.index("--memmap-dir")
-        memmap_dir = argv[at + 1]
-        del argv[at:at + 2]
+    options = {"--memmap-dir": None, "--parent": None}
+    for name in options:
+        if name in argv:
+            at = argv.index(name)
+            options[name] = argv[at + 1]
+            del argv[at:at + 2]
     bands = "--bands" in argv
     dtypes = [a for a in argv if a != "--bands"]
-    threading.Thread(target=_end_with_parent, args=(os.getppid(),), daemon=True).start()
+    parent = int(options["--parent"] or os.getppid())
+    threading.Thread(target=_end_with_parent, args=(parent,), daemon=True).start()
+    memmap_dir = options["--memmap-dir"]
     try:
         warmup(memmap_dir=memmap_dir, frame_dtypes=dtypes, bands=bands)
     except KeyboardInterrupt:  # the terminal's interrupt reaches this process too
