@@ -69,7 +69,7 @@ CHAIN = (
     "electronics", "calibration", "measurement", "ratio", "presets", "acquisition", "camera",
     "characterization", "calibration_table", "scheduling", "moments", "budget_reuse",
     "uncertainty", "io", "study_spec", "study", "plotting", "reporting", "paper", "example_data",
-    "console", "cli",
+    "console", "warmup", "cli",
 )
 
 __all__ = [

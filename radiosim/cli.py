@@ -29,8 +29,8 @@ from typing import TYPE_CHECKING
 # radiosim.errors first: in the command's process it installs the start-up signal handlers
 # (one line and exit 130 on Ctrl-C or SIGTERM while the heavy modules load).
 from radiosim.errors import (Interrupted, RadiosimError, RadiosimIOError, RadiosimWarning,
-                             command_state as _Command, exit_interrupted as _exit_now,
-                             on_interrupt as _interrupt)
+                             command_state as _Command, exit_done as _exit_done,
+                             exit_interrupted as _exit_now, on_interrupt as _interrupt)
 from radiosim import __version__  # noqa: E402
 from radiosim.console import Progress as _Progress, show_warning as _show_warning
 from radiosim.units import (AMBIENT_TEMPERATURE, join_negatives as _join_negatives,
@@ -82,9 +82,9 @@ def _run(args) -> int:
         if study.description:
             print(f"  {study.description}")
         progress = _Progress("measurement", args.quiet)
-        _announce_compile(args, chip=True)
+        _kernels().announce_compile(args, chip=True)
         if args.scheduler is None and args.workers is None:
-            _compile_integrator_aside(study.scene)
+            _kernels().compile_integrator_aside(study.scene)
         result = study.run(out.staging, rng=args.seed, write_exr=not args.no_exr,
                            progress=None if args.quiet else progress,
                            scheduler=args.scheduler, workers=args.workers,
@@ -174,7 +174,7 @@ def _measure(args) -> int:
     # A long measurement: per block of frames, on a terminal only (in a log, an error after
     # the work stays the one line on stderr).
     progress = _Progress("frame", args.quiet, delay=2.0, terminal_only=True)
-    _announce_compile(args, frame_dtype(scene))
+    _kernels().announce_compile(args, frame_dtype(scene))
     try:
         m = camera.measure(scene, args.integration_time, args.start, args.seed,
                            progress=lambda done, total: progress(done, total, "frames"))
@@ -364,7 +364,7 @@ def _sse(args) -> int:
     pitch = camera.fpa.pixel_pitch
     diameters = np.array(args.diameters) if args.diameters else sse_diameters(pitch)
     progress = _Progress("disc", args.quiet)
-    _announce_compile(args)
+    _kernels().announce_compile(args)
     curve = size_of_source(camera, diameters, args.temperature, args.background,
                            args.integration_time, progress=progress)
     psf = ", ".join(type(p).__name__ for p in camera.optics.psf or ()) or "perfect lens"
@@ -405,7 +405,7 @@ def _uncertainty(args) -> int:
     print(f"radiosim {__version__}: uncertainty of study {study.name} → {out.path}/ "
           f"({draws or 'adaptive'} draws, {', '.join(spec.inputs)} and the noise)")
     bar = _Progress("draw", args.quiet)
-    _announce_compile(args, chip=True)
+    _kernels().announce_compile(args, chip=True)
 
     def progress(done, total, seconds_left=None):
         bar(done, total, "draws" + ("" if seconds_left is None
@@ -441,7 +441,7 @@ def _calibrate(args) -> int:
                             "temperature_C, and counts)")
     _check_out_file(args, ".toml", "the fitted camera is a TOML file")
     progress = _Progress("step", args.quiet)
-    _announce_compile(args)
+    _kernels().announce_compile(args)
     # The library reads and checks the table (columns, units, BOM, monotonic counts) and
     # checks each point against the full well and the converter's range.
     try:
@@ -477,7 +477,7 @@ def _report(args) -> int:
     print(f"radiosim {__version__}: datasheet of {camera.name} at {t_int * 1e6:g} µs → "
           f"{out.path}/")
     progress = _Progress("step", args.quiet)
-    _announce_compile(args)
+    _kernels().announce_compile(args)
     completed = False
     try:
         sheet = datasheet(camera, t_int, plan.ptc_temperatures, plan.netd_temperatures,
@@ -495,78 +495,17 @@ def _report(args) -> int:
     return 0
 
 
-#: Compile times [s] from an empty cache on 2 cores (measured by benchmarks/bench_cli.py and
-#: bench_compile.py; README): the variant a run needs
-#: (one frame type, with the chip's terms), and every variant (``radiosim warmup``).
-COMPILE_SECONDS, WARMUP_SECONDS = 15, 25
+def _kernels():
+    """:mod:`radiosim.warmup`, the command's side of compiling (loaded when a command needs
+    it: ``--help`` stays light)."""
+    from radiosim import warmup
+
+    return warmup
 
 
-def _announce_compile(args, frame_dtype="float64", chip=False):
-    """Say once, on a terminal's stderr, that the kernels are about to compile (not cached for
-    this frame dtype, or the segmented chip's kernels when ``chip``), before the work starts.
-    Not in a log: there an error stays the one line on stderr."""
-    if args.quiet or not sys.stderr.isatty():
-        return
-    from radiosim.kernels import compile_pending, compiled_selected
-
-    if not compiled_selected():  # the numpy engine compiles nothing
-        return
-
-    also = ()
-    if chip:
-        from radiosim.scenes.segmented_chip.kernel import moving_terms_kernel
-
-        also = (moving_terms_kernel,)
-    if compile_pending((frame_dtype,), also=also):
-        print(f"radiosim: compiling radiosim's kernels, once, about {COMPILE_SECONDS} s "
-              "(radiosim warmup does it ahead of time)", file=sys.stderr, flush=True)
-
-
-def _compile_integrator_aside(scene) -> None:
-    """For a segmented chip, have another process compile the integrator's kernel for its
-    frames, if the cache lacks it, while this one compiles the chip's kernels (the second
-    core); the first launch waits for it (:mod:`radiosim.kernels.compiling`). Other scenes
-    have nothing to compile meanwhile: their kernels compile here, at the first launch."""
-    import numpy as np
-
-    from radiosim.acquisition import frame_dtype
-    from radiosim.kernels import compile_in_background, compile_pending, compiled_selected
-    from radiosim.scenes import SegmentedChip
-
-    if not compiled_selected():  # the numpy engine: nothing to compile
-        return
-    dtype = np.dtype(frame_dtype(scene)).name if isinstance(scene, SegmentedChip) else None
-    if dtype is not None and compile_pending((dtype,)):
-        compile_in_background((dtype,))
-
-
-def _warmup(args) -> int:
-    import time
-
-    from radiosim.kernels import FRAME_DTYPES, compile_in_background, warmup
-    from radiosim.kernels.background import wait_for_background
-    from radiosim.scenes import SegmentedChip
-
-    began = time.perf_counter()
-    progress = _Progress("step", args.quiet)
-    # One process per frame dtype compiles the integrator's and the image stage's kernels
-    # while this one compiles the chip's; then every variant is launched here (loaded).
-    started = compile_in_background(FRAME_DTYPES, bands=True)
-    steps = 1 + len(started) + 2 * len(FRAME_DTYPES) * 5  # the chip, processes, variants
-    chip = SegmentedChip()  # its moving terms, on a small region at the band's time
-    middle = tuple(slice(n // 2, n // 2 + 16) for n in chip.shape)
-    chip.temperature(chip.event_time, middle), chip.regions(chip.event_time, middle)
-    progress(1, steps, "the chip's moving terms")
-    for k, process in enumerate(started, start=2):
-        process.wait()
-        progress(k, steps, f"kernels for {process.frame_dtype} frames (another process)")
-    wait_for_background()
-    done = 1 + len(started)
-    report = warmup(progress=lambda k, total, label: progress(done + k, done + total, label))
-    print(f"compiled radiosim's kernels in {time.perf_counter() - began:.0f} s "
-          f"({report['variants']} kernel variants and the chip's moving terms; cached in "
-          f"{report['cache']})")
-    return 0
+#: ``radiosim warmup``'s time in its help [s] (radiosim.warmup.WARMUP_SECONDS, kept equal by a
+#: test; not imported here so that --help loads nothing heavy).
+_WARMUP_SECONDS = 25
 
 
 def _presets(args) -> int:
@@ -721,12 +660,12 @@ def build_parser() -> argparse.ArgumentParser:
     _add_quiet(report)
     report.set_defaults(func=_report)
     warm = sub.add_parser("warmup", help="compile radiosim's kernels ahead of time (once, "
-                          f"about {WARMUP_SECONDS} s)", description="Compile every kernel "
+                          f"about {_WARMUP_SECONDS} s)", description="Compile every kernel "
                           "path (float32 and float64 frames, memory maps, linear and Planck "
                           "responses, emissivity maps, the chip's moving terms) into numba's "
                           "on-disk cache, so that no later run waits for a compilation.")
     _add_quiet(warm)
-    warm.set_defaults(func=_warmup)
+    warm.set_defaults(func=lambda args: _kernels().warmup_command(args))
     presets = sub.add_parser("presets", help="list the cameras and studies")
     presets.set_defaults(func=_presets)
     example = sub.add_parser("example-data", help="write the files the README's and guides' "
@@ -757,32 +696,11 @@ class _Parser(argparse.ArgumentParser):
 def main(argv=None) -> int:
     """Run the command; returns the exit code (see the module docstring). As the ``radiosim``
     command itself (no ``argv``), it ends the process when the command is done
-    (:func:`_exit_done`)."""
+    (:func:`radiosim.errors.exit_done`)."""
     code = _command(argv)
     if argv is None:
         _exit_done(code)
     return code
-
-
-def _exit_done(code: int):
-    """End the command's process, its work done and its files written: the exit handlers run
-    (temporary files, logging, compiling processes, a cluster's shutdown) and the output is
-    flushed, but the interpreter does not take down its modules one by one (numba's compiled
-    code, scipy, matplotlib: 0.5–0.7 s that nothing needs)."""
-    import atexit
-
-    for stream in (sys.stdout, sys.stderr):
-        try:
-            stream.flush()
-        except (OSError, ValueError):
-            pass
-    atexit._run_exitfuncs()
-    for stream in (sys.stdout, sys.stderr):
-        try:
-            stream.flush()
-        except (OSError, ValueError):
-            pass
-    os._exit(code)
 
 
 def _command(argv) -> int:

@@ -408,6 +408,13 @@ def test_the_commands_draw_bound_is_the_librarys():
     assert cli.MAX_DRAWS == uncertainty.MAX_DRAWS
 
 
+def test_the_commands_warmup_time_is_the_measured_one():
+    # Stated in --help without importing radiosim.warmup; one number.
+    from radiosim import cli, warmup
+
+    assert cli._WARMUP_SECONDS == warmup.WARMUP_SECONDS
+
+
 def test_a_scene_read_as_kelvin_that_reads_nothing_says_why(here, capsys):
     # 20 read as kelvin (a °C file given --units K): every pixel is under range. The command
     # says so, names the camera's lowest measurable temperature and asks about the unit,

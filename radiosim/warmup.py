@@ -1,0 +1,89 @@
+"""
+The command's side of compiling radiosim's kernels (:mod:`radiosim.kernels.compiling` does the
+work): saying once that a command is about to compile, compiling the integrator in another
+process while a chip's kernels compile here, and ``radiosim warmup``, which compiles every
+variant ahead of time on both cores.
+"""
+
+from __future__ import annotations
+
+import sys
+
+from radiosim.console import Progress
+
+__all__ = ["COMPILE_SECONDS", "WARMUP_SECONDS", "announce_compile", "compile_integrator_aside",
+           "warmup_command"]
+
+#: Compile times [s] from an empty cache on 2 cores (measured by benchmarks/bench_cli.py and
+#: bench_compile.py; README): the variants a run needs (one frame type, with the chip's terms),
+#: and every variant (``radiosim warmup``).
+COMPILE_SECONDS, WARMUP_SECONDS = 15, 25
+
+
+def announce_compile(args, frame_dtype="float64", chip=False):
+    """Say once, on a terminal's stderr, that the kernels are about to compile (not cached for
+    this frame dtype, or the segmented chip's kernels when ``chip``), before the work starts.
+    Not in a log: there an error stays the one line on stderr."""
+    if args.quiet or not sys.stderr.isatty():
+        return
+    from radiosim.kernels import compile_pending, compiled_selected
+
+    if not compiled_selected():  # the numpy engine compiles nothing
+        return
+
+    also = ()
+    if chip:
+        from radiosim.scenes.segmented_chip.kernel import moving_terms_kernel
+
+        also = (moving_terms_kernel,)
+    if compile_pending((frame_dtype,), also=also):
+        print(f"radiosim: compiling radiosim's kernels, once, about {COMPILE_SECONDS} s "
+              "(radiosim warmup does it ahead of time)", file=sys.stderr, flush=True)
+
+
+def compile_integrator_aside(scene) -> None:
+    """For a segmented chip, have another process compile the integrator's kernel for its
+    frames, if the cache lacks it, while this one compiles the chip's kernels (the second
+    core); the first launch waits for it (:mod:`radiosim.kernels.compiling`). Other scenes
+    have nothing to compile meanwhile: their kernels compile here, at the first launch."""
+    import numpy as np
+
+    from radiosim.acquisition import frame_dtype
+    from radiosim.kernels import compile_in_background, compile_pending, compiled_selected
+    from radiosim.scenes import SegmentedChip
+
+    if not compiled_selected():  # the numpy engine: nothing to compile
+        return
+    dtype = np.dtype(frame_dtype(scene)).name if isinstance(scene, SegmentedChip) else None
+    if dtype is not None and compile_pending((dtype,)):
+        compile_in_background((dtype,))
+
+
+def warmup_command(args) -> int:
+    """``radiosim warmup``."""
+    import time
+
+    from radiosim.kernels import FRAME_DTYPES, compile_in_background, warmup
+    from radiosim.kernels.background import wait_for_background
+    from radiosim.scenes import SegmentedChip
+
+    began = time.perf_counter()
+    progress = Progress("step", args.quiet)
+    # One process per frame dtype compiles the integrator's and the image stage's kernels
+    # while this one compiles the chip's; then every variant is launched here (loaded).
+    started = compile_in_background(FRAME_DTYPES, bands=True)
+    steps = 1 + len(started) + 2 * len(FRAME_DTYPES) * 5  # the chip, processes, variants
+    chip = SegmentedChip()  # its moving terms, on a small region at the band's time
+    middle = tuple(slice(n // 2, n // 2 + 16) for n in chip.shape)
+    chip.temperature(chip.event_time, middle), chip.regions(chip.event_time, middle)
+    progress(1, steps, "the chip's moving terms")
+    for k, process in enumerate(started, start=2):
+        process.wait()
+        progress(k, steps, f"kernels for {process.frame_dtype} frames (another process)")
+    wait_for_background()
+    done = 1 + len(started)
+    report = warmup(progress=lambda k, total, label: progress(done + k, done + total, label))
+    print(f"compiled radiosim's kernels in {time.perf_counter() - began:.0f} s "
+          f"({report['variants']} kernel variants and the chip's moving terms; cached in "
+          f"{report['cache']})")
+    return 0
