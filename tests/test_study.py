@@ -57,17 +57,23 @@ def test_a_coarse_run_of_the_papers_study(tmp_path):
     assert (tmp_path / "results.csv").is_file() and (tmp_path / "pixel_history.csv").is_file()
 
 
-def test_window_alignments(tmp_path):
+def _uniform_frames_study(tmp_path, **sweep):
+    """A study of 20 frames of 12 × 12 samples at 400 K, one linear ideal camera of 3 × 3
+    samples, one sweep ``s`` with ``sweep``'s keys."""
     stack = tmp_path / "s.npy"
     np.save(stack, np.full((20, 12, 12), 400.0))
-    study = Study.from_dict({
+    return Study.from_dict({
         "name": "frames",
         "scene": {"type": "frames", "path": str(stack), "dt_us": 1.0, "dx_um": 1.0,
                   "units": "K"},
         "cameras": {"c": {"preset": "linear-ideal", "pixel_pitch_um": 3.0}},
-        "sweeps": [{"name": "s", "cameras": ["c"], "integration_time_us": [2, 4],
-                    "alignment": ["starting", "ending"]}],
+        "sweeps": [{"name": "s", "cameras": ["c"], **sweep}],
     })
+
+
+def test_window_alignments(tmp_path):
+    study = _uniform_frames_study(tmp_path, integration_time_us=[2, 4],
+                                  alignment=["starting", "ending"])
     rows = study.run(write_exr=False).rows
     assert [r["t_start_us"] for r in rows] == [0.0, 0.0, 0.0, 0.0]  # no event: from t = 0
     assert all(r["peak_C"] == pytest.approx(400 - 273.15) for r in rows)
@@ -217,15 +223,7 @@ def test_an_exr_file_that_cannot_be_written_fails_the_run_and_drops_its_row(tmp_
     import radiosim.io.exr as exr
     from radiosim.errors import RadiosimIOError
 
-    stack = tmp_path / "s.npy"
-    np.save(stack, np.full((20, 12, 12), 400.0))
-    study = Study.from_dict({
-        "name": "frames",
-        "scene": {"type": "frames", "path": str(stack), "dt_us": 1.0, "dx_um": 1.0,
-                  "units": "K"},
-        "cameras": {"c": {"preset": "linear-ideal", "pixel_pitch_um": 3.0}},
-        "sweeps": [{"name": "s", "cameras": ["c"], "integration_time_us": [2, 4, 6]}],
-    })
+    study = _uniform_frames_study(tmp_path, integration_time_us=[2, 4, 6])
     write = exr.write_exr
 
     def full_at_4us(path, measurement):
