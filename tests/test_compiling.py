@@ -112,3 +112,17 @@ def test_a_compiling_process_ends_with_the_process_that_started_it(tmp_path):
     else:
         os.kill(child, 9)
         raise AssertionError("the compiling process outlived its parent by 10 s")
+
+
+def test_a_launch_waits_for_the_threads_loading_kernels():
+    # numba's typing is not thread-safe while another thread loads from the cache: a launch
+    # (wait_for_background) and a scene's own kernels (wait_for_loaders) wait for the loader.
+    import threading
+
+    for wait in (background.wait_for_background, background.wait_for_loaders):
+        done = []
+        loader = threading.Thread(target=lambda: (time.sleep(0.3), done.append(1)))
+        background.register_loader(loader)
+        loader.start()
+        wait()
+        assert done == [1] and not background._LOADING

@@ -17,9 +17,11 @@ import signal
 import subprocess
 import threading
 
-__all__ = ["register", "wait_for_background", "stop_all"]
+__all__ = ["register", "register_loader", "wait_for_loaders", "wait_for_background",
+           "stop_all"]
 
 _RUNNING: list = []  # (process, its folder): started and not yet waited for
+_LOADING: list = []  # threads loading kernels from the cache (compiling.load_in_background)
 _LOCK = threading.Lock()
 
 
@@ -30,16 +32,35 @@ def register(process: subprocess.Popen, folder: str | None = None) -> None:
         _RUNNING.append((process, folder))
 
 
+def register_loader(thread: threading.Thread) -> None:
+    """Count ``thread`` (loading kernels from numba's cache) among what a launch waits for:
+    numba's typing is not safe to run while another thread loads (it fills shared tables)."""
+    with _LOCK:
+        _LOADING.append(thread)
+
+
+def wait_for_loaders() -> None:
+    """Wait until the registered loading threads have ended (at once when there are none):
+    before a scene's own kernels run (the compiling processes compile the integrator only)."""
+    if not _LOADING:
+        return
+    with _LOCK:
+        while _LOADING:
+            _LOADING[0].join()
+            _LOADING.pop(0)
+
+
 def _remove(folder) -> None:
     if folder is not None:
         shutil.rmtree(folder, ignore_errors=True)
 
 
 def wait_for_background() -> None:
-    """Wait until the registered compiling processes have ended (at once when there are none).
-    Interrupted, it stops them."""
-    if not _RUNNING:
+    """Wait until the registered loading threads and compiling processes have ended (at once
+    when there are none). Interrupted, it stops the processes."""
+    if not _RUNNING and not _LOADING:
         return
+    wait_for_loaders()
     with _LOCK:
         try:
             while _RUNNING:

@@ -298,8 +298,9 @@ def load_in_background(dispatchers) -> threading.Thread | None:
     the first: about 0.6 s for the chip's and the integrator's kernels), while this thread
     goes on (a study checks its plan and builds its scene's static fields meanwhile). Nothing
     is compiled: a variant the cache lacks is not among them, and compiles at its first call.
-    A launch meanwhile waits for numba's compiler lock, then finds the variant loaded. Returns
-    the thread, or ``None`` when there is nothing to load.
+    A launch (or a chip frame) meanwhile waits for the thread to end
+    (:func:`~radiosim.kernels.background.wait_for_background`), then finds the variants
+    loaded. Returns the thread, or ``None`` when there is nothing to load.
     """
     wanted = [(d, signature) for d in dispatchers if d is not None
               for signature in _fresh_signatures(d) if signature not in d.signatures]
@@ -307,7 +308,8 @@ def load_in_background(dispatchers) -> threading.Thread | None:
         return None
     thread = threading.Thread(target=_load, args=(wanted,), daemon=True,
                               name="radiosim-kernel-loader")
-    thread.start()
+    background.register_loader(thread)  # launches wait for it (numba's typing is not
+    thread.start()  # thread-safe while a load fills its tables)
     return thread
 
 
