@@ -97,12 +97,13 @@ def _lin(n, first, lo, hi, src, o, ws, ce, a1, a2, am, an, s):
             a2[q] = 0.0
             am[q] = -INF
             an[q] = INF
-    # h a literal 0 for the first block: numba compiles it apart, its row offsets static (the
-    # block of a 9-row pixel's first 8 rows; 10-20 % of the sweep's time, for 1 s of compile)
+    # At most one block of eight (n ≤ MAX_ROWS < 16), rows 0 to 7: its first row a literal 0,
+    # so the block's row offsets are static (10-20 % of the sweep's time) and _rows8 has one
+    # compiled variant.
     h = 0
-    while h + 8 <= n:
-        _rows8(lo, hi, src, o, ws, h, ce, s, a2, am, an)
-        h += 8
+    if n >= 8:
+        _rows8(lo, hi, src, o, ws, 0, ce, s, a2, am, an)
+        h = 8
     while h + 4 <= n:
         _rows4(lo, hi, src, o, ws, h, ce, s, a2, am, an)
         h += 4
