@@ -63,25 +63,28 @@ def warmup_command(args) -> int:
     """``radiosim warmup``."""
     import time
 
-    from radiosim.kernels import FRAME_DTYPES, compile_in_background, warmup
+    from radiosim.kernels import FRAME_DTYPES, compile_in_background, warmup, warmup_bands
     from radiosim.kernels.background import wait_for_background
     from radiosim.scenes import SegmentedChip
 
     began = time.perf_counter()
     progress = Progress("step", args.quiet)
-    # One process per frame dtype compiles the integrator's and the image stage's kernels
-    # while this one compiles the chip's; then every variant is launched here (loaded).
-    started = compile_in_background(FRAME_DTYPES, bands=True)
-    steps = 1 + len(started) + 2 * len(FRAME_DTYPES) * 5  # the chip, processes, variants
+    # One process per frame dtype compiles the integrator's kernels while this one compiles
+    # the chip's and the image stage's (the shares of about equal work on two cores); then
+    # every variant is launched here (loaded).
+    started = compile_in_background(FRAME_DTYPES)
+    steps = 2 + len(started) + 2 * len(FRAME_DTYPES) * 5  # chip, sub-bands, processes, variants
     chip = SegmentedChip()  # its moving terms, on a small region at the band's time
     middle = tuple(slice(n // 2, n // 2 + 16) for n in chip.shape)
     chip.temperature(chip.event_time, middle), chip.regions(chip.event_time, middle)
     progress(1, steps, "the chip's moving terms")
-    for k, process in enumerate(started, start=2):
+    warmup_bands(wait_for_processes=False)
+    progress(2, steps, "the image stage's sub-band kernel")
+    for k, process in enumerate(started, start=3):
         process.wait()
         progress(k, steps, f"kernels for {process.frame_dtype} frames (another process)")
     wait_for_background()
-    done = 1 + len(started)
+    done = 2 + len(started)
     report = warmup(progress=lambda k, total, label: progress(done + k, done + total, label))
     print(f"compiled radiosim's kernels in {time.perf_counter() - began:.0f} s "
           f"({report['variants']} kernel variants and the chip's moving terms; cached in "

@@ -5,6 +5,8 @@ import subprocess
 import sys
 import time
 
+import numpy as np
+
 from radiosim.kernels import background, compiling
 
 
@@ -41,9 +43,55 @@ def test_nothing_is_started_for_variants_the_cache_holds():
     assert not background._RUNNING
 
 
+def test_the_sub_band_kernel_is_compiled_by_one_process_only(monkeypatch):
+    # Its one variant serves every frame dtype: two processes compiling it would write one
+    # cache index at once. It goes to float64's process, else to the first one started, and
+    # to one even when the integrator's variants are all cached.
+    pending = {"float64", "float32"}
+    fresh = []
+    monkeypatch.setattr(compiling, "compile_pending", lambda d, **k: d[0] in pending)
+    monkeypatch.setattr(compiling, "_fresh_signatures", lambda d: list(fresh))
+    both = ("float32", "float64")
+    assert compiling._pending_dtypes(both, True) == [("float32", False), ("float64", True)]
+    assert compiling._pending_dtypes(both, False) == [("float32", False), ("float64", False)]
+    pending = {"float32"}
+    assert compiling._pending_dtypes(both, True) == [("float32", True)]
+    pending = set()
+    assert compiling._pending_dtypes(both, True) == [("float32", True)]
+    fresh = ["a signature"]  # cached: nothing to start
+    assert compiling._pending_dtypes(both, True) == []
+
+
+def test_float32_frames_take_the_sub_band_kernel_widened():
+    # One compiled variant (float64 frames): float32 frames give the same sums as their
+    # float64 copy (the widening is exact) and as the numpy reference, within its tolerance.
+    from radiosim.kernels.bands import accumulate_bands, band_kernel
+    from radiosim.kernels.reference import accumulate_bands_reference
+    from radiosim.kernels.table import SignalTable
+    from radiosim.radiometry import BandRadianceTable
+
+    table = SignalTable(BandRadianceTable(temperature_range=(200.0, 800.0), per_octave=16),
+                        grey=0.9)
+    rng = np.random.default_rng(5)
+    frames = (300.0 + 400.0 * rng.random((3, 7, 11))).astype(np.float32)
+    weights = np.array([0.2, 0.5, 0.3])
+    sums = {}
+    for dtype in (np.float32, np.float64):
+        out = np.zeros((2, 7, 11))
+        status, rows = accumulate_bands(frames.astype(dtype), weights, [table, table], out)
+        assert status == 0 and rows.size == 0
+        sums[dtype] = out
+    assert np.array_equal(sums[np.float32], sums[np.float64])
+    reference = np.zeros((2, 7, 11))
+    accumulate_bands_reference(frames, weights, [table, table], reference)
+    np.testing.assert_allclose(sums[np.float32], reference, rtol=1e-12)
+    assert len(band_kernel.signatures) == 1
+
+
 def test_a_failing_compiling_process_leaves_the_work_to_this_one(monkeypatch):
     # The other process fails at once; the launch still runs (compiling here if it must).
-    monkeypatch.setattr(compiling, "_pending_dtypes", lambda dtypes, bands: ["float64"])
+    monkeypatch.setattr(compiling, "_pending_dtypes",
+                        lambda dtypes, bands: [("float64", False)])
     monkeypatch.setattr(compiling, "_CHILD", "import sys; sys.exit(3)")
     started = compiling.compile_in_background(("float64",))
     assert len(started) == 1

@@ -119,7 +119,7 @@ from radiosim.kernels.codes import (SIGNAL_INDEX, SIGNAL_MAP, SIGNAL_NONE, SIGNA
 from radiosim.kernels.engines import ENGINES, Engine, compiled_selected, get_engine, set_engine
 from radiosim.kernels.intrinsics import FRAME_DTYPES, fast_exp
 from radiosim.kernels.compiling import (cache_location, compile_in_background, compile_pending,
-                                        warmup)
+                                        warmup, warmup_bands)
 from radiosim.kernels.launch import (accumulate, accumulate_merged, apply_thread_settings,
                                      parallel_launch, pixel_mean, thread_count)
 from radiosim.kernels.reference import (Members, accumulate_merged_reference,
@@ -159,6 +159,7 @@ __all__ = [
     "compiled_selected",
     "dispatchers",
     "warmup",
+    "warmup_bands",
     "compile_in_background",
     "compile_pending",
     "cache_location",
@@ -172,7 +173,7 @@ def dispatchers() -> tuple:
 
     from radiosim.kernels import bands, intrinsics, radiance, rows, sweeps
 
-    found = [*rows.ACCUMULATE_KERNELS.values(), *bands.BAND_KERNELS.values()]
+    found = [*rows.ACCUMULATE_KERNELS.values(), bands.band_kernel]
     for module in (intrinsics, sweeps, radiance, rows, bands):
         found += [v for v in vars(module).values()
                   if isinstance(v, numba.core.registry.CPUDispatcher)]

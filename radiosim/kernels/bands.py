@@ -25,18 +25,18 @@ import numba
 import numpy as np
 
 from radiosim.errors import RadiosimError
-from radiosim.kernels.background import wait_for_background
+from radiosim.kernels.background import wait_for_background, wait_for_loaders
 from radiosim.kernels.bundles import Emissivity, FrameBlock
 from radiosim.kernels.codes import (SIGNAL_INDEX, STATUS_ABOVE_TABLE, STATUS_BAD_INDEX,
                                     STATUS_BAD_SAMPLE, STATUS_BELOW_TABLE, STATUS_OK)
-from radiosim.kernels.intrinsics import INF, INNER, _cubic8_grey, _cubic8_map, per_frame_dtype
+from radiosim.kernels.intrinsics import INF, INNER, JIT, _cubic8_grey, _cubic8_map
 from radiosim.kernels.layout import frames_of, read_only, rows_of
 from radiosim.kernels.packing import _ones, _uint8_index
 from radiosim.kernels.radiance import _cubic1, _locate, cubic
 from radiosim.kernels.table import SignalTable
 from radiosim.kernels.threads import run_blocks
 
-__all__ = ["StackedTables", "stack", "accumulate_bands", "band_kernel", "BAND_KERNELS"]
+__all__ = ["StackedTables", "stack", "accumulate_bands", "band_kernel"]
 
 
 class StackedTables(NamedTuple):
@@ -230,10 +230,11 @@ def band_kernel(block, n_blocks, frames, weight, tables, emissivity, out, status
 
 
 
-#: The kernel compiled per frame dtype (own dispatchers and cache files); ``band_kernel`` is
-#: float64's.
-BAND_KERNELS = per_frame_dtype(band_kernel)
-band_kernel = BAND_KERNELS["float64"]
+#: One compiled variant, for float64 frames: :func:`accumulate_bands` widens float32 ones (a
+#: copy of the block, exact; the kernel widens every sample it reads all the same). The
+#: kernel's work per sample (a lookup and a cubic per sub-band) costs more than the copy, and
+#: a second variant would cost a compilation.
+band_kernel = numba.njit(**JIT)(band_kernel)
 
 def _emissivity(table: SignalTable, shape) -> Emissivity:
     """The kernel's emissivity maps for a frame region of ``shape``: S = L · grey_e · (grey
@@ -251,18 +252,23 @@ def _emissivity(table: SignalTable, shape) -> Emissivity:
 
 
 def accumulate_bands(block, weights, tables: list[SignalTable], out: np.ndarray, *,
-                     frame_index: int = 0) -> int:
+                     frame_index: int = 0, _wait_for_processes: bool = True) -> int:
     """
     out[b] += Σ_f weights[f] · S_b(T_f) per sample, for every sub-band's table ``tables[b]``
     (with the block's emissivity maps) and the frames of ``block`` (2-D, or 3-D: consecutive
-    frames sharing those maps; float32 or float64, read in place), from one table lookup per
-    sample (:func:`band_kernel`).
+    frames sharing those maps; float64 read in place, float32 widened first), from one table
+    lookup per sample (:func:`band_kernel`).
 
     Returns ``(status, rows)``: :data:`~radiosim.kernels.codes.STATUS_OK` and no rows when the
     kernel took every pixel row; else the OR of the status bits of the rows it left untouched
     and those rows (−1 and every row when the tables cannot be stacked, :func:`stack`). The
     caller redoes them with :func:`radiosim.kernels.reference.accumulate_bands_reference`
     (exact quadrature below the tables, the references' errors otherwise).
+
+    The launch waits for the processes compiling kernels in the background, then loads what
+    they cached; ``_wait_for_processes=False`` (``radiosim warmup``, compiling this kernel
+    here while they compile the integrator's, which shares no cache file with it) waits only
+    for the threads loading kernels into this process.
     """
     from radiosim.kernels.launch import thread_count
 
@@ -281,11 +287,16 @@ def accumulate_bands(block, weights, tables: list[SignalTable], out: np.ndarray,
     signs = _emissivity(tables[0], block.shape[1:])
     if stacked is None or signs.index_map.dtype != np.uint8:
         return -1, np.arange(block.shape[1])  # the caller takes the reference
+    if block.dtype != np.float64:  # float32: widened, for the kernel's one variant
+        block = block.astype(np.float64)
     base, row_length, frame_stride = frames_of(block)
     status = np.zeros(block.shape[1], dtype=np.int64)
     n_blocks = max(1, min(thread_count(), block.shape[1]))
-    wait_for_background()  # kernels being compiled by another process: load them after
-    run_blocks(BAND_KERNELS[block.dtype.name], n_blocks, n_blocks,
+    if _wait_for_processes:
+        wait_for_background()  # kernels being compiled by another process: load them after
+    else:
+        wait_for_loaders()  # numba's typing is not thread-safe while a thread loads kernels
+    run_blocks(band_kernel, n_blocks, n_blocks,
                FrameBlock(base, row_length, frame_stride, block.shape[0]), weights, stacked,
                signs, out, status)
     flagged = np.flatnonzero(status)

@@ -31,7 +31,7 @@ import threading
 import numpy as np
 
 from radiosim.kernels import background
-from radiosim.kernels.bands import BAND_KERNELS
+from radiosim.kernels.bands import band_kernel
 from radiosim.kernels.intrinsics import FRAME_DTYPES
 from radiosim.kernels.launch import accumulate, accumulate_merged, pixel_mean
 from radiosim.kernels.layout import KernelAxis
@@ -39,8 +39,8 @@ from radiosim.kernels.reference import Members
 from radiosim.kernels.rows import ACCUMULATE_KERNELS
 from radiosim.kernels.table import SignalTable
 
-__all__ = ["compile_pending", "cache_location", "warmup", "compile_in_background",
-           "load_in_background"]
+__all__ = ["compile_pending", "cache_location", "warmup", "warmup_bands",
+           "compile_in_background", "load_in_background"]
 
 
 def _fresh_signatures(dispatcher) -> list:
@@ -136,7 +136,7 @@ def warmup(progress=None, memmap_dir=None, frame_dtypes=FRAME_DTYPES, bands=True
     frame_dtypes
         The frame dtypes to compile for (names or dtypes of :data:`FRAME_DTYPES`).
     bands
-        Also the sub-band kernel, for each of those dtypes.
+        Also the sub-band kernel (one variant: float32 frames are widened for it).
 
     Returns
     -------
@@ -148,7 +148,6 @@ def warmup(progress=None, memmap_dir=None, frame_dtypes=FRAME_DTYPES, bands=True
     import time
 
     from radiosim.kernels import dispatchers
-    from radiosim.kernels.bands import accumulate_bands
     from radiosim.radiometry import BandRadianceTable
 
     began = time.perf_counter()
@@ -180,13 +179,29 @@ def warmup(progress=None, memmap_dir=None, frame_dtypes=FRAME_DTYPES, bands=True
                     done += 1
                     if progress is not None:
                         progress(done, total, f"{dtype.name} frames {storage}, {name}")
-                if bands:  # the image stage's sub-bands from one lookup (one variant per dtype)
-                    accumulate_bands(block, np.full(2, 0.5), [responses[1][1]] * 2,
-                                     np.zeros((2, *shape)))
                 del block  # the memory map's file is closed before its folder goes
+    if bands:  # the image stage's sub-bands from one lookup (one variant: float32 widened)
+        warmup_bands()
     after = sum(len(d.signatures) for d in dispatchers())
     return {"seconds": time.perf_counter() - began, "compiled": after - before,
             "variants": total, "cache": cache_location()}
+
+
+def warmup_bands(wait_for_processes: bool = True) -> None:
+    """
+    Compile (or load) the image stage's sub-band kernel, :func:`warmup`'s ``bands`` alone:
+    its one variant, on tiny frames. ``wait_for_processes=False``: without waiting for the
+    processes compiling the integrator's kernels (``radiosim warmup`` compiles this one here
+    meanwhile; they share no cache file).
+    """
+    from radiosim.kernels.bands import accumulate_bands
+    from radiosim.radiometry import BandRadianceTable
+
+    table = SignalTable(BandRadianceTable(temperature_range=(200.0, 800.0), per_octave=16),
+                        grey=0.9)
+    frames = np.full((2, 3, 5), 300.0) + np.arange(5) * 0.5
+    accumulate_bands(frames, np.full(2, 0.5), [table] * 2, np.zeros((2, 3, 5)),
+                     _wait_for_processes=wait_for_processes)
 
 
 def _launch_tiny(block, rows: KernelAxis, cols: KernelAxis, response) -> None:
@@ -207,19 +222,25 @@ def _launch_tiny(block, rows: KernelAxis, cols: KernelAxis, response) -> None:
 # -- other processes ----------------------------------------------------------------------------
 
 
-def _pending_dtypes(frame_dtypes, bands: bool) -> list[str]:
-    """The dtypes of ``frame_dtypes`` whose integrator (or, with ``bands``, sub-band) entry
-    point has no fresh variant in the cache."""
-    return [np.dtype(d).name for d in frame_dtypes
-            if compile_pending((d,)) or (bands and not _fresh_signatures(
-                BAND_KERNELS[np.dtype(d).name]))]
+def _pending_dtypes(frame_dtypes, bands: bool) -> list[tuple[str, bool]]:
+    """The processes to start: (frame dtype, with the sub-band kernel) for each dtype of
+    ``frame_dtypes`` whose integrator entry point has no fresh variant in the cache; with
+    ``bands``, the sub-band kernel (one variant for every dtype) goes to one of them, float64's
+    if it is among them, when the cache lacks it too."""
+    names = [np.dtype(d).name for d in frame_dtypes]
+    pending = [d for d in names if compile_pending((d,))]
+    if not (bands and names and not _fresh_signatures(band_kernel)):
+        return [(d, False) for d in pending]
+    pending = pending or names[:1]
+    takes = "float64" if "float64" in pending else pending[0]
+    return [(d, d == takes) for d in pending]
 
 
 def compile_in_background(frame_dtypes=("float64",), bands: bool = False) -> list:
     """
     Start compiling, each in another Python process, the kernel variants (:func:`warmup`) of
     those ``frame_dtypes`` that numba's cache does not hold (with ``bands``, the sub-band
-    kernel's too), and return the processes started (none when all are cached; each process's
+    kernel too, in one of them), and return the processes started (none when all are cached; each process's
     ``frame_dtype`` says which it compiles). This process goes on; its first kernel launch
     waits for them (:func:`~radiosim.kernels.background.wait_for_background`). They write
     nothing but numba's cache and their own temporary folder (made here, their working
@@ -233,13 +254,14 @@ def compile_in_background(frame_dtypes=("float64",), bands: bool = False) -> lis
     paths = [package, os.environ.get("PYTHONPATH", "")]
     env = dict(os.environ, PYTHONPATH=os.pathsep.join(p for p in paths if p))
     started = []
-    for dtype in _pending_dtypes(frame_dtypes, bands):
+    for dtype, with_bands in _pending_dtypes(frame_dtypes, bands):
         folder = None
         try:
             folder = tempfile.mkdtemp(prefix="radiosim-compiling-")
             command = [sys.executable, "-c", _CHILD, dtype, "--memmap-dir", folder,
                        "--parent", str(os.getpid())]
-            process = subprocess.Popen(command + (["--bands"] if bands else []), cwd=folder,
+            process = subprocess.Popen(command + (["--bands"] if with_bands else []),
+                                       cwd=folder,
                                        env=env, stdin=subprocess.DEVNULL,
                                        stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
         except (OSError, TypeError, ValueError):  # cannot start one (no interpreter to run,
