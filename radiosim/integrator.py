@@ -446,19 +446,26 @@ def stack_rows(parts: list[TensorStatistics]) -> TensorStatistics:
         n_frames=max(p.n_frames for p in parts))
 
 
-def _prefetched(scene: Scene, indices, region: Region, checked: bool = True):
-    """Scene frames of ``indices`` in order, each read while the previous one is being used
-    (``checked=False``: as the scene holds them, for consumers that check every sample)."""
+def _prefetched(scene: Scene, indices, region: Region, checked: bool = True, batch: int = 1):
+    """Scene frames of ``indices`` in order, read on a worker thread ``batch`` at a time, each
+    batch while the previous one is being used (``checked=False``: as the scene holds them,
+    for consumers that check every sample). Small frames come in batches: one hand-over
+    between the threads per batch, not per frame."""
     read = scene.sample if checked else scene.sample_unchecked
+
+    def read_batch(ks):
+        return [read(k, region) for k in ks]
+
+    indices = list(indices)
     with ThreadPoolExecutor(max_workers=1) as pool:
         pending = None
-        for k in indices:
-            following = pool.submit(read, k, region)
+        for lo in range(0, len(indices), batch):
+            following = pool.submit(read_batch, indices[lo:lo + batch])
             if pending is not None:
-                yield pending.result()
+                yield from pending.result()
             pending = following
         if pending is not None:
-            yield pending.result()
+            yield from pending.result()
 
 
 @dataclass(frozen=True, eq=False)
@@ -623,21 +630,32 @@ def integrate_many(scene: Scene, jobs: list[Job], progress=None,
     return [acc.statistics() for acc in accumulators]
 
 
+#: Time [s] of the frames a worker thread reads at once for :func:`_frames_inline_or_prefetched`
+#: (small generated frames, e.g. a pixel's crop of the chip, in batches of several).
+PREFETCH_SECONDS = 2e-3
+
+
 def _frames_inline_or_prefetched(scene, indices, region):
     """Scene frames of ``indices`` in order, unchecked (the kernels check every sample). Frames
     that come cheap (views of an array or a memory map: under 0.2 ms) are read on this thread;
-    as soon as one is slow to produce, the rest are read one ahead on a worker thread, so
-    producing a frame overlaps with integrating the previous one."""
+    as soon as two are slow to produce, the rest are read ahead on a worker thread, so
+    producing frames overlaps with integrating the previous ones: one at a time, or in batches
+    of about :data:`PREFETCH_SECONDS` (at most :data:`STACK_BYTES`) when they are small."""
     import time
 
     indices = list(indices)
+    slow = []  # the times of the slow frames read here: two, the first may pay for set-up
     for n, k in enumerate(indices):
         start = time.perf_counter()
         frame = scene.sample_unchecked(k, region)
-        slow = time.perf_counter() - start > 2e-4
+        seconds = time.perf_counter() - start
         yield frame
-        if slow:
-            yield from _prefetched(scene, indices[n + 1:], region, checked=False)
+        if seconds > 2e-4:
+            slow.append(seconds)
+        if len(slow) == 2:
+            size = max(1, getattr(frame.temperature, "nbytes", STACK_BYTES))
+            batch = max(1, min(int(PREFETCH_SECONDS / min(slow)), STACK_BYTES // size))
+            yield from _prefetched(scene, indices[n + 1:], region, checked=False, batch=batch)
             return
 
 

@@ -412,3 +412,30 @@ def test_only_frames_that_differ_in_temperature_alone_are_stacked():
                    (9, (2, 3), 1), (10, (2, 3), 1), (11, (2, 3), 1)]
     first = next(iter(_stacked(frames[:4])))[1]
     np.testing.assert_array_equal(first[:, 0, 0], [0, 1, 2, 3])
+
+
+def test_slow_frames_are_read_ahead_in_batches_in_order_and_in_full():
+    # A scene slow to produce its frames (about 0.3 ms each) is read ahead on a worker thread,
+    # in batches once two frames were slow: every frame, once, in order, the same as read here.
+    import time
+
+    from radiosim.integrator import _frames_inline_or_prefetched, _prefetched
+
+    class Slow(FrameStack):
+        def sample_unchecked(self, k, region=None):
+            began = time.perf_counter()
+            while time.perf_counter() - began < 3e-4:
+                pass
+            return super().sample_unchecked(k, region)
+
+    frames = np.arange(37 * 4 * 5, dtype=float).reshape(37, 4, 5) + 300.0
+    stack = Slow(frames, 1e-6, 1e-6)
+    region = (slice(1, 3), slice(0, 5))
+    indices = list(range(2, 37))
+    expected = frames[2:, 1:3]
+    for read in (_frames_inline_or_prefetched(stack, indices, region),
+                 _prefetched(stack, indices, region, checked=False, batch=4),
+                 _prefetched(stack, indices, region, batch=1)):
+        got = list(read)
+        assert [f.index for f in got] == indices
+        assert np.array_equal(np.stack([f.temperature for f in got]), expected)
