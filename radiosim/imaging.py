@@ -32,8 +32,9 @@ import math
 
 import numpy as np
 
+from radiosim.frame_reading import prefetched
 from radiosim.integrator import (FootprintIntegrator, Job, TensorStatistics, Window,
-                                 _prefetched, frame_weights, integrate_many)
+                                 frame_weights, integrate_many)
 from radiosim.kernels.bands import accumulate_bands
 from radiosim.kernels.codes import STATUS_OK
 from radiosim.kernels.engines import get_engine
@@ -275,7 +276,7 @@ def sample_signals(scene: Scene, window: Window, responses: list[Response],
     """
     signals = SubBandSignals(scene, window, responses, engine)
     frames = range(signals.first, signals.stop)
-    for done, frame in enumerate(_prefetched(scene, frames, signals.region, checked=False),
+    for done, frame in enumerate(prefetched(scene, frames, signals.region, checked=False),
                                  start=1):
         signals.add(frame.temperature, frame, frame.index)
         if progress is not None:

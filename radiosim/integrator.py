@@ -31,12 +31,12 @@ from __future__ import annotations
 
 import functools
 import math
-from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
 
 import numpy as np
 
 from radiosim.errors import RadiosimError
+from radiosim.frame_reading import frames_inline_or_prefetched, prefetched, stacked
 from radiosim.kernels.engines import ENGINES as _ENGINES
 from radiosim.kernels.engines import get_engine
 from radiosim.kernels.merging import FRAME_BLOCK, FootprintGroup, crop
@@ -446,28 +446,6 @@ def stack_rows(parts: list[TensorStatistics]) -> TensorStatistics:
         n_frames=max(p.n_frames for p in parts))
 
 
-def _prefetched(scene: Scene, indices, region: Region, checked: bool = True, batch: int = 1):
-    """Scene frames of ``indices`` in order, read on a worker thread ``batch`` at a time, each
-    batch while the previous one is being used (``checked=False``: as the scene holds them,
-    for consumers that check every sample). Small frames come in batches: one hand-over
-    between the threads per batch, not per frame."""
-    read = scene.sample if checked else scene.sample_unchecked
-
-    def read_batch(ks):
-        return [read(k, region) for k in ks]
-
-    indices = list(indices)
-    with ThreadPoolExecutor(max_workers=1) as pool:
-        pending = None
-        for lo in range(0, len(indices), batch):
-            following = pool.submit(read_batch, indices[lo:lo + batch])
-            if pending is not None:
-                yield from pending.result()
-            pending = following
-        if pending is not None:
-            yield from pending.result()
-
-
 @dataclass(frozen=True, eq=False)
 class Job:
     """
@@ -608,7 +586,7 @@ def integrate_many(scene: Scene, jobs: list[Job], progress=None,
                                                      for a in accumulators):
         return _integrate_compiled(scene, accumulators, frames, region, progress, engine,
                                    observer)
-    for done, frame in enumerate(_prefetched(scene, frames, region), start=1):
+    for done, frame in enumerate(prefetched(scene, frames, region), start=1):
         k = frame.index
         if observer is not None:
             mine = _within(frame, region, observer.region)
@@ -628,35 +606,6 @@ def integrate_many(scene: Scene, jobs: list[Job], progress=None,
         if progress is not None:
             progress(done, len(frames))
     return [acc.statistics() for acc in accumulators]
-
-
-#: Time [s] of the frames a worker thread reads at once for :func:`_frames_inline_or_prefetched`
-#: (small generated frames, e.g. a pixel's crop of the chip, in batches of several).
-PREFETCH_SECONDS = 2e-3
-
-
-def _frames_inline_or_prefetched(scene, indices, region):
-    """Scene frames of ``indices`` in order, unchecked (the kernels check every sample). Frames
-    that come cheap (views of an array or a memory map: under 0.2 ms) are read on this thread;
-    as soon as two are slow to produce, the rest are read ahead on a worker thread, so
-    producing frames overlaps with integrating the previous ones: one at a time, or in batches
-    of about :data:`PREFETCH_SECONDS` (at most :data:`STACK_BYTES`) when they are small."""
-    import time
-
-    indices = list(indices)
-    slow = []  # the times of the slow frames read here: two, the first may pay for set-up
-    for n, k in enumerate(indices):
-        start = time.perf_counter()
-        frame = scene.sample_unchecked(k, region)
-        seconds = time.perf_counter() - start
-        yield frame
-        if seconds > 2e-4:
-            slow.append(seconds)
-        if len(slow) == 2:
-            size = max(1, getattr(frame.temperature, "nbytes", STACK_BYTES))
-            batch = max(1, min(int(PREFETCH_SECONDS / min(slow)), STACK_BYTES // size))
-            yield from _prefetched(scene, indices[n + 1:], region, checked=False, batch=batch)
-            return
 
 
 def _integrate_compiled(scene, accumulators, frames, region, progress, engine, observer=None):
@@ -702,55 +651,12 @@ def _integrate_compiled(scene, accumulators, frames, region, progress, engine, o
             if progress is not None:
                 progress(done, len(frames))
         return [m.statistics() for m in merged]
-    for sample, temperature, n in _stacked(_frames_inline_or_prefetched(scene, frames,
-                                                                        region)):
+    for sample, temperature, n in stacked(frames_inline_or_prefetched(scene, frames, region)):
         merge(temperature, sample, sample.index, sample.index + n)
         done += n
         if progress is not None:
             progress(done, len(frames))
     return [m.statistics() for m in merged]
-
-
-#: Most bytes of a block of small generated frames stacked into one kernel call
-#: (:func:`_stacked`); a frame of more than a sixteenth of it goes alone.
-STACK_BYTES = 1 << 22
-
-
-def _stacked(samples):
-    """Scene frames as (first frame, temperature, frames): small frames that differ in
-    temperature only (same dtype and shape, the same emissivity, no region map, nothing
-    reflected) stacked into 3-D blocks of consecutive frames, up to :data:`FRAME_BLOCK` frames
-    or :data:`STACK_BYTES`, so that a scene that makes its frames one at a time (the chip) takes
-    one kernel call per block, not per frame (the kernel merges a block's frames one after the
-    other, exactly as frame by frame); any other frame alone, as it is (2-D)."""
-    first, held = None, []
-    for frame in samples:
-        t = frame.temperature
-        alone = not (isinstance(t, np.ndarray) and t.ndim == 2 and 16 * t.nbytes <= STACK_BYTES
-                     and frame.regions is None and frame.region_emissivity is None
-                     and frame.reflected_temperature is None)
-        if held and (alone or frame.index != first.index + len(held)
-                     or len(held) == FRAME_BLOCK or (len(held) + 1) * t.nbytes > STACK_BYTES
-                     or t.dtype != held[0].dtype or t.shape != held[0].shape
-                     or not _same_emissivity(first.emissivity, frame.emissivity)):
-            yield first, np.stack(held) if len(held) > 1 else held[0], len(held)
-            held = []
-        if alone:
-            yield frame, t, 1
-            continue
-        if not held:
-            first = frame
-        held.append(t)
-    if held:
-        yield first, np.stack(held) if len(held) > 1 else held[0], len(held)
-
-
-def _same_emissivity(e, f) -> bool:
-    """The same emissivity object, or views of the same memory (one signal table serves
-    both)."""
-    return e is f or (isinstance(e, np.ndarray) and isinstance(f, np.ndarray)
-                      and e.shape == f.shape and e.strides == f.strides and e.dtype == f.dtype
-                      and e.__array_interface__["data"][0] == f.__array_interface__["data"][0])
 
 
 class _Merged:

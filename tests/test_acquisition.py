@@ -37,7 +37,7 @@ def test_progress_counts_the_one_pass_of_an_imaging_camera():
     camera.measure(_band(), 5e-6, 4e-6, rng=1, progress=lambda *a: calls.append(a))
     # The scene truth's statistics and the image from one pass over the window's 5 frames
     # (imaging.image_statistics): counted once, per kernel call (small generated frames go
-    # in blocks: integrator._stacked), rising to 5 of 5.
+    # in blocks: frame_reading.stacked), rising to 5 of 5.
     assert calls[-1] == (5, 5) and all(t == 5 for _, t in calls)
     done = [d for d, _ in calls]
     assert done == sorted(set(done)) and done[-1] == 5

@@ -201,11 +201,11 @@ def test_blocks_of_frames_give_the_frame_by_frame_result(monkeypatch):
     # A stored stack is integrated in blocks of consecutive frames (one kernel call each);
     # windows that cross block boundaries, start mid-block or leave gaps between them give
     # what frame-by-frame calls give (a scene of generated frames, not stacked: STACK_BYTES 0).
-    from radiosim import integrator
+    from radiosim import frame_reading, integrator
     from radiosim.camera import measure_many
     from radiosim.integrator import FRAME_BLOCK
 
-    monkeypatch.setattr(integrator, "STACK_BYTES", 0)
+    monkeypatch.setattr(frame_reading, "STACK_BYTES", 0)
 
     rng = np.random.default_rng(11)
     dx, dt = 1e-6, 1e-6
@@ -369,6 +369,7 @@ def test_a_window_past_the_last_frame_is_stated_in_readable_units():
 def test_frames_made_one_at_a_time_are_stacked_into_blocks_with_the_same_bits(monkeypatch):
     # A scene that makes its frames one at a time gets small frames stacked into blocks (one
     # kernel call each): the same bits as one call per frame.
+    import radiosim.frame_reading as frame_reading
     import radiosim.integrator as integrator
     from radiosim.camera import measure_many
 
@@ -386,7 +387,7 @@ def test_frames_made_one_at_a_time_are_stacked_into_blocks_with_the_same_bits(mo
     stacked = measure_many(scene, cases, rng=3)
     assert max(len(shape) for shape in calls) == 3 and len(calls) < 10
     calls.clear()
-    monkeypatch.setattr(integrator, "STACK_BYTES", 0)  # every frame alone
+    monkeypatch.setattr(frame_reading, "STACK_BYTES", 0)  # every frame alone
     alone = measure_many(scene, cases, rng=3)
     assert len(calls) > 150 and all(len(shape) == 2 for shape in calls)
     for a, b in zip(stacked, alone):
@@ -396,7 +397,7 @@ def test_frames_made_one_at_a_time_are_stacked_into_blocks_with_the_same_bits(mo
 
 
 def test_only_frames_that_differ_in_temperature_alone_are_stacked():
-    from radiosim.integrator import _stacked
+    from radiosim.frame_reading import stacked as _stacked
     from radiosim.scenes.base import SceneFrame
 
     t = np.zeros((2, 3))
@@ -419,7 +420,7 @@ def test_slow_frames_are_read_ahead_in_batches_in_order_and_in_full():
     # in batches once two frames were slow: every frame, once, in order, the same as read here.
     import time
 
-    from radiosim.integrator import _frames_inline_or_prefetched, _prefetched
+    from radiosim.frame_reading import frames_inline_or_prefetched, prefetched
 
     class Slow(FrameStack):
         def sample_unchecked(self, k, region=None):
@@ -433,9 +434,9 @@ def test_slow_frames_are_read_ahead_in_batches_in_order_and_in_full():
     region = (slice(1, 3), slice(0, 5))
     indices = list(range(2, 37))
     expected = frames[2:, 1:3]
-    for read in (_frames_inline_or_prefetched(stack, indices, region),
-                 _prefetched(stack, indices, region, checked=False, batch=4),
-                 _prefetched(stack, indices, region, batch=1)):
+    for read in (frames_inline_or_prefetched(stack, indices, region),
+                 prefetched(stack, indices, region, checked=False, batch=4),
+                 prefetched(stack, indices, region, batch=1)):
         got = list(read)
         assert [f.index for f in got] == indices
         assert np.array_equal(np.stack([f.temperature for f in got]), expected)
