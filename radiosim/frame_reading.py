@@ -21,11 +21,25 @@ def prefetched(scene: Scene, indices, region: Region, checked: bool = True, batc
     """Scene frames of ``indices`` in order, read on a worker thread ``batch`` at a time, each
     batch while the previous one is being used (``checked=False``: as the scene holds them,
     for consumers that check every sample). Small frames come in batches: one hand-over
-    between the threads per batch, not per frame."""
+    between the threads per batch, not per frame. A frame that cannot be read raises its
+    error after the frames before it, whatever the batch: the same error as read one by
+    one."""
     read = scene.sample if checked else scene.sample_unchecked
 
     def read_batch(ks):
-        return [read(k, region) for k in ks]
+        frames = []
+        try:
+            for k in ks:
+                frames.append(read(k, region))
+        except Exception as error:  # noqa: BLE001 - raised after the frames read before it
+            return frames, error
+        return frames, None
+
+    def delivered(future):
+        frames, error = future.result()
+        yield from frames
+        if error is not None:
+            raise error
 
     indices = list(indices)
     with ThreadPoolExecutor(max_workers=1) as pool:
@@ -33,10 +47,10 @@ def prefetched(scene: Scene, indices, region: Region, checked: bool = True, batc
         for lo in range(0, len(indices), batch):
             following = pool.submit(read_batch, indices[lo:lo + batch])
             if pending is not None:
-                yield from pending.result()
+                yield from delivered(pending)
             pending = following
         if pending is not None:
-            yield from pending.result()
+            yield from delivered(pending)
 
 
 #: Time [s] of the frames a worker thread reads at once in

@@ -689,8 +689,9 @@ def integrate(
     Stream the window's frames through the response and the integrator, and accumulate tensor
     statistics.
 
-    Frames are read one ahead on a worker thread, so producing a frame (scene evaluation,
-    disk reads) overlaps with integrating the previous one.
+    Frames that are slow to produce (scene evaluation, disk reads) are read ahead on a worker
+    thread (:mod:`radiosim.frame_reading`), so producing them overlaps with integrating the
+    previous ones.
 
     Parameters
     ----------

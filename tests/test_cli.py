@@ -227,17 +227,25 @@ def test_progress_on_a_terminal_is_one_bar_created_before_the_work(capsys):
     assert quiet.getvalue() == ""
 
 
-def test_warmup_compiles_every_path_and_says_so_in_one_line(capsys):
+def test_warmup_compiles_every_path_and_says_so_in_one_line(capsys, monkeypatch):
     # Last in this file: the tests above have compiled most paths, so this loads them from
     # numba's cache and compiles only the rest (float32 frames, intp maps, memory maps).
-    from radiosim.kernels import compile_pending
+    import radiosim.kernels as kernels
+    from radiosim.kernels import compile_pending, compiling
+    from radiosim.kernels.bands import band_kernel
 
+    asked = []  # the processes compile the integrator only: the sub-band kernel is this one's
+    start = kernels.compile_in_background
+    monkeypatch.setattr(kernels, "compile_in_background",
+                        lambda *a, **k: asked.append(k.get("bands", False)) or start(*a, **k))
     assert main(["warmup", "-q"]) == 0
+    assert asked == [False]
     out = capsys.readouterr().out.splitlines()
     assert len(out) == 1 and out[0].startswith("compiled radiosim's kernels in "), out
     assert "cached in" in out[0]
-    # Nothing is left to compile, for any frame or index-map type.
+    # Nothing is left to compile, for any frame or index-map type, nor the sub-band kernel.
     assert not compile_pending(("float32", "float64"), ("uint8", "intp"))
+    assert compiling._fresh_signatures(band_kernel)
 
 
 def test_workers_on_a_study_too_small_to_gain_run_in_this_process(tmp_path, capsys):

@@ -174,3 +174,22 @@ def test_a_launch_waits_for_the_threads_loading_kernels():
         loader.start()
         wait()
         assert done == [1] and not background._LOADING
+
+
+def test_the_sub_band_kernel_waits_for_a_process_compiling_it_and_for_no_other():
+    # radiosim warmup compiles the sub-band kernel here without waiting for the processes
+    # compiling the integrator, but waits for one that compiles the sub-band kernel too.
+    compiling.warmup_bands()  # compiled (or loaded) here first: the launches below are quick
+    other = _sleeper(30)
+    other.with_bands = False
+    background.register(other)
+    try:
+        compiling.warmup_bands(wait_for_processes=False)
+        assert other.poll() is None and background._RUNNING  # not waited for
+    finally:
+        background.stop_all(at_once=True)
+    compiler = _sleeper(1.5)
+    compiler.with_bands = True
+    background.register(compiler)
+    compiling.warmup_bands(wait_for_processes=False)
+    assert compiler.returncode == 0 and not background._RUNNING  # waited for

@@ -440,3 +440,24 @@ def test_slow_frames_are_read_ahead_in_batches_in_order_and_in_full():
         got = list(read)
         assert [f.index for f in got] == indices
         assert np.array_equal(np.stack([f.temperature for f in got]), expected)
+
+
+def test_a_frame_that_cannot_be_read_ahead_fails_after_the_frames_before_it():
+    # Read ahead in batches, an unreadable frame raises its own error after every frame
+    # before it was delivered, whatever the batch: the same as read one by one.
+    from radiosim.frame_reading import prefetched
+
+    class Broken(FrameStack):
+        def sample_unchecked(self, k, region=None):
+            if k == 6:
+                raise RadiosimError(f"frame {k}: unreadable")
+            return super().sample_unchecked(k, region)
+
+    stack = Broken(np.full((12, 3, 4), 300.0), 1e-6, 1e-6)
+    region = (slice(0, 3), slice(0, 4))
+    for batch in (1, 4, 5, 12):
+        got = []
+        with pytest.raises(RadiosimError, match="frame 6: unreadable"):
+            for frame in prefetched(stack, range(12), region, checked=False, batch=batch):
+                got.append(frame.index)
+        assert got == [0, 1, 2, 3, 4, 5]

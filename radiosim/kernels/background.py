@@ -18,7 +18,7 @@ import subprocess
 import threading
 
 __all__ = ["register", "register_loader", "wait_for_loaders", "wait_for_background",
-           "stop_all"]
+           "any_running", "stop_all"]
 
 _RUNNING: list = []  # (process, its folder): started and not yet waited for
 _LOADING: list = []  # threads loading kernels from the cache (compiling.load_in_background)
@@ -48,6 +48,13 @@ def wait_for_loaders() -> None:
         while _LOADING:
             _LOADING[0].join()
             _LOADING.pop(0)
+
+
+def any_running(flag: str) -> bool:
+    """Whether a registered compiling process not yet waited for has the attribute ``flag``
+    set (``with_bands``: it compiles the sub-band kernel too)."""
+    with _LOCK:
+        return any(getattr(process, flag, False) for process, _ in _RUNNING)
 
 
 def _remove(folder) -> None:

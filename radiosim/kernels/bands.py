@@ -25,6 +25,7 @@ import numba
 import numpy as np
 
 from radiosim.errors import RadiosimError
+from radiosim.kernels import background
 from radiosim.kernels.background import wait_for_background, wait_for_loaders
 from radiosim.kernels.bundles import Emissivity, FrameBlock
 from radiosim.kernels.codes import (SIGNAL_INDEX, STATUS_ABOVE_TABLE, STATUS_BAD_INDEX,
@@ -236,6 +237,7 @@ def band_kernel(block, n_blocks, frames, weight, tables, emissivity, out, status
 #: a second variant would cost a compilation.
 band_kernel = numba.njit(**JIT)(band_kernel)
 
+
 def _emissivity(table: SignalTable, shape) -> Emissivity:
     """The kernel's emissivity maps for a frame region of ``shape``: S = L · grey_e · (grey
     map or scalar grey), the entry e from the index map (else 0)."""
@@ -268,7 +270,8 @@ def accumulate_bands(block, weights, tables: list[SignalTable], out: np.ndarray,
     The launch waits for the processes compiling kernels in the background, then loads what
     they cached; ``_wait_for_processes=False`` (``radiosim warmup``, compiling this kernel
     here while they compile the integrator's, which shares no cache file with it) waits only
-    for the threads loading kernels into this process.
+    for the threads loading kernels into this process, unless one of those processes
+    compiles this kernel too.
     """
     from radiosim.kernels.launch import thread_count
 
@@ -292,7 +295,7 @@ def accumulate_bands(block, weights, tables: list[SignalTable], out: np.ndarray,
     base, row_length, frame_stride = frames_of(block)
     status = np.zeros(block.shape[1], dtype=np.int64)
     n_blocks = max(1, min(thread_count(), block.shape[1]))
-    if _wait_for_processes:
+    if _wait_for_processes or background.any_running("with_bands"):
         wait_for_background()  # kernels being compiled by another process: load them after
     else:
         wait_for_loaders()  # numba's typing is not thread-safe while a thread loads kernels

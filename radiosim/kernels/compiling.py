@@ -13,10 +13,10 @@ second. Here:
     scene's own kernels; ``radiosim warmup`` runs one process per frame dtype: the two cores
     compile at once). The first launch of a kernel here waits for those processes
     (:func:`~radiosim.kernels.background.wait_for_background`), then loads what they cached.
-    The entry points have cache files of their own per frame dtype
-    (:func:`~radiosim.kernels.intrinsics.per_frame_dtype`) and the helpers none (``INNER``),
-    so no two processes ever write one function's cache index (numba writes it without a
-    lock). If such a process cannot start, fails or is stopped, this one compiles what it
+    The integrator's entry point has cache files of its own per frame dtype
+    (:func:`~radiosim.kernels.intrinsics.per_frame_dtype`), the sub-band kernel (one variant)
+    is compiled by one process only, and the helpers have no cache files (``INNER``), so no
+    two processes ever write one function's cache index (numba writes it without a lock). If such a process cannot start, fails or is stopped, this one compiles what it
     needs itself, as it would without it: the results do not depend on which process
     compiled.
 """
@@ -227,7 +227,7 @@ def _pending_dtypes(frame_dtypes, bands: bool) -> list[tuple[str, bool]]:
     ``frame_dtypes`` whose integrator entry point has no fresh variant in the cache; with
     ``bands``, the sub-band kernel (one variant for every dtype) goes to one of them, float64's
     if it is among them, when the cache lacks it too."""
-    names = [np.dtype(d).name for d in frame_dtypes]
+    names = list(dict.fromkeys(np.dtype(d).name for d in frame_dtypes))
     pending = [d for d in names if compile_pending((d,))]
     if not (bands and names and not _fresh_signatures(band_kernel)):
         return [(d, False) for d in pending]
@@ -240,8 +240,8 @@ def compile_in_background(frame_dtypes=("float64",), bands: bool = False) -> lis
     """
     Start compiling, each in another Python process, the kernel variants (:func:`warmup`) of
     those ``frame_dtypes`` that numba's cache does not hold (with ``bands``, the sub-band
-    kernel too, in one of them), and return the processes started (none when all are cached; each process's
-    ``frame_dtype`` says which it compiles). This process goes on; its first kernel launch
+    kernel too, in one of them), and return the processes started (none when all are cached;
+    each process's ``frame_dtype`` and ``with_bands`` say what it compiles). This process goes on; its first kernel launch
     waits for them (:func:`~radiosim.kernels.background.wait_for_background`). They write
     nothing but numba's cache and their own temporary folder (made here, their working
     folder, removed once they have ended); they import this process's radiosim; their output
@@ -268,7 +268,7 @@ def compile_in_background(frame_dtypes=("float64",), bands: bool = False) -> lis
             if folder is not None:  # no temporary folder): this process compiles itself
                 os.rmdir(folder)
             continue
-        process.frame_dtype = dtype
+        process.frame_dtype, process.with_bands = dtype, with_bands
         background.register(process, folder)
         started.append(process)
     return started

@@ -4,8 +4,8 @@ LLVM intrinsics and inline arithmetic of the compiled kernels: a fused multiply-
 (rows of four coefficients loaded whole and transposed into vectors by shuffles, Horner by
 vector fused multiply-adds) that the radiance pass uses (:mod:`radiosim.kernels.radiance`).
 
-``JIT`` holds the options of the package's entry points (one per frame dtype:
-:func:`per_frame_dtype`), ``INNER`` those of the helpers they call.
+``JIT`` holds the options of the package's entry points (the integrator's one per frame
+dtype: :func:`per_frame_dtype`), ``INNER`` those of the helpers they call.
 """
 
 from __future__ import annotations

@@ -34,7 +34,7 @@ def _gather(row, cols, out):
 
 #: Most sample rows one sweep along the columns takes (a pixel row of more pieces takes several
 #: sweeps): each sweep reads and writes the column accumulators once.
-MAX_ROWS = 12
+MAX_ROWS = 12  # below 16: _lin takes one block of eight rows at most, from row 0
 #: Slots per sweep: the accumulators of a chunk stay in the L1 cache while its rows stream by.
 CHUNK = 512
 #: The rows one loop along the columns takes at once, largest first (a sweep of n rows takes
