@@ -38,6 +38,8 @@ import tempfile
 import time
 from pathlib import Path
 
+from _host import speed_probe
+
 # Run in a fresh process: the warm run's parts, timed as radiosim.cli._run does them.
 _PARTS = """
 import json, pathlib, sys, time
@@ -86,6 +88,7 @@ def main(argv=None):
     parser.add_argument("--repeat", type=int, default=5,
                         help="fresh processes per start-up measurement; the best is kept")
     args = parser.parse_args(argv)
+    probe_before = speed_probe()
 
     python = sys.executable
     radiosim = [str(Path(python).with_name("radiosim"))]
@@ -131,6 +134,8 @@ def main(argv=None):
     print(f"radiosim start-up and runs, {os.cpu_count()} cores, load average "
           f"{', '.join(f'{x:.1f}' for x in os.getloadavg())} (best of {args.repeat} for "
           "start-up; one run each otherwise)")
+    print(f"host speed probe, sum(range(10**7)): {probe_before:.3f} s before, "
+          f"{speed_probe():.3f} s after (about 0.17 s on a quiet host)")
     print(f"| {'what':<45} | {'seconds':>7} | {'x numpy':>7} | {'target':<11} | met |")
     print(f"| {'-' * 45} | {'-' * 7} | {'-' * 7} | {'-' * 11} | --- |")
     for what, seconds, ratio, target, met in rows:

@@ -25,6 +25,8 @@ import tempfile
 import time
 from pathlib import Path
 
+from _host import speed_probe
+
 CHILD = r"""
 import json, sys, time
 from numba.core import event
@@ -69,6 +71,7 @@ def main():
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--top", type=int, default=25, help="functions to list")
     args = parser.parse_args()
+    probe = speed_probe()
     radiosim = [str(Path(sys.executable).with_name("radiosim"))]
     if not Path(radiosim[0]).is_file():
         radiosim = [sys.executable, "-c", "import sys; from radiosim.cli import main; "
@@ -79,7 +82,9 @@ def main():
         subprocess.run(radiosim + ["warmup", "-q"], env=env, capture_output=True, check=True)
         warmup = time.perf_counter() - began
     print(f"every kernel, `radiosim warmup` from an empty cache (target <= 15 s): {warmup:.1f} s"
-          f" on {os.cpu_count()} cores\n")
+          f" on {os.cpu_count()} cores")
+    print(f"host speed probe, sum(range(10**7)): {probe:.3f} s before, {speed_probe():.3f} s "
+          "after (about 0.17 s on a quiet host)\n")
     with tempfile.TemporaryDirectory(prefix="radiosim-numba-cache-") as cache:
         env = {**os.environ, "NUMBA_CACHE_DIR": cache}
         out = subprocess.run([sys.executable, "-c", CHILD], env=env, capture_output=True,
