@@ -230,7 +230,6 @@ def band_kernel(block, n_blocks, frames, weight, tables, emissivity, out, status
                     out[b, i, j] += acc[b * n_cols + j]
 
 
-
 #: One compiled variant, for float64 frames: :func:`accumulate_bands` widens float32 ones (a
 #: copy of the block, exact; the kernel widens every sample it reads all the same). The
 #: kernel's work per sample (a lookup and a cubic per sub-band) costs more than the copy, and

@@ -16,9 +16,9 @@ second. Here:
     The integrator's entry point has cache files of its own per frame dtype
     (:func:`~radiosim.kernels.intrinsics.per_frame_dtype`), the sub-band kernel (one variant)
     is compiled by one process only, and the helpers have no cache files (``INNER``), so no
-    two processes ever write one function's cache index (numba writes it without a lock). If such a process cannot start, fails or is stopped, this one compiles what it
-    needs itself, as it would without it: the results do not depend on which process
-    compiled.
+    two processes ever write one function's cache index (numba writes it without a lock).
+    If such a process cannot start, fails or is stopped, this one compiles what it needs
+    itself, as it would without it: the results do not depend on which process compiled.
 """
 
 from __future__ import annotations
