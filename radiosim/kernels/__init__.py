@@ -69,11 +69,14 @@ of up to 255 entries) and caches it on disk (``cache=True``, in ``radiosim/kerne
 or ``NUMBA_CACHE_DIR``); later processes load it in about 0.3 s. Each frame dtype has an entry
 point of its own (:data:`~radiosim.kernels.rows.ACCUMULATE_KERNELS`); the helpers it calls have
 no Python wrapper and no cache files of their own (``INNER``), and the row pass is inlined into
-it. Compiling every kernel costs about 30 s of CPU on a 2-core machine
-(``benchmarks/bench_compile.py`` lists it per function: most of it is LLVM optimising the row
-pass, once per frame dtype); ``radiosim warmup`` spreads it over the cores (a process per frame
-dtype, :mod:`~radiosim.kernels.compiling`), and ``radiosim run`` compiles the integrator in
-another process while it compiles the chip's kernels. :func:`warmup` compiles every variant
+it. The image stage's sub-band kernel has one variant (float32 frames are widened for it).
+Compiling every kernel costs about 30 s of CPU on a quiet 2-core host
+(``benchmarks/bench_compile.py`` lists it per function: most of it is the integrator's entry
+point, once per frame dtype; about 60 % numba's typing and lowering, 40 % LLVM);
+``radiosim warmup`` spreads it over the cores (a process per frame dtype compiles the
+integrator, :mod:`~radiosim.kernels.compiling`, while the command compiles the chip's and the
+sub-band kernels), and ``radiosim run`` compiles the integrator in another process while it
+compiles the chip's kernels. :func:`warmup` compiles every variant
 ahead of time in this process, and :func:`compile_pending` tells, from the cache's index files,
 whether a launch would compile.
 
