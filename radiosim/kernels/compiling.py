@@ -148,13 +148,12 @@ def warmup(progress=None, memmap_dir=None, frame_dtypes=FRAME_DTYPES, bands=True
     import time
 
     from radiosim.kernels import dispatchers
-    from radiosim.radiometry import BandRadianceTable
 
     began = time.perf_counter()
     before = sum(len(d.signatures) for d in dispatchers())
     rows, cols = _tiny_axis(3), _tiny_axis(5)
     shape = (rows.extent, cols.extent)
-    table = BandRadianceTable(temperature_range=(200.0, 800.0), per_octave=16)
+    table = _tiny_table()
     grey_map = np.full(shape, 0.9)
     responses = [("linear", None),
                  ("Planck, grey", SignalTable(table, grey=0.9)),
@@ -181,24 +180,30 @@ def warmup(progress=None, memmap_dir=None, frame_dtypes=FRAME_DTYPES, bands=True
                         progress(done, total, f"{dtype.name} frames {storage}, {name}")
                 del block  # the memory map's file is closed before its folder goes
     if bands:  # the image stage's sub-bands from one lookup (one variant: float32 widened)
-        warmup_bands()
+        warmup_bands(table=table)
     after = sum(len(d.signatures) for d in dispatchers())
     return {"seconds": time.perf_counter() - began, "compiled": after - before,
             "variants": total, "cache": cache_location()}
 
 
-def warmup_bands(wait_for_processes: bool = True) -> None:
-    """
-    Compile (or load) the image stage's sub-band kernel, :func:`warmup`'s ``bands`` alone:
-    its one variant, on tiny frames. ``wait_for_processes=False``: without waiting for the
-    processes compiling the integrator's kernels (``radiosim warmup`` compiles this one here
-    meanwhile; they share no cache file).
-    """
-    from radiosim.kernels.bands import accumulate_bands
+def _tiny_table():
+    """A small radiance table (a coarse grid over 200–800 K) for the tiny launches."""
     from radiosim.radiometry import BandRadianceTable
 
-    table = SignalTable(BandRadianceTable(temperature_range=(200.0, 800.0), per_octave=16),
-                        grey=0.9)
+    return BandRadianceTable(temperature_range=(200.0, 800.0), per_octave=16)
+
+
+def warmup_bands(wait_for_processes: bool = True, table=None) -> None:
+    """
+    Compile (or load) the image stage's sub-band kernel, :func:`warmup`'s ``bands`` alone:
+    its one variant, on tiny frames (``table``: a radiance table to launch it with, default
+    :func:`_tiny_table`'s). ``wait_for_processes=False``: without waiting for the processes
+    compiling the integrator's kernels (``radiosim warmup`` compiles this one here meanwhile;
+    they share no cache file).
+    """
+    from radiosim.kernels.bands import accumulate_bands
+
+    table = SignalTable(table if table is not None else _tiny_table(), grey=0.9)
     frames = np.full((2, 3, 5), 300.0) + np.arange(5) * 0.5
     accumulate_bands(frames, np.full(2, 0.5), [table] * 2, np.zeros((2, 3, 5)),
                      _wait_for_processes=wait_for_processes)
@@ -241,10 +246,11 @@ def compile_in_background(frame_dtypes=("float64",), bands: bool = False) -> lis
     Start compiling, each in another Python process, the kernel variants (:func:`warmup`) of
     those ``frame_dtypes`` that numba's cache does not hold (with ``bands``, the sub-band
     kernel too, in one of them), and return the processes started (none when all are cached;
-    each process's ``frame_dtype`` and ``with_bands`` say what it compiles). This process goes on; its first kernel launch
-    waits for them (:func:`~radiosim.kernels.background.wait_for_background`). They write
-    nothing but numba's cache and their own temporary folder (made here, their working
-    folder, removed once they have ended); they import this process's radiosim; their output
+    each process's ``frame_dtype`` and ``with_bands`` say what it compiles). This process
+    goes on; its first kernel launch waits for them
+    (:func:`~radiosim.kernels.background.wait_for_background`). They write nothing but
+    numba's cache and their own temporary folder (made here, their working folder, removed
+    once they have ended); they import this process's radiosim; their output
     is discarded; they stop when this process exits or is interrupted, and end by themselves
     if it is killed.
     """

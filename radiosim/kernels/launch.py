@@ -341,9 +341,9 @@ def accumulate_merged(frame, rows, cols, reference: np.ndarray, members: Members
     return status
 
 
-_NO_MEMBERS = Merging(False, False, False, np.zeros((1, 1)), np.zeros((1, 1)), np.zeros((1, 1)),
-                      np.zeros((1, 1, 1)), np.zeros((1, 1, 1)), np.zeros((1, 1, 1)),
-                      np.zeros((1, 1, 1)))
+_NO_MEMBERS = Merging(False, False, False, np.zeros((1, 1)), np.zeros((1, 1)),
+                      np.zeros((1, 1)), np.zeros((1, 1, 1)), np.zeros((1, 1, 1)),
+                      np.zeros((1, 1, 1)), np.zeros((1, 1, 1)))
 
 
 _SCRATCH: dict = {}
