@@ -4,6 +4,8 @@ integrator's arithmetic, the radiance table and the exact quadrature)."""
 import os
 import subprocess
 import sys
+from pathlib import Path
+from types import SimpleNamespace
 
 import numpy as np
 import pytest
@@ -600,6 +602,8 @@ def test_kernel_cache_stamp_covers_every_kernel_source(tmp_path, monkeypatch):
     # numba stamps a cached function with its own file only; radiosim's locator adds a stamp
     # over all kernel sources, so a change to an inlined helper's file (here: a new size)
     # changes every kernel's stamp.
+    import numba
+
     from radiosim.kernels import cache, rows
 
     folder = tmp_path / "kernels"
@@ -619,3 +623,12 @@ def test_kernel_cache_stamp_covers_every_kernel_source(tmp_path, monkeypatch):
     locator = rows.accumulate_kernel._cache._impl.locator
     assert type(locator).__name__ == "_PackageStampLocator"
     assert locator.get_source_stamp()[1] == cache.source_stamp()
+    # numba's warning that a result cannot be cached (NUMBA_OPT=0 leaves dynamic globals in the
+    # kernels) reads the locator's source file: a warning naming rows.py, not an AttributeError.
+    assert Path(locator._py_file) == Path(rows.__file__).resolve()
+    impl = rows.accumulate_kernel._cache._impl
+    result = SimpleNamespace(lifted=(), fndesc=SimpleNamespace(qualname="accumulate_kernel"),
+                             library=SimpleNamespace(has_dynamic_globals=True))
+    with pytest.warns(numba.NumbaWarning, match="Cannot cache compiled function") as caught:
+        assert impl.check_cachable(result) is False
+    assert Path(caught[0].filename) == Path(rows.__file__).resolve()

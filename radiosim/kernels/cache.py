@@ -75,6 +75,12 @@ class _PackageStampLocator(caching._CacheLocator):
     def get_disambiguator(self):
         return self._inner.get_disambiguator()
 
+    @property
+    def _py_file(self):
+        # numba's warning that a result cannot be cached names the source file through it
+        # (e.g. under NUMBA_OPT=0, where a kernel keeps dynamic globals).
+        return self._inner._py_file
+
     @classmethod
     def from_function(cls, py_func, py_file):
         if not _is_kernel_source(py_file):
