@@ -12,7 +12,6 @@ from __future__ import annotations
 import numba
 import numpy as np
 
-from radiosim.kernels.bundles import ThreadBuffers
 from radiosim.kernels.codes import (SIGNAL_INDEX, SIGNAL_MAP, SIGNAL_NONE, SIGNAL_SCALAR,
                                     STATUS_BELOW_TABLE)
 from radiosim.kernels.intrinsics import INF, INNER, per_frame_dtype
@@ -245,20 +244,33 @@ def _row(row_source, p, h, n, length):
     return np.uint64(row_source[p + min(h, n - 1)] * length)
 
 
-@numba.njit(**INNER, inline="always")
-def _accumulate_rows(i_start, i_stop, base, row_length, rows, cols, acc, members, f, tables,
-                     emissivity, thread, status):
-    """Pixel rows i_start to i_stop − 1 of frame ``f`` (its samples from ``base``, rows
-    ``row_length`` apart) of :func:`accumulate_kernel`: one thread's block, with its row of
-    the :class:`~radiosim.kernels.bundles.ThreadBuffers` (``thread``): buffers for the
-    duplicate slots' samples, each written through the first array and read through the second
-    (a read-only view of the same memory, so that the gathered rows have the type of the
-    frame's rows: one compilation serves both), and the running maximum and minimum per slot,
-    in the frame's dtype. ``status``: frame f's status per pixel row.
+def accumulate_kernel(b, n_blocks, start, frames, rows, cols, acc, members, tables, emissivity,
+                      buffers, status):
+    """Block ``b`` of the frames' pixel rows in ``n_blocks`` contiguous blocks, one per thread
+    (:func:`~radiosim.kernels.threads.run_blocks`; block b uses row b of ``buffers``); frame
+    f starts at ``frames.base[f * frames.frame_stride]``, and the merging weights
+    (``members``) and ``status`` have one row per frame. The block takes frames start[b] …
+    n_frames − 1 of its rows, one after the other, without waiting for the other blocks (no
+    barrier per frame), and stops after its first frame with a status. Returns that frame, or
+    n_frames. The bundles: :mod:`radiosim.kernels.bundles`.
+
+    Row b of the :class:`~radiosim.kernels.bundles.ThreadBuffers` (``buffers``) holds the
+    block's buffers for the duplicate slots' samples, each written through the first array and
+    read through the second (a read-only view of the same memory, so that the gathered rows have
+    the type of the frame's rows: one compilation serves both), and the running maximum and
+    minimum per slot, in the frame's dtype.
 
     Each pixel row is swept along the columns in chunks of CHUNK slots, up to MAX_ROWS sample
     rows per sweep (all of them, for pixels of up to MAX_ROWS pieces), so the accumulators are
-    read and written once per chunk while the frame's rows stream through."""
+    read and written once per chunk while the frame's rows stream through. (One function: as
+    a helper inlined by numba, the pixel rows' pass cost a copy of its IR and a second typing,
+    about a second of compile per frame dtype.)"""
+    n_frames = frames.n_frames
+    frame_stride = frames.frame_stride
+    row_length = frames.row_length
+    n_rows = rows.bounds.size - 1
+    first_row = b * n_rows // n_blocks
+    stop_row = (b + 1) * n_rows // n_blocks
     row_source = rows.source
     row_weight = rows.weight
     row_bounds = rows.bounds
@@ -271,14 +283,14 @@ def _accumulate_rows(i_start, i_stop, base, row_length, rows, cols, acc, members
     index_map = emissivity.index_map
     map_length = emissivity.map_length
     use_map = emissivity.use_map
-    rows_w = thread.rows_w
-    rows_r = thread.rows_r
-    grey_w = thread.grey_w
-    grey_r = thread.grey_r
-    index_w = thread.index_w
-    index_r = thread.index_r
-    am = thread.am
-    an = thread.an
+    rows_w = buffers.rows_w[b]
+    rows_r = buffers.rows_r[b]
+    grey_w = buffers.grey_w[b]
+    grey_r = buffers.grey_r[b]
+    index_w = buffers.index_w[b]
+    index_r = buffers.index_r[b]
+    am = buffers.am[b]
+    an = buffers.an[b]
     n_slots = slot_weight.size
     ns = cols.n_samples
     n_dups = dup_source.size
@@ -324,92 +336,72 @@ def _accumulate_rows(i_start, i_stop, base, row_length, rows, cols, acc, members
                    np.uint64(7) * size - samples_u, np.uint64(8) * size - samples_u,
                    np.uint64(9) * size - samples_u, np.uint64(10) * size - samples_u,
                    np.uint64(11) * size - samples_u)
-    for i in range(i_start, i_stop):
-        _setup_row(reference, i, cols.runs, with_signal, ce, a3)
-        row_status = np.int64(0)  # not a literal: one compilation of _commit_row
-        p = row_bounds[i]
-        start = p
-        stop = row_bounds[i + 1]
-        while p < stop:
-            n = min(MAX_ROWS, stop - p)
-            # Rows past n repeat the last one (never read by _lin{n}); offsets as uint64.
-            o = _rows12(row_source, p, n, row_length)
-            ws = (row_weight[p], row_weight[p + min(1, n - 1)], row_weight[p + min(2, n - 1)],
-                  row_weight[p + min(3, n - 1)], row_weight[p + min(4, n - 1)],
-                  row_weight[p + min(5, n - 1)], row_weight[p + min(6, n - 1)],
-                  row_weight[p + min(7, n - 1)], row_weight[p + min(8, n - 1)],
-                  row_weight[p + min(9, n - 1)], row_weight[p + min(10, n - 1)],
-                  row_weight[p + min(11, n - 1)])
-            # The grey map's rows (SIGNAL_SCALAR and SIGNAL_MAP).
-            mo = _rows12(row_source, p, n, map_length)
-            # Part 0: the sample slots, along the frame's rows; part 1: the duplicate slots,
-            # along rows gathered into the buffers (row h at h · size − n_samples, so that
-            # slot q reads sample q − n_samples of it).
-            for part in range(2 if n_dups else 1):
-                if part == 1:
-                    for h in range(n):
-                        _gather(base[o[h]:], dup_source, rows_w[h])
-                first, end = (zero, samples_u) if part == 0 else (samples_u, slots_u)
-                src = base if part == 0 else dup_rows
-                offsets = o if part == 0 else dup_offsets
-                for lo in range(first, end, chunk):
-                    hi = min(end, lo + chunk)
-                    _lin(n, p == start, lo, hi, src, offsets, ws, ce, a1, a2, am, an, sums)
-                    if with_signal and part == 0 and mode != SIGNAL_INDEX:
-                        _signal_rows(n, lo, hi, src, offsets, ws, grey_map, mo, use_map, grey,
-                                     table_rows, table_key0, table_shift, table_last,
-                                     interval, u, a3)
-                    elif with_signal:
-                        lo_i, hi_i = np.int64(lo), np.int64(hi)
-                        for h in range(n):
-                            m_off = row_source[p + h] * map_length
-                            if part == 0:
-                                x = base[o[h] + lo:]
-                                g = grey_map[m_off + lo_i:]
-                                e = index_map[m_off + lo_i:]
-                            else:
-                                x = rows_r[h][lo_i - ns:]
-                                if use_map or mode != SIGNAL_INDEX:  # scalar: the ones
-                                    _gather(grey_map[m_off:], dup_source[lo_i - ns:hi_i - ns],
-                                            grey_w[:hi_i - lo_i])
-                                if mode == SIGNAL_INDEX:
-                                    _gather(index_map[m_off:], dup_source[lo_i - ns:hi_i - ns],
-                                            index_w[:hi_i - lo_i])
-                                g = grey_r
-                                e = index_r
-                            row_status |= _signal_row(
-                                x, g, e, slot_weight[lo_i:hi_i], ws[h], mode, grey, use_map,
-                                tables, interval, u, value, factor, a3[lo_i:hi_i])
-            p += n
-        status[i] = _commit_row(i, a1, a2, a3, am, an, cols, acc, members, f, with_signal,
-                                t_low, t_high, s1, s2, s3, sm, row_status)
-
-
-def accumulate_kernel(b, n_blocks, start, frames, rows, cols, acc, members, tables, emissivity,
-                      buffers, status):
-    """Block ``b`` of the frames' pixel rows in ``n_blocks`` contiguous blocks, one per thread
-    (:func:`~radiosim.kernels.threads.run_blocks`; block b uses row b of ``buffers``); frame
-    f starts at ``frames.base[f * frames.frame_stride]``, and the merging weights
-    (``members``) and ``status`` have one row per frame. The block takes frames start[b] …
-    n_frames − 1 of its rows, one after the other, without waiting for the other blocks (no
-    barrier per frame), and stops after its first frame with a status. Returns that frame, or
-    n_frames. The bundles: :mod:`radiosim.kernels.bundles`."""
-    n_frames = frames.n_frames
-    frame_stride = frames.frame_stride
-    base = frames.base
-    n_rows = rows.bounds.size - 1
-    first_row = b * n_rows // n_blocks
-    stop_row = (b + 1) * n_rows // n_blocks
-    thread = ThreadBuffers(buffers.rows_w[b], buffers.rows_r[b], buffers.grey_w[b],
-                           buffers.grey_r[b], buffers.index_w[b], buffers.index_r[b],
-                           buffers.am[b], buffers.an[b])
     for f in range(start[b], n_frames):
-        row_status = status[f]
-        _accumulate_rows(first_row, stop_row, base[f * frame_stride:], frames.row_length, rows,
-                         cols, acc, members, f, tables, emissivity, thread, row_status)
+        frame = frames.base[f * frame_stride:]  # frame f's samples, rows row_length apart
+        frame_status = status[f]  # per pixel row
+        for i in range(first_row, stop_row):
+            _setup_row(reference, i, cols.runs, with_signal, ce, a3)
+            row_status = np.int64(0)  # not a literal: one compilation of _commit_row
+            p = row_bounds[i]
+            first_p = p
+            stop = row_bounds[i + 1]
+            while p < stop:
+                n = min(MAX_ROWS, stop - p)
+                # Rows past n repeat the last one (never read by _lin{n}); offsets as uint64.
+                o = _rows12(row_source, p, n, row_length)
+                ws = (row_weight[p], row_weight[p + min(1, n - 1)],
+                      row_weight[p + min(2, n - 1)], row_weight[p + min(3, n - 1)],
+                      row_weight[p + min(4, n - 1)], row_weight[p + min(5, n - 1)],
+                      row_weight[p + min(6, n - 1)], row_weight[p + min(7, n - 1)],
+                      row_weight[p + min(8, n - 1)], row_weight[p + min(9, n - 1)],
+                      row_weight[p + min(10, n - 1)],
+                      row_weight[p + min(11, n - 1)])
+                # The grey map's rows (SIGNAL_SCALAR and SIGNAL_MAP).
+                mo = _rows12(row_source, p, n, map_length)
+                # Part 0: the sample slots, along the frame's rows; part 1: the duplicate
+                # slots, along rows gathered into the buffers (row h at h · size − n_samples,
+                # so that slot q reads sample q − n_samples of it).
+                for part in range(2 if n_dups else 1):
+                    if part == 1:
+                        for h in range(n):
+                            _gather(frame[o[h]:], dup_source, rows_w[h])
+                    first, end = (zero, samples_u) if part == 0 else (samples_u, slots_u)
+                    src = frame if part == 0 else dup_rows
+                    offsets = o if part == 0 else dup_offsets
+                    for lo in range(first, end, chunk):
+                        hi = min(end, lo + chunk)
+                        _lin(n, p == first_p, lo, hi, src, offsets, ws, ce, a1, a2, am, an,
+                             sums)
+                        if with_signal and part == 0 and mode != SIGNAL_INDEX:
+                            _signal_rows(n, lo, hi, src, offsets, ws, grey_map, mo, use_map,
+                                         grey, table_rows, table_key0, table_shift,
+                                         table_last, interval, u, a3)
+                        elif with_signal:
+                            lo_i, hi_i = np.int64(lo), np.int64(hi)
+                            for h in range(n):
+                                m_off = row_source[p + h] * map_length
+                                if part == 0:
+                                    x = frame[o[h] + lo:]
+                                    g = grey_map[m_off + lo_i:]
+                                    e = index_map[m_off + lo_i:]
+                                else:
+                                    x = rows_r[h][lo_i - ns:]
+                                    dups = dup_source[lo_i - ns:hi_i - ns]
+                                    if use_map or mode != SIGNAL_INDEX:  # scalar: the ones
+                                        _gather(grey_map[m_off:], dups, grey_w[:hi_i - lo_i])
+                                    if mode == SIGNAL_INDEX:
+                                        _gather(index_map[m_off:], dups, index_w[:hi_i - lo_i])
+                                    g = grey_r
+                                    e = index_r
+                                row_status |= _signal_row(
+                                    x, g, e, slot_weight[lo_i:hi_i], ws[h], mode, grey,
+                                    use_map, tables, interval, u, value, factor, a3[lo_i:hi_i])
+                p += n
+            frame_status[i] = _commit_row(i, a1, a2, a3, am, an, cols, acc, members, f,
+                                          with_signal, t_low, t_high, s1, s2, s3, sm, row_status)
         bad = 0
         for i in range(first_row, stop_row):
-            bad |= row_status[i]
+            bad |= frame_status[i]
         if bad != 0:
             return f
     return n_frames
