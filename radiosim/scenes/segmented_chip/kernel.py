@@ -255,77 +255,20 @@ def _modulation_span(row, cos_field, sin_field, ca, sa):
         row[j] += ca * cos_field[j] + sa * sin_field[j]
 
 
-@numba.njit(**_ONCE)
-def _frame_row(i, static, regions_static, out, regions_out, want_regions, forming, y, k,
-               profile, cos_field, sin_field, layout, scratch, f_saturated, sigma_saturated):
-    """Row i of the frame: the static row, then the moving terms on the row's runs
-    (``layout``: :class:`RunLayout`; ``scratch``: three rows of space, padded)."""
-    x = layout.x
-    ptr = layout.ptr
-    runs = layout.runs
-    fade = layout.fade
-    fade_rows = layout.fade_rows
-    row = out[i]
-    _copy(row, static[i])
-    region_row = regions_out[0]
-    if want_regions:
-        region_row = regions_out[i]
-        _copy(region_row, regions_static[i])
-    dyv = y[i] - k.tip_y
-    # Travelling modulation of the secondary zone.
-    ca, sa = k.cos, k.sin
-    for q in range(ptr[SET_PERIODIC, i], ptr[SET_PERIODIC, i + 1]):
-        j0, j1, at = runs[q, 0], runs[q, 1], runs[q, 2]
-        _modulation_span(row[j0:j1], cos_field[at:at + j1 - j0], sin_field[at:at + j1 - j0],
-                         ca, sa)
-    # The row's faded columns [fade_lo, fade_hi) near the rake face, their fades from
-    # fade[f0].
-    f0 = fade_rows[i, 0]
-    fade_lo = fade_rows[i, 1]
-    fade_hi = fade_lo + fade_rows[i + 1, 0] - f0
-    # Released bands.
-    for q in range(ptr[SET_CHIP, i], ptr[SET_CHIP, i + 1]):
-        j0, j1 = runs[q, 0], runs[q, 1]
-        a = min(max(fade_lo, j0), j1)
-        b = min(max(fade_hi, a), j1)
-        _chip_span(row[j0:a], x[j0:], dyv, k, profile, fade, False, scratch[0])
-        _chip_span(row[a:b], x[a:], dyv, k, profile, fade[f0 + max(a - fade_lo, 0):], True,
-                   scratch[0])
-        _chip_span(row[b:j1], x[b:], dyv, k, profile, fade, False, scratch[0])
-    # The forming band.
-    if forming:
-        for q in range(ptr[SET_FORMING, i], ptr[SET_FORMING, i + 1]):
-            j0, j1 = runs[q, 0], runs[q, 1]
-            a = min(max(fade_lo, j0), j1)
-            b = min(max(fade_hi, a), j1)
-            _forming_run(row[j0:j1], x[j0:], dyv, k, scratch, fade[f0 + max(a - fade_lo, 0):],
-                         a - j0, b - j0, f_saturated, sigma_saturated)
-    # The free surface.
-    for q in range(ptr[SET_SURFACE, i], ptr[SET_SURFACE, i + 1]):
-        j0, j1 = runs[q, 0], runs[q, 1]
-        _surface_span(row[j0:j1], region_row[j0:j1] if want_regions else region_row,
-                      want_regions, x[j0:], dyv, k)
-
-
-@numba.njit(**_ONCE)
-def _band_profile(grid, terms, nodes, sin_b):
-    """:func:`~.reference.band_profile`'s arithmetic, with _exp."""
+@numba.njit(**_JIT)
+def band_profile(grid, terms, nodes, sin_b):
+    """The released bands' profile on ``grid`` (:func:`~.reference.band_profile`'s arithmetic,
+    with _exp), computed once per frame before the threads of :func:`moving_terms_kernel`
+    start."""
     profile = np.zeros(grid.size)
     for band in range(terms.shape[0]):
         zk, sigma2, amplitude = terms[band, 0], terms[band, 1], terms[band, 2]
-        band_profile = profile[nodes[band, 0]:nodes[band, 1]]
+        values = profile[nodes[band, 0]:nodes[band, 1]]
         band_grid = grid[nodes[band, 0]:nodes[band, 1]]
-        for j in range(band_profile.size):
+        for j in range(values.size):
             dz = (band_grid[j] - zk) * sin_b
-            band_profile[j] += amplitude * _exp(-dz * dz / (2 * sigma2))
+            values[j] += amplitude * _exp(-dz * dz / (2 * sigma2))
     return profile
-
-
-@numba.njit(**_JIT)
-def band_profile(grid, terms, nodes, sin_b):
-    """The released bands' profile on ``grid`` (:func:`_band_profile`), computed once per
-    frame before the threads of :func:`moving_terms_kernel` start."""
-    return _band_profile(grid, terms, nodes, sin_b)
 
 
 @numba.njit(**_JIT)
@@ -339,7 +282,9 @@ def moving_terms_kernel(thread, threads, bounds, static, regions_static, out, re
     was estimated); together they write ``out`` (and, with ``want_regions``, ``regions_out``)
     in full. ``layout`` (:class:`RunLayout`) holds the runs, the fades and the columns' x
     coordinates and PAD more (any finite values); ``k`` the scalars (:class:`KernelConstants`);
-    ``profile`` the released bands' profile on the ζ grid (:func:`band_profile`).
+    ``profile`` the released bands' profile on the ζ grid (:func:`band_profile`). Each row: the
+    static row, then the moving terms on the row's runs (written here, not in a helper numba
+    inlines: a copy of its IR and a second typing).
     ``extremes[thread]``: the least and greatest bit pattern (as int64) of the values the
     thread wrote — as integers, positive finite floats keep their order, and any value ≤ 0 K
     gives one ≤ 0, any +inf or NaN one ≥ that of +inf (the frame's check, in registers)."""
@@ -352,16 +297,60 @@ def moving_terms_kernel(thread, threads, bounds, static, regions_static, out, re
     sigma_saturated *= sigma_saturated
     sigma_saturated *= -2.0
     n_blocks = bounds.size - 1
+    x = layout.x
+    ptr = layout.ptr
+    runs = layout.runs
+    fade = layout.fade
+    fade_rows = layout.fade_rows
+    ca, sa = k.cos, k.sin
     scratch = np.empty((3, out.shape[1] + PAD))
     bits = out.reshape(-1).view(np.int64)
     n_cols = out.shape[1]
     low = np.int64(0x7FFFFFFFFFFFFFFF)
     high = -low
-    for b in range(thread, n_blocks, threads):
-        for i in range(bounds[b], bounds[b + 1]):
-            _frame_row(i, static, regions_static, out, regions_out, want_regions, forming,
-                       y, k, profile, cos_field, sin_field, layout, scratch, f_saturated,
-                       sigma_saturated)
+    for block in range(thread, n_blocks, threads):
+        for i in range(bounds[block], bounds[block + 1]):
+            # Row i of the frame: the static row, then the moving terms on the row's runs.
+            row = out[i]
+            _copy(row, static[i])
+            region_row = regions_out[0]
+            if want_regions:
+                region_row = regions_out[i]
+                _copy(region_row, regions_static[i])
+            dyv = y[i] - k.tip_y
+            # Travelling modulation of the secondary zone.
+            for q in range(ptr[SET_PERIODIC, i], ptr[SET_PERIODIC, i + 1]):
+                j0, j1, at = runs[q, 0], runs[q, 1], runs[q, 2]
+                _modulation_span(row[j0:j1], cos_field[at:at + j1 - j0],
+                                 sin_field[at:at + j1 - j0], ca, sa)
+            # The row's faded columns [fade_lo, fade_hi) near the rake face, their fades from
+            # fade[f0].
+            f0 = fade_rows[i, 0]
+            fade_lo = fade_rows[i, 1]
+            fade_hi = fade_lo + fade_rows[i + 1, 0] - f0
+            # Released bands.
+            for q in range(ptr[SET_CHIP, i], ptr[SET_CHIP, i + 1]):
+                j0, j1 = runs[q, 0], runs[q, 1]
+                a = min(max(fade_lo, j0), j1)
+                b = min(max(fade_hi, a), j1)
+                _chip_span(row[j0:a], x[j0:], dyv, k, profile, fade, False, scratch[0])
+                _chip_span(row[a:b], x[a:], dyv, k, profile, fade[f0 + max(a - fade_lo, 0):],
+                           True, scratch[0])
+                _chip_span(row[b:j1], x[b:], dyv, k, profile, fade, False, scratch[0])
+            # The forming band.
+            if forming:
+                for q in range(ptr[SET_FORMING, i], ptr[SET_FORMING, i + 1]):
+                    j0, j1 = runs[q, 0], runs[q, 1]
+                    a = min(max(fade_lo, j0), j1)
+                    b = min(max(fade_hi, a), j1)
+                    _forming_run(row[j0:j1], x[j0:], dyv, k, scratch,
+                                 fade[f0 + max(a - fade_lo, 0):], a - j0, b - j0, f_saturated,
+                                 sigma_saturated)
+            # The free surface.
+            for q in range(ptr[SET_SURFACE, i], ptr[SET_SURFACE, i + 1]):
+                j0, j1 = runs[q, 0], runs[q, 1]
+                _surface_span(row[j0:j1], region_row[j0:j1] if want_regions else region_row,
+                              want_regions, x[j0:], dyv, k)
             for j in range(i * n_cols, (i + 1) * n_cols):
                 v = bits[j]
                 low = v if v < low else low
