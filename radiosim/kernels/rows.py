@@ -224,26 +224,6 @@ def _commit_row(i, a1, a2, a3, am, an, cols, acc, members, f, with_signal, t_low
     return status  # 0, or STATUS_BELOW_TABLE for a row whose signal the caller redoes
 
 
-@numba.njit(**INNER)
-def _rows12(row_source, p, n, length):
-    """The uint64 offsets, in a flat array of rows of ``length`` elements, of sample rows
-    ``row_source[p + h]`` for h < 12 (rows past n − 1 repeat the last)."""
-    h = np.int64(0)  # not a literal: one compilation of _row, not one per h
-    return (_row(row_source, p, h, n, length), _row(row_source, p, h + 1, n, length),
-            _row(row_source, p, h + 2, n, length), _row(row_source, p, h + 3, n, length),
-            _row(row_source, p, h + 4, n, length), _row(row_source, p, h + 5, n, length),
-            _row(row_source, p, h + 6, n, length), _row(row_source, p, h + 7, n, length),
-            _row(row_source, p, h + 8, n, length), _row(row_source, p, h + 9, n, length),
-            _row(row_source, p, h + 10, n, length), _row(row_source, p, h + 11, n, length))
-
-
-@numba.njit(**INNER)
-def _row(row_source, p, h, n, length):
-    """The uint64 offset of sample row ``row_source[p + min(h, n − 1)]`` in a flat array of
-    rows of ``length`` elements."""
-    return np.uint64(row_source[p + min(h, n - 1)] * length)
-
-
 def accumulate_kernel(b, n_blocks, start, frames, rows, cols, acc, members, tables, emissivity,
                       buffers, status):
     """Block ``b`` of the frames' pixel rows in ``n_blocks`` contiguous blocks, one per thread
@@ -330,12 +310,14 @@ def accumulate_kernel(b, n_blocks, start, frames, rows, cols, acc, members, tabl
     chunk = np.uint64(CHUNK)
     dup_rows = rows_r.reshape(-1)
     size = np.uint64(rows_r.shape[1])
-    dup_offsets = (zero - samples_u, size - samples_u, np.uint64(2) * size - samples_u,
-                   np.uint64(3) * size - samples_u, np.uint64(4) * size - samples_u,
-                   np.uint64(5) * size - samples_u, np.uint64(6) * size - samples_u,
-                   np.uint64(7) * size - samples_u, np.uint64(8) * size - samples_u,
-                   np.uint64(9) * size - samples_u, np.uint64(10) * size - samples_u,
-                   np.uint64(11) * size - samples_u)
+    dup_offsets = np.empty(MAX_ROWS, np.uint64)
+    for h in range(MAX_ROWS):
+        dup_offsets[h] = np.uint64(h) * size - samples_u
+    # A sweep's sample rows: their offsets in the frame (o) and in the grey map (mo), and their
+    # weights (ws); entries past its n rows repeat the last (the sweeps never read them).
+    o = np.empty(MAX_ROWS, np.uint64)
+    mo = np.empty(MAX_ROWS, np.uint64)
+    ws = np.empty(MAX_ROWS)
     for f in range(start[b], n_frames):
         frame = frames.base[f * frame_stride:]  # frame f's samples, rows row_length apart
         frame_status = status[f]  # per pixel row
@@ -347,17 +329,11 @@ def accumulate_kernel(b, n_blocks, start, frames, rows, cols, acc, members, tabl
             stop = row_bounds[i + 1]
             while p < stop:
                 n = min(MAX_ROWS, stop - p)
-                # Rows past n repeat the last one (never read by _lin{n}); offsets as uint64.
-                o = _rows12(row_source, p, n, row_length)
-                ws = (row_weight[p], row_weight[p + min(1, n - 1)],
-                      row_weight[p + min(2, n - 1)], row_weight[p + min(3, n - 1)],
-                      row_weight[p + min(4, n - 1)], row_weight[p + min(5, n - 1)],
-                      row_weight[p + min(6, n - 1)], row_weight[p + min(7, n - 1)],
-                      row_weight[p + min(8, n - 1)], row_weight[p + min(9, n - 1)],
-                      row_weight[p + min(10, n - 1)],
-                      row_weight[p + min(11, n - 1)])
-                # The grey map's rows (SIGNAL_SCALAR and SIGNAL_MAP).
-                mo = _rows12(row_source, p, n, map_length)
+                for h in range(MAX_ROWS):  # offsets as uint64
+                    source = row_source[p + min(h, n - 1)]
+                    o[h] = np.uint64(source * row_length)
+                    mo[h] = np.uint64(source * map_length)
+                    ws[h] = row_weight[p + min(h, n - 1)]
                 # Part 0: the sample slots, along the frame's rows; part 1: the duplicate
                 # slots, along rows gathered into the buffers (row h at h · size − n_samples,
                 # so that slot q reads sample q − n_samples of it).
