@@ -69,8 +69,9 @@ of up to 255 entries) and caches it on disk (``cache=True``, in ``radiosim/kerne
 or ``NUMBA_CACHE_DIR``); later processes load it in about 0.3 s. Each frame dtype has an entry
 point of its own (:data:`~radiosim.kernels.rows.ACCUMULATE_KERNELS`); the helpers it calls have
 no Python wrapper and no cache files of their own (``INNER``); the pixel rows' pass is written in
-it (not a helper numba inlines: that copies the helper's IR and types it again), and a sweep's
-row offsets and weights are small arrays, not tuples. The image stage's sub-band kernel has one variant (float32 frames are widened for it).
+it (numba's inlining of a helper copies the helper's IR and types it again), and a sweep's row
+offsets and weights are small arrays. The image stage's sub-band kernel has one variant
+(float32 frames are widened for it).
 Compiling every kernel costs about 30 s of CPU on a quiet 2-core host
 (``benchmarks/bench_compile.py`` lists it per function: most of it is the integrator's entry
 point, once per frame dtype; about 60 % numba's typing and lowering, 40 % LLVM);

@@ -242,9 +242,7 @@ def accumulate_kernel(b, n_blocks, start, frames, rows, cols, acc, members, tabl
 
     Each pixel row is swept along the columns in chunks of CHUNK slots, up to MAX_ROWS sample
     rows per sweep (all of them, for pixels of up to MAX_ROWS pieces), so the accumulators are
-    read and written once per chunk while the frame's rows stream through. (One function: as
-    a helper inlined by numba, the pixel rows' pass cost a copy of its IR and a second typing,
-    about a second of compile per frame dtype.)"""
+    read and written once per chunk while the frame's rows stream through."""
     n_frames = frames.n_frames
     frame_stride = frames.frame_stride
     row_length = frames.row_length
@@ -318,6 +316,8 @@ def accumulate_kernel(b, n_blocks, start, frames, rows, cols, acc, members, tabl
     o = np.empty(MAX_ROWS, np.uint64)
     mo = np.empty(MAX_ROWS, np.uint64)
     ws = np.empty(MAX_ROWS)
+    # The pixel rows' pass, frame by frame, written here (numba's inlining of a helper would
+    # copy its IR and type it again: about a second of compile per frame dtype).
     for f in range(start[b], n_frames):
         frame = frames.base[f * frame_stride:]  # frame f's samples, rows row_length apart
         frame_status = status[f]  # per pixel row

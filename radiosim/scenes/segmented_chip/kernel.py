@@ -40,9 +40,10 @@ __all__ = ["KernelConstants", "RunLayout", "SET_PERIODIC", "SET_CHIP", "SET_FORM
 
 _JIT = dict(cache=True, fastmath=False, nogil=True, error_model="numpy", boundscheck=False)
 # Helpers called only from compiled code get no CPython or C wrapper (each unboxes every
-# argument) and no cache files of their own (the kernel's hold them); those called from one
-# place are inlined into it by numba (compiled once, not once on their own and again inside
-# their caller): 10 s of compile became 5–6 s.
+# argument) and no cache files of their own (the kernel's hold them); small ones called from
+# one place are inlined into it by numba (not compiled on their own and again inside their
+# caller: 10 s of compile became 5–6 s). numba's inlining copies the helper's IR and types it
+# again, so the largest, the row pass, is written in the kernel itself.
 _INNER = dict(_JIT, cache=False, no_cpython_wrapper=True, no_cfunc_wrapper=True)
 _ONCE = dict(_INNER, inline="always")
 
@@ -276,15 +277,14 @@ def moving_terms_kernel(thread, threads, bounds, static, regions_static, out, re
                         want_regions, forming, y, k, profile, cos_field, sin_field, layout,
                         extremes):
     """Thread ``thread``'s share (of ``threads``, each on its own thread:
-    :func:`radiosim.kernels.run_blocks`) of the frame over the region: rows bounds[b] …
-    bounds[b + 1] − 1 in block b, the blocks dealt to the threads in turn (so that each
+    :func:`radiosim.kernels.run_blocks`) of the frame over the region: rows bounds[block] …
+    bounds[block + 1] − 1 in each block, the blocks dealt to the threads in turn (so that each
     thread's work spans the frame, and the threads' shares are even however the blocks' work
     was estimated); together they write ``out`` (and, with ``want_regions``, ``regions_out``)
     in full. ``layout`` (:class:`RunLayout`) holds the runs, the fades and the columns' x
     coordinates and PAD more (any finite values); ``k`` the scalars (:class:`KernelConstants`);
     ``profile`` the released bands' profile on the ζ grid (:func:`band_profile`). Each row: the
-    static row, then the moving terms on the row's runs (written here, not in a helper numba
-    inlines: a copy of its IR and a second typing).
+    static row, then the moving terms on the row's runs.
     ``extremes[thread]``: the least and greatest bit pattern (as int64) of the values the
     thread wrote — as integers, positive finite floats keep their order, and any value ≤ 0 K
     gives one ≤ 0, any +inf or NaN one ≥ that of +inf (the frame's check, in registers)."""
