@@ -83,7 +83,7 @@ def _signal_one(src, xo, g, go, w, use_map, grey, coef, key0, shift, node_mask, 
             a3[lo + k] += _cubic1(coef, interval[k], u[k]) * wg
 
 
-@numba.njit(**INNER)
+@numba.njit(**INNER, inline="always")
 def _signal_rows(n, lo, hi, src, o, ws, g, go, use_map, grey, coef, key0, shift, last,
                  interval, u, a3):
     """a3[q] += Σₕ ws[h] · S(src[o[h] + q]) over the sample rows h < n of a sweep and its slots lo ≤

@@ -82,7 +82,7 @@ def _make_blocks():
 _rows8, _rows4, _rows1 = _make_blocks()
 
 
-@numba.njit(**INNER)
+@numba.njit(**INNER, inline="always")
 def _lin(n, first, lo, hi, src, o, ws, ce, a1, a2, am, an, s):
     """The sweep of ``n`` (1 … MAX_ROWS) sample rows (row h: ``src[o[h] + q]``, weight
     ``ws[h]``; ``o`` and ``ws`` arrays of MAX_ROWS) into the column accumulators of slots
