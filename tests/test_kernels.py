@@ -469,7 +469,7 @@ def test_cubic_rows_match_numpy_horner():
         interval = rng.integers(0, 50, n).astype(np.uint64)
         position = rng.uniform(0, 1, n)
         out = np.empty(n)
-        radiance.cubic(coef.reshape(-1), interval, position, out, n)
+        radiance.cubic_from_python(coef.reshape(-1), interval, position, out, n)
         a, b, c, d = coef[interval.astype(np.intp)].T
         numpy = ((a * position + b) * position + c) * position + d
         scale = (np.abs(a) * position**3 + np.abs(b) * position**2 + np.abs(c) * position

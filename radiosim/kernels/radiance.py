@@ -17,11 +17,10 @@ from radiosim.kernels.intrinsics import (INNER, JIT, _cubic8, _cubic8_grey, _cub
                                          _cubic8_pair, _fma)
 from radiosim.kernels.sweeps import CHUNK
 
-__all__ = ["cubic"]
+__all__ = ["cubic", "cubic_from_python"]
 
 
-@numba.njit(**dict(JIT, cache=False))  # a helper, also called from Python (tests)
-def cubic(coef, interval, position, out, n):
+def _cubic_rows(coef, interval, position, out, n):
     """out[q] = the cubic of row interval[q] of ``coef`` at position[q], q < n (eight at a time
     by :func:`_cubic8`, the rest one by one with the same operations)."""
     q = 0
@@ -30,6 +29,12 @@ def cubic(coef, interval, position, out, n):
         q += 8
     for k in range(q, n):
         out[k] = _cubic1(coef, interval[k], position[k])
+
+
+#: :func:`_cubic_rows` as the kernels call it (no Python wrapper to compile), and as Python
+#: calls it (the tests).
+cubic = numba.njit(**INNER)(_cubic_rows)
+cubic_from_python = numba.njit(**dict(JIT, cache=False))(_cubic_rows)
 
 
 @numba.njit(**INNER)
