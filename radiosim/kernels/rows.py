@@ -133,16 +133,28 @@ def _pixel_sums_regular(a1, a2, a3, am, an, slot_weight, slot_of_piece, col_boun
     return status
 
 
+@numba.njit(**INNER, inline="always")
+def _row_sums(a1, a2, a3, am, an, cols, with_signal, t_low, t_high, s1, s2, s3, sm):
+    """Add the pieces to the row's pixels and check the slots they read (NaN propagates into
+    a1, +inf into am, T ≤ 0 and T below the table show in an), in one pass
+    (:func:`_pixel_sums_regular` or :func:`_pixel_sums`, as ``cols.layout`` allows: bit 0, slot
+    q is piece q; bit 1, each pixel's interior pieces lie on consecutive slots with one
+    weight); returns the pixels' status bits. ``cols``:
+    :class:`~radiosim.kernels.bundles.ColumnSlots`; s1, s2, s3, sm: per-pixel sums."""
+    layout = cols.layout
+    identity = (layout & 1) != 0
+    if (layout & 2) != 0:
+        return _pixel_sums_regular(a1, a2, a3, am, an, cols.weight, cols.of_piece, cols.bounds,
+                                   identity, with_signal, t_low, t_high, s1, s2, s3, sm)
+    return _pixel_sums(a1, a2, a3, am, an, cols.weight, cols.of_piece, cols.bounds, identity,
+                       with_signal, t_low, t_high, s1, s2, s3, sm)
+
+
 @numba.njit(**INNER)
-def _commit_row(i, a1, a2, a3, am, an, cols, acc, members, f, with_signal, t_low, t_high, s1,
-                s2, s3, sm, status):
-    """Add the pieces to the row's pixels (pixel row ``i``) and check the slots they read (NaN
-    propagates into a1, +inf into am, T ≤ 0 and T below the table show in an), in one pass;
-    commit them unless the row has a status (``status``: bits found so far). Returns the row's
-    status.
-    ``cols``: :class:`~radiosim.kernels.bundles.ColumnSlots` (its ``layout``: bit 0, slot q is
-    piece q; bit 1, each pixel's interior pieces lie on consecutive slots with one weight);
-    s1, s2, s3, sm: per-pixel scratch.
+def _commit_row(i, n_pixels, acc, members, f, with_signal, s1, s2, s3, sm, status):
+    """Commit pixel row ``i``'s sums (s1, s2, s3 and the maximum sm of its ``n_pixels``
+    pixels, :func:`_row_sums`) unless the row has a status (``status``: its bits). Returns the
+    row's status.
 
     Without ``members.merge``: dev, sq, signal += time_weight × the frame's Σ w (T − c),
     Σ w (T − c)², Σ w S, and tmax = max(tmax, max T) (row i of ``acc``,
@@ -155,20 +167,7 @@ def _commit_row(i, a1, a2, a3, am, an, cols, acc, members, f, with_signal, t_low
     m (the next frame's c). With ``members.keep_moments``, a row whose only status is samples
     below the table merges its moments and reference all the same (not its signal) and
     returns that status."""
-    slot_weight = cols.weight
-    slot_of_piece = cols.of_piece
-    col_bounds = cols.bounds
-    layout = cols.layout
     reference = acc.reference
-    n_pixels = col_bounds.size - 1
-    identity = (layout & 1) != 0
-    if (layout & 2) != 0:
-        status |= _pixel_sums_regular(a1, a2, a3, am, an, slot_weight, slot_of_piece,
-                                      col_bounds, identity, with_signal, t_low, t_high, s1, s2,
-                                      s3, sm)
-    else:
-        status |= _pixel_sums(a1, a2, a3, am, an, slot_weight, slot_of_piece, col_bounds,
-                              identity, with_signal, t_low, t_high, s1, s2, s3, sm)
     kept = (status == STATUS_BELOW_TABLE and members.merge and members.moments
             and members.keep_moments)
     if status and not kept:
@@ -373,8 +372,10 @@ def accumulate_kernel(b, n_blocks, start, frames, rows, cols, acc, members, tabl
                                     x, g, e, slot_weight[lo_i:hi_i], ws[h], mode, grey,
                                     use_map, tables, interval, u, value, factor, a3[lo_i:hi_i])
                 p += n
-            frame_status[i] = _commit_row(i, a1, a2, a3, am, an, cols, acc, members, f,
-                                          with_signal, t_low, t_high, s1, s2, s3, sm, row_status)
+            row_status |= _row_sums(a1, a2, a3, am, an, cols, with_signal, t_low, t_high, s1, s2,
+                                    s3, sm)
+            frame_status[i] = _commit_row(i, n_pixels, acc, members, f, with_signal, s1, s2, s3,
+                                          sm, row_status)
         bad = 0
         for i in range(first_row, stop_row):
             bad |= frame_status[i]
