@@ -72,7 +72,7 @@ no Python wrapper and no cache files of their own (``INNER``); the pixel rows' p
 it (numba's inlining of a helper copies the helper's IR and types it again), and a sweep's row
 offsets and weights are small arrays. The image stage's sub-band kernel has one variant
 (float32 frames are widened for it).
-Compiling every kernel costs about 30 s of CPU on a quiet 2-core host
+Compiling every kernel costs about 25–30 s of CPU on a quiet 2-core host
 (``benchmarks/bench_compile.py`` lists it per function: most of it is the integrator's entry
 point, once per frame dtype; about 60 % numba's typing and lowering, 40 % LLVM);
 ``radiosim warmup`` spreads it over the cores (a process per frame dtype compiles the
