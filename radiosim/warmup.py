@@ -17,7 +17,7 @@ __all__ = ["COMPILE_SECONDS", "WARMUP_SECONDS", "announce_compile", "compile_int
 #: Compile times [s] from an empty cache on 2 cores (measured by benchmarks/bench_cli.py and
 #: bench_compile.py; README): the variants a run needs (one frame type, with the chip's terms),
 #: and every variant (``radiosim warmup``).
-COMPILE_SECONDS, WARMUP_SECONDS = 15, 25
+COMPILE_SECONDS, WARMUP_SECONDS = 15, 20
 
 
 def announce_compile(args, frame_dtype="float64", chip=False):
