@@ -82,9 +82,9 @@ def _run(args) -> int:
         if study.description:
             print(f"  {study.description}")
         progress = _Progress("measurement", args.quiet)
-        _kernels().announce_compile(args, chip=True)
+        _compiling().announce_compile(args, chip=True)
         if args.scheduler is None and args.workers is None:
-            _kernels().compile_integrator_aside(study.scene)
+            _compiling().compile_integrator_aside(study.scene)
         result = study.run(out.staging, rng=args.seed, write_exr=not args.no_exr,
                            progress=None if args.quiet else progress,
                            scheduler=args.scheduler, workers=args.workers,
@@ -174,7 +174,7 @@ def _measure(args) -> int:
     # A long measurement: per block of frames, on a terminal only (in a log, an error after
     # the work stays the one line on stderr).
     progress = _Progress("frame", args.quiet, delay=2.0, terminal_only=True)
-    _kernels().announce_compile(args, frame_dtype(scene))
+    _compiling().announce_compile(args, frame_dtype(scene))
     try:
         m = camera.measure(scene, args.integration_time, args.start, args.seed,
                            progress=lambda done, total: progress(done, total, "frames"))
@@ -364,7 +364,7 @@ def _sse(args) -> int:
     pitch = camera.fpa.pixel_pitch
     diameters = np.array(args.diameters) if args.diameters else sse_diameters(pitch)
     progress = _Progress("disc", args.quiet)
-    _kernels().announce_compile(args)
+    _compiling().announce_compile(args)
     curve = size_of_source(camera, diameters, args.temperature, args.background,
                            args.integration_time, progress=progress)
     psf = ", ".join(type(p).__name__ for p in camera.optics.psf or ()) or "perfect lens"
@@ -405,7 +405,7 @@ def _uncertainty(args) -> int:
     print(f"radiosim {__version__}: uncertainty of study {study.name} → {out.path}/ "
           f"({draws or 'adaptive'} draws, {', '.join(spec.inputs)} and the noise)")
     bar = _Progress("draw", args.quiet)
-    _kernels().announce_compile(args, chip=True)
+    _compiling().announce_compile(args, chip=True)
 
     def progress(done, total, seconds_left=None):
         bar(done, total, "draws" + ("" if seconds_left is None
@@ -441,7 +441,7 @@ def _calibrate(args) -> int:
                             "temperature_C, and counts)")
     _check_out_file(args, ".toml", "the fitted camera is a TOML file")
     progress = _Progress("step", args.quiet)
-    _kernels().announce_compile(args)
+    _compiling().announce_compile(args)
     # The library reads and checks the table (columns, units, BOM, monotonic counts) and
     # checks each point against the full well and the converter's range.
     try:
@@ -477,7 +477,7 @@ def _report(args) -> int:
     print(f"radiosim {__version__}: datasheet of {camera.name} at {t_int * 1e6:g} µs → "
           f"{out.path}/")
     progress = _Progress("step", args.quiet)
-    _kernels().announce_compile(args)
+    _compiling().announce_compile(args)
     completed = False
     try:
         sheet = datasheet(camera, t_int, plan.ptc_temperatures, plan.netd_temperatures,
@@ -495,7 +495,7 @@ def _report(args) -> int:
     return 0
 
 
-def _kernels():
+def _compiling():
     """:mod:`radiosim.warmup`, the command's side of compiling (loaded when a command needs
     it: ``--help`` stays light)."""
     from radiosim import warmup
@@ -665,7 +665,7 @@ def build_parser() -> argparse.ArgumentParser:
                           "responses, emissivity maps, the chip's moving terms) into numba's "
                           "on-disk cache, so that no later run waits for a compilation.")
     _add_quiet(warm)
-    warm.set_defaults(func=lambda args: _kernels().warmup_command(args))
+    warm.set_defaults(func=lambda args: _compiling().warmup_command(args))
     presets = sub.add_parser("presets", help="list the cameras and studies")
     presets.set_defaults(func=_presets)
     example = sub.add_parser("example-data", help="write the files the README's and guides' "

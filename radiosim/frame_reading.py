@@ -6,6 +6,7 @@ generated frames stacked into blocks of consecutive frames, one kernel call per 
 
 from __future__ import annotations
 
+import time
 from concurrent.futures import ThreadPoolExecutor
 
 import numpy as np
@@ -65,8 +66,6 @@ def frames_inline_or_prefetched(scene, indices, region):
     as soon as two are slow to produce, the rest are read ahead on a worker thread, so
     producing frames overlaps with integrating the previous ones: one at a time, or in batches
     of about :data:`PREFETCH_SECONDS` (at most :data:`STACK_BYTES`) when they are small."""
-    import time
-
     indices = list(indices)
     slow = []  # the times of the slow frames read here: two, the first may pay for set-up
     for n, k in enumerate(indices):

@@ -8,8 +8,9 @@ same range and intervals per octave): :func:`stack` interleaves their cubic coef
 sub-bands' rows of one interval next to each other (one interval's data for every sub-band in
 four cache lines), so that a sample's interval and position are found once (the bits of T,
 :func:`~radiosim.kernels.radiance._locate`) and every sub-band's cubic is read at that
-interval (eight samples at a time, as the other kernels). :func:`accumulate_bands` takes several frames per call, each
-pixel row's sums kept in its thread until the block's frames are done. Tables that cannot
+interval (eight samples at a time, as the other kernels). :func:`accumulate_bands` takes
+several frames per call, each pixel row's sums kept in its thread until the block's frames are
+done. Tables that cannot
 share lookups go to the reference (:func:`stack` returns ``None``).
 
 The numpy reference (the oracle) is
@@ -26,7 +27,6 @@ import numpy as np
 
 from radiosim.errors import RadiosimError
 from radiosim.kernels import background
-from radiosim.kernels.background import wait_for_background, wait_for_loaders
 from radiosim.kernels.bundles import Emissivity, FrameBlock
 from radiosim.kernels.codes import (SIGNAL_INDEX, STATUS_ABOVE_TABLE, STATUS_BAD_INDEX,
                                     STATUS_BAD_SAMPLE, STATUS_BELOW_TABLE, STATUS_OK)
@@ -295,9 +295,9 @@ def accumulate_bands(block, weights, tables: list[SignalTable], out: np.ndarray,
     status = np.zeros(block.shape[1], dtype=np.int64)
     n_blocks = max(1, min(thread_count(), block.shape[1]))
     if _wait_for_processes or background.any_running("with_bands"):
-        wait_for_background()  # kernels being compiled by another process: load them after
+        background.wait_for_background()  # kernels compiled by another process: then loaded
     else:
-        wait_for_loaders()  # numba's typing is not thread-safe while a thread loads kernels
+        background.wait_for_loaders()  # numba's typing is not thread-safe during a load
     run_blocks(band_kernel, n_blocks, n_blocks,
                FrameBlock(base, row_length, frame_stride, block.shape[0]), weights, stacked,
                signs, out, status)

@@ -267,8 +267,7 @@ def compile_in_background(frame_dtypes=("float64",), bands: bool = False) -> lis
             command = [sys.executable, "-c", _CHILD, dtype, "--memmap-dir", folder,
                        "--parent", str(os.getpid())]
             process = subprocess.Popen(command + (["--bands"] if with_bands else []),
-                                       cwd=folder,
-                                       env=env, stdin=subprocess.DEVNULL,
+                                       cwd=folder, env=env, stdin=subprocess.DEVNULL,
                                        stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
         except (OSError, TypeError, ValueError):  # cannot start one (no interpreter to run,
             if folder is not None:  # no temporary folder): this process compiles itself
