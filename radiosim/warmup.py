@@ -69,9 +69,9 @@ def warmup_command(args) -> int:
 
     began = time.perf_counter()
     progress = Progress("step", args.quiet)
-    # One process per frame dtype compiles the integrator's kernels while this one compiles
-    # the chip's and the image stage's (the shares of about equal work on two cores); then
-    # every variant is launched here (loaded).
+    # Another process compiles the integrator's kernel (one for both frame dtypes) while this
+    # one compiles the chip's and the image stage's (shares of about equal work on two cores);
+    # then every variant is launched here (loaded).
     started = compile_in_background(FRAME_DTYPES)
     steps = 2 + len(started) + 2 * len(FRAME_DTYPES) * 5  # chip, sub-bands, processes, variants
     chip = SegmentedChip()  # its moving terms, on a small region at the band's time
@@ -82,7 +82,7 @@ def warmup_command(args) -> int:
     progress(2, steps, "the image stage's sub-band kernel")
     for k, process in enumerate(started, start=3):
         process.wait()
-        progress(k, steps, f"kernels for {process.frame_dtype} frames (another process)")
+        progress(k, steps, "the integrator's kernel (another process)")
     wait_for_background()
     done = 2 + len(started)
     report = warmup(progress=lambda k, total, label: progress(done + k, done + total, label))

@@ -43,23 +43,52 @@ def test_nothing_is_started_for_variants_the_cache_holds():
     assert not background._RUNNING
 
 
-def test_the_sub_band_kernel_is_compiled_by_one_process_only(monkeypatch):
-    # Its one variant serves every frame dtype: two processes compiling it would write one
-    # cache index at once. It goes to float64's process, else to the first one started, and
-    # to one even when the integrator's variants are all cached.
-    pending = {"float64", "float32"}
+def test_one_process_at_most_compiles_the_integrator_and_the_sub_band_kernel(monkeypatch):
+    # One entry point serves both frame dtypes, and the sub-band kernel has one variant: two
+    # processes compiling either would write one cache index at once. One process compiles
+    # what the cache lacks (launching every asked dtype), and none when it holds both.
+    pending = True
     fresh = []
-    monkeypatch.setattr(compiling, "compile_pending", lambda d, **k: d[0] in pending)
+    monkeypatch.setattr(compiling, "compile_pending", lambda d, **k: pending)
     monkeypatch.setattr(compiling, "_fresh_signatures", lambda d: list(fresh))
     both = ("float32", "float64")
-    assert compiling._pending_dtypes(both, True) == [("float32", False), ("float64", True)]
-    assert compiling._pending_dtypes(both, False) == [("float32", False), ("float64", False)]
-    pending = {"float32"}
-    assert compiling._pending_dtypes(both, True) == [("float32", True)]
-    pending = set()
-    assert compiling._pending_dtypes(both, True) == [("float32", True)]
-    fresh = ["a signature"]  # cached: nothing to start
-    assert compiling._pending_dtypes(both, True) == []
+    assert compiling._pending_work(both, True) == (both, True)
+    assert compiling._pending_work(both, False) == (both, False)
+    assert compiling._pending_work(("float64", np.float64), True) == (("float64",), True)
+    pending = False  # the integrator cached: the sub-band kernel alone
+    assert compiling._pending_work(both, True) == (both, True)
+    assert compiling._pending_work(both, False) is None
+    fresh = ["a signature"]  # both cached: nothing to start
+    assert compiling._pending_work(both, True) is None
+    assert compiling._pending_work((), True) is None
+
+
+def test_both_frame_dtypes_launch_one_compiled_kernel():
+    # float32 and float64 frames go through one entry point and one signature; a float32
+    # frame gives the same bits as its float64 copy (the kernel widens each sample, exactly).
+    from radiosim.kernels import SignalTable, accumulate, pixel_mean
+    from radiosim.kernels.rows import ACCUMULATE_KERNELS, accumulate_kernel
+    from radiosim.radiometry import BandRadianceTable
+
+    assert set(ACCUMULATE_KERNELS) == {"float32", "float64"}
+    assert all(k is accumulate_kernel for k in ACCUMULATE_KERNELS.values())
+    rows, cols = compiling._tiny_axis(4), compiling._tiny_axis(6)
+    table = SignalTable(BandRadianceTable(temperature_range=(200.0, 800.0), per_octave=16),
+                        grey=0.9)
+    rng = np.random.default_rng(11)
+    frame = (300.0 + 400.0 * rng.random((rows.extent, cols.extent))).astype(np.float32)
+    sums, signatures = {}, []
+    for dtype in (np.float64, np.float32):
+        block = frame.astype(dtype)
+        shape = (rows.n_pixels, cols.n_pixels)
+        reference = pixel_mean(block, rows, cols)
+        dev, sq, signal, tmax = (np.zeros(shape), np.zeros(shape), np.zeros(shape),
+                                 np.full(shape, -np.inf))
+        accumulate(block, rows, cols, 0.5, reference, dev, sq, tmax, signal, table)
+        sums[dtype] = np.stack([reference, dev, sq, signal, tmax])
+        signatures.append(len(accumulate_kernel.signatures))
+    assert sums[np.float32].tobytes() == sums[np.float64].tobytes()
+    assert signatures[1] == signatures[0]  # float32 frames compiled nothing more
 
 
 def test_float32_frames_take_the_sub_band_kernel_widened():
@@ -90,8 +119,8 @@ def test_float32_frames_take_the_sub_band_kernel_widened():
 
 def test_a_failing_compiling_process_leaves_the_work_to_this_one(monkeypatch):
     # The other process fails at once; the launch still runs (compiling here if it must).
-    monkeypatch.setattr(compiling, "_pending_dtypes",
-                        lambda dtypes, bands: [("float64", False)])
+    monkeypatch.setattr(compiling, "_pending_work",
+                        lambda dtypes, bands: (("float64",), False))
     monkeypatch.setattr(compiling, "_CHILD", "import sys; sys.exit(3)")
     started = compiling.compile_in_background(("float64",))
     assert len(started) == 1

@@ -62,25 +62,27 @@ How the kernels are fast (see ``benchmarks/bench_kernels.py``):
     :meth:`~radiosim.radiometry.BandRadianceTable.evaluate_reference`, its numpy oracle, in
     the same order, so the two agree to a few units in the last place inside the table.
 
-Nothing is compiled at import (importing costs numba's own import). The first call with a new
-frame dtype (float32, float64) compiles the one kernel that serves linear, Planck and every
-emissivity form (index maps are passed as uint8: other integer maps are converted, for tables
-of up to 255 entries) and caches it on disk (``cache=True``, in ``radiosim/kernels/__pycache__``
-or ``NUMBA_CACHE_DIR``); later processes load it in about 0.3 s. Each frame dtype has an entry
-point of its own (:data:`~radiosim.kernels.rows.ACCUMULATE_KERNELS`); the helpers it calls have
-no Python wrapper and no cache files of their own (``INNER``); the pixel rows' pass is written in
-it (numba's inlining of a helper copies the helper's IR and types it again), and a sweep's row
-offsets and weights are small arrays. The image stage's sub-band kernel has one variant
-(float32 frames are widened for it).
-Compiling every kernel costs about 25–30 s of CPU on a quiet 2-core host
+Nothing is compiled at import (importing costs numba's own import). The first call compiles the
+one kernel that serves both frame dtypes (float32, float64), linear, Planck and every emissivity
+form (index maps are passed as uint8: other integer maps are converted, for tables of up to 255
+entries) and caches it on disk (``cache=True``, in ``radiosim/kernels/__pycache__`` or
+``NUMBA_CACHE_DIR``); later processes load it in about 0.3 s. The frames travel in a bundle
+holding a float64 and a float32 array (:class:`~radiosim.kernels.bundles.FrameBlock`, the
+frames in the one of their dtype): only the helpers that read samples (the sweeps' blocks, the
+radiance pass's interval loops, the gathers) have a loop per dtype, so the entry point and
+everything else compile once, not once per dtype. The helpers have no Python wrapper and no
+cache files of their own (``INNER``); the pixel rows' pass is written in the entry point (numba's
+inlining of a helper copies the helper's IR and types it again), and a sweep's row offsets and
+weights are small arrays. The image stage's sub-band kernel has one variant (float32 frames are
+widened for it).
+Compiling every kernel costs about 17–20 s of CPU on a quiet 2-core host
 (``benchmarks/bench_compile.py`` lists it per function: most of it is the integrator's entry
-point, once per frame dtype; about 60 % numba's typing and lowering, 40 % LLVM);
-``radiosim warmup`` spreads it over the cores (a process per frame dtype compiles the
-integrator, :mod:`~radiosim.kernels.compiling`, while the command compiles the chip's and the
-sub-band kernels), and ``radiosim run`` compiles the integrator in another process while it
-compiles the chip's kernels. :func:`warmup` compiles every variant
-ahead of time in this process, and :func:`compile_pending` tells, from the cache's index files,
-whether a launch would compile.
+point; about 60 % numba's typing and lowering, 40 % LLVM); ``radiosim warmup`` spreads it over
+the cores (another process compiles the integrator, :mod:`~radiosim.kernels.compiling`, while
+the command compiles the chip's and the sub-band kernels), and ``radiosim run`` compiles the
+integrator in another process while it compiles the chip's kernels. :func:`warmup` compiles
+every variant ahead of time in this process, and :func:`compile_pending` tells, from the cache's
+index files, whether a launch would compile.
 
 The package, one concept per module (imports flow down this list):
 

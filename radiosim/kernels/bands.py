@@ -27,11 +27,11 @@ import numpy as np
 
 from radiosim.errors import RadiosimError
 from radiosim.kernels import background
-from radiosim.kernels.bundles import Emissivity, FrameBlock
+from radiosim.kernels.bundles import Emissivity
 from radiosim.kernels.codes import (SIGNAL_INDEX, STATUS_ABOVE_TABLE, STATUS_BAD_INDEX,
                                     STATUS_BAD_SAMPLE, STATUS_BELOW_TABLE, STATUS_OK)
 from radiosim.kernels.intrinsics import INF, INNER, JIT, _cubic8_grey, _cubic8_map
-from radiosim.kernels.layout import frames_of, read_only, rows_of
+from radiosim.kernels.layout import frame_bundle, read_only, rows_of
 from radiosim.kernels.packing import _ones, _uint8_index
 from radiosim.kernels.radiance import _cubic1, _locate, cubic
 from radiosim.kernels.table import SignalTable
@@ -291,7 +291,6 @@ def accumulate_bands(block, weights, tables: list[SignalTable], out: np.ndarray,
         return -1, np.arange(block.shape[1])  # the caller takes the reference
     if block.dtype != np.float64:  # float32: widened, for the kernel's one variant
         block = block.astype(np.float64)
-    base, row_length, frame_stride = frames_of(block)
     status = np.zeros(block.shape[1], dtype=np.int64)
     n_blocks = max(1, min(thread_count(), block.shape[1]))
     if _wait_for_processes or background.any_running("with_bands"):
@@ -299,7 +298,7 @@ def accumulate_bands(block, weights, tables: list[SignalTable], out: np.ndarray,
     else:
         background.wait_for_loaders()  # numba's typing is not thread-safe during a load
     run_blocks(band_kernel, n_blocks, n_blocks,
-               FrameBlock(base, row_length, frame_stride, block.shape[0]), weights, stacked,
+               frame_bundle(block), weights, stacked,
                signs, out, status)
     flagged = np.flatnonzero(status)
     result = int(np.bitwise_or.reduce(status[flagged])) if flagged.size else STATUS_OK

@@ -11,8 +11,8 @@ scalars by value, its fields read like attributes, at no cost inside the compile
 -   :class:`Emissivity`: the signal mode and the frame's grey and index maps;
 -   :class:`ThreadBuffers`: each thread's scratch (one row per block of pixel rows).
 
-Each field keeps the type it always has (the compiled kernel has one signature per frame
-dtype, index-map dtype and read-only flags, never per value).
+Each field keeps the type it always has (the compiled kernel has one signature per index-map
+dtype and read-only flags, never per value; float32 and float64 frames share it).
 """
 
 from __future__ import annotations
@@ -27,10 +27,16 @@ __all__ = ["FrameBlock", "RowPieces", "ColumnSlots", "Accumulators", "Merging", 
 
 class FrameBlock(NamedTuple):
     """The frames of one launch: frame f's sample (i, j) is
-    ``base[f · frame_stride + i · row_length + j]``."""
+    ``base[f · frame_stride + i · row_length + j]`` (``base32`` for float32 frames). Both frame
+    dtypes have the same numba type (one compiled kernel): the frames are in the array of their
+    dtype, the other holds one element (:func:`~radiosim.kernels.layout.frame_bundle`)."""
 
-    #: Flat read-only view of the frames [K], float32 or float64 (never copied).
+    #: Flat read-only view of float64 frames [K] (never copied).
     base: np.ndarray
+    #: Flat read-only view of float32 frames [K] (never copied).
+    base32: np.ndarray
+    #: The frames are float32 (in ``base32``).
+    narrow: bool
     #: Elements between two rows.
     row_length: int
     #: Elements between two frames.
@@ -163,8 +169,9 @@ class ThreadBuffers(NamedTuple):
     """Per-thread buffers, one row per block of pixel rows: the duplicate slots' gathered
     samples (frame rows, grey map row, index map row), each written through the first array
     and read through the second (a read-only view of the same memory, so that gathered rows
-    have the frame's row type: one compilation serves both), and each slot's running maximum
-    and minimum (frame dtype)."""
+    have the type of float64 frame rows: one compilation serves both), and each slot's running
+    maximum and minimum; all float64, for either frame dtype (a float32 sample widens
+    exactly)."""
 
     rows_w: np.ndarray
     rows_r: np.ndarray

@@ -8,15 +8,15 @@ second. Here:
 -   :func:`compile_pending` tells, from the cache's index files, whether a launch would compile;
 -   :func:`warmup` compiles (or loads) every variant a measurement can launch, on tiny frames,
     in this process: for every frame dtype, or those asked for;
--   :func:`compile_in_background` has another Python process compile the variants of some
-    frame dtypes while this one goes on (``radiosim run`` starts it and meanwhile compiles the
-    scene's own kernels; ``radiosim warmup`` runs one process per frame dtype: the two cores
-    compile at once). The first launch of a kernel here waits for those processes
-    (:func:`~radiosim.kernels.background.wait_for_background`), then loads what they cached.
-    The integrator's entry point has cache files of its own per frame dtype
-    (:func:`~radiosim.kernels.intrinsics.per_frame_dtype`), the sub-band kernel (one variant)
-    is compiled by one process only, and the helpers have no cache files (``INNER``), so no
-    two processes ever write one function's cache index (numba writes it without a lock).
+-   :func:`compile_in_background` has another Python process compile the integrator's kernel
+    (one entry point for both frame dtypes) while this one goes on (``radiosim run`` starts it
+    and meanwhile compiles the scene's own kernels; ``radiosim warmup`` meanwhile compiles the
+    chip's and the sub-band kernels: the two cores compile at once). The first launch of a
+    kernel here waits for that process
+    (:func:`~radiosim.kernels.background.wait_for_background`), then loads what it cached.
+    One process at most compiles the integrator, and the sub-band kernel (one variant), and
+    the helpers have no cache files (``INNER``), so no two processes ever write one
+    function's cache index (numba writes it without a lock).
     If such a process cannot start, fails or is stopped, this one compiles what it needs
     itself, as it would without it: the results do not depend on which process compiled.
 """
@@ -36,7 +36,7 @@ from radiosim.kernels.intrinsics import FRAME_DTYPES
 from radiosim.kernels.launch import accumulate, accumulate_merged, pixel_mean
 from radiosim.kernels.layout import KernelAxis
 from radiosim.kernels.reference import Members
-from radiosim.kernels.rows import ACCUMULATE_KERNELS
+from radiosim.kernels.rows import ACCUMULATE_KERNELS, accumulate_kernel
 from radiosim.kernels.table import SignalTable
 
 __all__ = ["compile_pending", "cache_location", "warmup", "warmup_bands",
@@ -58,15 +58,15 @@ def _fresh_signatures(dispatcher) -> list:
 
 
 def _cached_variants(dispatcher) -> set:
-    """(frame dtype, index map dtype) of the fresh signatures of an integrator entry point."""
+    """The index map dtypes of the fresh signatures of the integrator's entry point (each
+    serves float32 and float64 frames)."""
     names = dispatcher.py_func.__code__.co_varnames
-    frames, signs = names.index("frames"), names.index("emissivity")
+    signs = names.index("emissivity")
     cached = set()
     for signature in _fresh_signatures(dispatcher):
         try:  # the bundles' numba types: named tuples with their fields' types
-            base = signature[frames].types[signature[frames].fields.index("base")]
             index = signature[signs].types[signature[signs].fields.index("index_map")]
-            cached.add((str(base.dtype), str(index.dtype)))
+            cached.add(str(index.dtype))
         except (AttributeError, IndexError, TypeError, ValueError):
             continue
     return cached
@@ -80,13 +80,12 @@ def compile_pending(frame_dtypes=("float64",), index_dtypes=("uint8",), also=())
     numba's on-disk cache and none compiled in this process. Cheap (reads the cache's index
     files, compiles nothing): the command uses it to say, once, that a first run compiles.
     """
-    for name in frame_dtypes:
-        dtype = np.dtype(name).name
-        kernel = ACCUMULATE_KERNELS.get(dtype)
-        # An index map of any integer type is launched as uint8 where its table has at most
-        # 255 entries (every scene's region map): its variant is uint8's.
-        if kernel is None or (dtype, "uint8") not in _cached_variants(kernel):
-            return True
+    # An index map of any integer type is launched as uint8 where its table has at most 255
+    # entries (every scene's region map): its variant is uint8's, for either frame dtype.
+    if any(np.dtype(name).name not in ACCUMULATE_KERNELS for name in frame_dtypes):
+        return True
+    if frame_dtypes and "uint8" not in _cached_variants(accumulate_kernel):
+        return True
     return not all(_fresh_signatures(d) for d in also)
 
 
@@ -94,7 +93,7 @@ def cache_location() -> str:
     """Where numba keeps radiosim's compiled kernels (``NUMBA_CACHE_DIR``, else the package's
     ``__pycache__`` folders, else numba's user-wide cache)."""
     try:
-        return str(ACCUMULATE_KERNELS["float64"]._cache.cache_path)
+        return str(accumulate_kernel._cache.cache_path)
     except AttributeError:
         return os.environ.get("NUMBA_CACHE_DIR", "numba's cache")
 
@@ -227,27 +226,27 @@ def _launch_tiny(block, rows: KernelAxis, cols: KernelAxis, response) -> None:
 # -- other processes ----------------------------------------------------------------------------
 
 
-def _pending_dtypes(frame_dtypes, bands: bool) -> list[tuple[str, bool]]:
-    """The processes to start: (frame dtype, with the sub-band kernel) for each dtype of
-    ``frame_dtypes`` whose integrator entry point has no fresh variant in the cache; with
-    ``bands``, the sub-band kernel (one variant for every dtype) goes to one of them, float64's
-    if it is among them, when the cache lacks it too."""
-    names = list(dict.fromkeys(np.dtype(d).name for d in frame_dtypes))
-    pending = [d for d in names if compile_pending((d,))]
-    if not (bands and names and not _fresh_signatures(band_kernel)):
-        return [(d, False) for d in pending]
-    pending = pending or names[:1]
-    takes = "float64" if "float64" in pending else pending[0]
-    return [(d, d == takes) for d in pending]
+def _pending_work(frame_dtypes, bands: bool) -> tuple[tuple[str, ...], bool] | None:
+    """The one process to start, as (the frame dtypes it launches, whether it compiles the
+    sub-band kernel), or ``None``: one when the cache lacks the integrator's kernel (one entry
+    point for every frame dtype of ``frame_dtypes``) or, with ``bands``, the sub-band kernel
+    (one variant)."""
+    names = tuple(dict.fromkeys(np.dtype(d).name for d in frame_dtypes))
+    if not names:
+        return None
+    with_bands = bool(bands) and not _fresh_signatures(band_kernel)
+    if not (compile_pending(names) or with_bands):
+        return None
+    return names, with_bands
 
 
 def compile_in_background(frame_dtypes=("float64",), bands: bool = False) -> list:
     """
-    Start compiling, each in another Python process, the kernel variants (:func:`warmup`) of
-    those ``frame_dtypes`` that numba's cache does not hold (with ``bands``, the sub-band
-    kernel too, in one of them), and return the processes started (none when all are cached;
-    each process's ``frame_dtype`` and ``with_bands`` say what it compiles). This process
-    goes on; its first kernel launch waits for them
+    Start compiling, in another Python process, the integrator's kernel variants
+    (:func:`warmup`, launched on frames of ``frame_dtypes``) if numba's cache does not hold
+    them (with ``bands``, the sub-band kernel too, if it lacks that), and return the processes
+    started (none when all are cached, else one; its ``frame_dtypes`` and ``with_bands`` say
+    what it launches). This process goes on; its first kernel launch waits for them
     (:func:`~radiosim.kernels.background.wait_for_background`). They write nothing but
     numba's cache and their own temporary folder (made here, their working folder, removed
     once they have ended); they import this process's radiosim; their output
@@ -260,11 +259,12 @@ def compile_in_background(frame_dtypes=("float64",), bands: bool = False) -> lis
     paths = [package, os.environ.get("PYTHONPATH", "")]
     env = dict(os.environ, PYTHONPATH=os.pathsep.join(p for p in paths if p))
     started = []
-    for dtype, with_bands in _pending_dtypes(frame_dtypes, bands):
+    work = _pending_work(frame_dtypes, bands)
+    for dtypes, with_bands in [work] if work is not None else []:
         folder = None
         try:
             folder = tempfile.mkdtemp(prefix="radiosim-compiling-")
-            command = [sys.executable, "-c", _CHILD, dtype, "--memmap-dir", folder,
+            command = [sys.executable, "-c", _CHILD, *dtypes, "--memmap-dir", folder,
                        "--parent", str(os.getpid())]
             process = subprocess.Popen(command + (["--bands"] if with_bands else []),
                                        cwd=folder, env=env, stdin=subprocess.DEVNULL,
@@ -273,7 +273,7 @@ def compile_in_background(frame_dtypes=("float64",), bands: bool = False) -> lis
             if folder is not None:  # no temporary folder): this process compiles itself
                 os.rmdir(folder)
             continue
-        process.frame_dtype, process.with_bands = dtype, with_bands
+        process.frame_dtypes, process.with_bands = dtypes, with_bands
         background.register(process, folder)
         started.append(process)
     return started

@@ -4,14 +4,13 @@ LLVM intrinsics and inline arithmetic of the compiled kernels: a fused multiply-
 (rows of four coefficients loaded whole and transposed into vectors by shuffles, Horner by
 vector fused multiply-adds) that the radiance pass uses (:mod:`radiosim.kernels.radiance`).
 
-``JIT`` holds the options of the package's entry points (the integrator's one per frame
-dtype: :func:`per_frame_dtype`), ``INNER`` those of the helpers they call.
+``JIT`` holds the options of the package's entry points (the integrator's kernel, one for both
+frame dtypes), ``INNER`` those of the helpers they call.
 """
 
 from __future__ import annotations
 
 import math
-from types import FunctionType
 
 import numba
 import numpy as np
@@ -19,7 +18,7 @@ from llvmlite import ir as llvm_ir
 from numba.core import types
 from numba.extending import intrinsic
 
-__all__ = ["JIT", "INNER", "INF", "FRAME_DTYPES", "per_frame_dtype", "fast_exp"]
+__all__ = ["JIT", "INNER", "INF", "FRAME_DTYPES", "fast_exp"]
 
 #: The options of a compiled entry point (a kernel launched from Python): kept in numba's
 #: on-disk cache.
@@ -27,30 +26,10 @@ JIT = dict(cache=True, fastmath=False, nogil=True, error_model="numpy")
 #: A helper called only from compiled code: no CPython or C wrapper is generated for it (each
 #: wrapper unboxes every argument: about a sixth of the compile time of the kernels), and not
 #: cached on its own (its callers' cache holds it; numba's cache index of one function is not
-#: safe to write from two processes at once, see :func:`per_frame_dtype`).
+#: safe to write from two processes at once, see :mod:`radiosim.kernels.compiling`).
 INNER = dict(JIT, cache=False, no_cpython_wrapper=True, no_cfunc_wrapper=True)
 #: The frame dtypes the kernels read in place.
 FRAME_DTYPES = ("float32", "float64")
-
-
-def per_frame_dtype(py_func) -> dict:
-    """
-    One compiled entry point of ``py_func`` per frame dtype (:data:`FRAME_DTYPES`), each a
-    dispatcher of its own with its own files in numba's cache (float64's keeps the function's
-    name, the others take the dtype as a suffix: ``accumulate_kernel_float32``). Two processes
-    can then compile the variants of two dtypes at once (:mod:`radiosim.kernels.compiling`):
-    numba writes a function's cache index without a lock, so two processes adding different
-    signatures to one function's index could each lose the other's.
-    """
-    entries = {}
-    for dtype in FRAME_DTYPES:
-        suffix = "" if dtype == "float64" else f"_{dtype}"
-        clone = FunctionType(py_func.__code__, py_func.__globals__, py_func.__name__ + suffix,
-                             py_func.__defaults__, py_func.__closure__)
-        clone.__qualname__ = py_func.__qualname__ + suffix
-        clone.__doc__ = py_func.__doc__
-        entries[dtype] = numba.njit(**JIT)(clone)
-    return entries
 INF = np.inf
 
 # exp(x) = 2^k · exp(r), r = x − k ln 2 (Cody & Waite, with fdlibm's split of ln 2: k·LN2_HI is

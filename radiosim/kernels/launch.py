@@ -50,17 +50,16 @@ import numpy as np
 
 from radiosim.errors import RadiosimError
 from radiosim.kernels.background import wait_for_background
-from radiosim.kernels.bundles import (Accumulators, FrameBlock, Merging, RowPieces,
-                                      ThreadBuffers)
+from radiosim.kernels.bundles import Accumulators, Merging, RowPieces, ThreadBuffers
 from radiosim.kernels.codes import (STATUS_ABOVE_TABLE, STATUS_BAD_INDEX, STATUS_BAD_SAMPLE,
                                     STATUS_BELOW_TABLE, STATUS_OK)
-from radiosim.kernels.layout import (KernelAxis, frames_of, kernel_axis, merged_arguments,
+from radiosim.kernels.layout import (KernelAxis, frame_bundle, kernel_axis, merged_arguments,
                                      read_only)
 from radiosim.kernels.messages import raise_above_table, raise_bad_index, raise_bad_sample
 from radiosim.kernels.packing import NO_TABLES, emissivity, pack
 from radiosim.kernels.reference import (Members, accumulate_numpy, checked_arguments,
                                         merge_numpy)
-from radiosim.kernels.rows import ACCUMULATE_KERNELS
+from radiosim.kernels.rows import accumulate_kernel
 from radiosim.kernels.sweeps import MAX_ROWS
 from radiosim.kernels.table import SignalTable
 from radiosim.kernels.threads import run_blocks
@@ -149,20 +148,21 @@ _DUMMY_SIGNAL = np.zeros((1, 1))
 _BUFFERS = threading.local()
 
 
-def _buffers(n_blocks: int, size: int, n_slots: int, dtype, index_dtype) -> ThreadBuffers:
+def _buffers(n_blocks: int, size: int, n_slots: int, index_dtype) -> ThreadBuffers:
     """Per-thread buffers (:class:`~radiosim.kernels.bundles.ThreadBuffers`) for the duplicate
     slots' samples (frame rows, grey map row, index map row), each as a writeable array and a
-    read-only view of it, and the running maximum and minimum of every slot (frame dtype)."""
-    key = (n_blocks, size, n_slots, np.dtype(dtype), np.dtype(index_dtype))
+    read-only view of it, and the running maximum and minimum of every slot: float64 for either
+    frame dtype (one compiled kernel takes both; a float32 sample widens exactly)."""
+    key = (n_blocks, size, n_slots, np.dtype(index_dtype))
     cache = _BUFFERS.__dict__.setdefault("cache", {})  # per calling thread
     cached = cache.get(key)
     if cached is None:
-        rows = np.empty((n_blocks, MAX_ROWS, size), dtype=dtype)
+        rows = np.empty((n_blocks, MAX_ROWS, size))
         grey = np.empty((n_blocks, size))
         index = np.empty((n_blocks, size), dtype=index_dtype)
         cached = ThreadBuffers(rows, read_only(rows), grey, read_only(grey), index,
-                               read_only(index), np.empty((n_blocks, n_slots), dtype=dtype),
-                               np.empty((n_blocks, n_slots), dtype=dtype))
+                               read_only(index), np.empty((n_blocks, n_slots)),
+                               np.empty((n_blocks, n_slots)))
         if len(cache) > 8:
             cache.clear()
         cache[key] = cached
@@ -370,9 +370,8 @@ def _launch(block, rows: KernelAxis, cols: KernelAxis, time_weight, reference, d
     statuses (STATUS_OK if none). The kernel's arguments travel in the named bundles of
     :mod:`radiosim.kernels.bundles`."""
     shape = (rows.n_pixels, cols.n_pixels)
-    base, row_length, frame_stride = frames_of(block)
+    frames = frame_bundle(block)
     n_frames = block.shape[0]
-    frames = FrameBlock(base, row_length, frame_stride, n_frames)
     if response is None:
         signal, tables = _DUMMY_SIGNAL, NO_TABLES
     else:
@@ -386,12 +385,12 @@ def _launch(block, rows: KernelAxis, cols: KernelAxis, time_weight, reference, d
     n_blocks = _blocks(rows.n_pixels, available)
     if threads is None:  # a thread for every SAMPLES_PER_THREAD samples at least
         n_blocks = max(1, min(n_blocks, block.size // SAMPLES_PER_THREAD))
-    buffers = _buffers(n_blocks, max(1, slots.dup_source.size), slots.weight.size, base.dtype,
+    buffers = _buffers(n_blocks, max(1, slots.dup_source.size), slots.weight.size,
                        signs.index_map.dtype)
     members = merged if merged is not None else _NO_MEMBERS
     row_pieces = RowPieces(rows.source, rows.weight, rows.bounds)
     wait_for_background()  # kernels being compiled by another process: load them after
-    kernel = ACCUMULATE_KERNELS[base.dtype.name]
+    kernel = accumulate_kernel  # one for both frame dtypes
     start = np.zeros(n_blocks, dtype=np.int64)
     pending = np.full(n_blocks, -1, dtype=np.int64)  # a frame whose status awaits handling
     handled = STATUS_OK

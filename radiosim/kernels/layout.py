@@ -13,7 +13,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from radiosim.errors import RadiosimError
-from radiosim.kernels.bundles import ColumnSlots
+from radiosim.kernels.bundles import ColumnSlots, FrameBlock
 
 __all__ = ["KernelAxis", "kernel_axis", "rows_of", "frames_of", "frame_region", "frame_block",
            "per_pixel", "per_frame", "merged_arguments", "read_only"]
@@ -171,6 +171,23 @@ def frames_of(a: np.ndarray) -> tuple[np.ndarray, int, int]:
     flat = flat.view()
     flat.flags.writeable = False
     return flat, int(row_length), int(frame_stride)
+
+
+#: The frame array a :class:`~radiosim.kernels.bundles.FrameBlock` holds for the dtype its
+#: frames are not (one element, read-only: the type of a frame block's flat view).
+_UNUSED = {np.dtype(np.float32): np.zeros(1, np.float32), np.dtype(np.float64): np.zeros(1)}
+for _array in _UNUSED.values():
+    _array.flags.writeable = False
+
+
+def frame_bundle(block: np.ndarray) -> FrameBlock:
+    """The :class:`~radiosim.kernels.bundles.FrameBlock` of a 3-D float32 or float64 block
+    (frames, rows, columns), read in place (:func:`frames_of`)."""
+    base, row_length, frame_stride = frames_of(block)
+    narrow = base.dtype == np.float32
+    return FrameBlock(_UNUSED[np.dtype(np.float64)] if narrow else base,
+                      base if narrow else _UNUSED[np.dtype(np.float32)], bool(narrow),
+                      row_length, frame_stride, block.shape[0])
 
 
 def frame_region(frame, rows: KernelAxis, cols: KernelAxis) -> np.ndarray:

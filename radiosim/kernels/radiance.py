@@ -58,9 +58,10 @@ def _cubic1(coef, i, r):
 
 
 @numba.njit(**INNER)
-def _signal_one(src, xo, g, go, w, use_map, grey, coef, key0, shift, node_mask, last,
-                interval, u, a3, lo, hi):
-    """a3[q] += w · S(src[xo + q]) for the slots lo ≤ q < hi of one sample row (modes SIGNAL_SCALAR
+def _signal_one(src32, src, narrow, xo, g, go, w, use_map, grey, coef, key0, shift, node_mask,
+                last, interval, u, a3, lo, hi):
+    """a3[q] += w · S(src[xo + q]) (``src32``, float32, when ``narrow``: the samples widened) for
+    the slots lo ≤ q < hi of one sample row (modes SIGNAL_SCALAR
     and SIGNAL_MAP: S = L(T) · grey, or L(T) · (grey · g[go + q]) with ``g`` the grey map). Two
     loops: the intervals and positions (:func:`_locate`, vectorised), into the scratch ``interval``
     and ``u`` (from 0); then the cubics, accumulated eight at a time (:func:`_cubic8_grey`,
@@ -68,8 +69,12 @@ def _signal_one(src, xo, g, go, w, use_map, grey, coef, key0, shift, node_mask, 
     offsets, bounds, ``last``, ``shift``, ``node_mask``: uint64."""
     nq = hi - lo
     x0 = xo + lo
-    for q in range(nq):
-        interval[q], u[q] = _locate(np.float64(src[x0 + q]), key0, shift, node_mask, last)
+    if narrow:
+        for q in range(nq):
+            interval[q], u[q] = _locate(np.float64(src32[x0 + q]), key0, shift, node_mask, last)
+    else:
+        for q in range(nq):
+            interval[q], u[q] = _locate(np.float64(src[x0 + q]), key0, shift, node_mask, last)
     q = np.uint64(0)
     eight = np.uint64(8)
     if use_map:
@@ -89,9 +94,9 @@ def _signal_one(src, xo, g, go, w, use_map, grey, coef, key0, shift, node_mask, 
 
 
 @numba.njit(**INNER, inline="always")
-def _signal_rows(n, lo, hi, src, o, ws, g, go, use_map, grey, coef, key0, shift, last,
-                 interval, u, a3):
-    """a3[q] += Σₕ ws[h] · S(src[o[h] + q]) over the sample rows h < n of a sweep and its slots lo ≤
+def _signal_rows(n, lo, hi, src32, src, narrow, o, ws, g, go, use_map, grey, coef, key0, shift,
+                 last, interval, u, a3):
+    """a3[q] += Σₕ ws[h] · S(src[o[h] + q]) (``src32`` when ``narrow``) over the sample rows h < n of a sweep and its slots lo ≤
     q < hi (modes SIGNAL_SCALAR and SIGNAL_MAP; grey map row h at ``g[go[h]:]``): with a grey
     factor, two rows at a time (:func:`_signal_two`), else row by row (:func:`_signal_one`).
     ``interval`` and ``u``: scratch of two chunks."""
@@ -99,31 +104,38 @@ def _signal_rows(n, lo, hi, src, o, ws, g, go, use_map, grey, coef, key0, shift,
     h = 0
     if not use_map:
         while h + 1 < n:
-            _signal_two(src, o[h], o[h + 1], ws[h] * grey, ws[h + 1] * grey, coef, key0, shift,
-                        node_mask, last, interval, u, a3, lo, hi)
+            _signal_two(src32, src, narrow, o[h], o[h + 1], ws[h] * grey, ws[h + 1] * grey,
+                        coef, key0, shift, node_mask, last, interval, u, a3, lo, hi)
             h += 2
     while h < n:
-        _signal_one(src, o[h], g, go[h], ws[h], use_map, grey, coef, key0, shift, node_mask,
-                    last, interval, u, a3, lo, hi)
+        _signal_one(src32, src, narrow, o[h], g, go[h], ws[h], use_map, grey, coef, key0, shift,
+                    node_mask, last, interval, u, a3, lo, hi)
         h += 1
 
 
 @numba.njit(**INNER)
-def _signal_two(src, xo, yo, wx, wy, coef, key0, shift, node_mask, last, interval, u, a3, lo,
-                hi):
-    """a3[q] += wx · L(src[xo + q]) + wy · L(src[yo + q]) for lo ≤ q < hi (two sample rows of
-    a grey scene, weights times the grey factor): the intervals and positions of both rows
+def _signal_two(src32, src, narrow, xo, yo, wx, wy, coef, key0, shift, node_mask, last,
+                interval, u, a3, lo, hi):
+    """a3[q] += wx · L(src[xo + q]) + wy · L(src[yo + q]) (``src32`` when ``narrow``) for
+    lo ≤ q < hi (two sample rows of a grey scene, weights times the grey factor): the intervals and positions of both rows
     into the scratch (the second's from CHUNK on), then their cubics eight at a time
     (:func:`_cubic8_pair`), the rest one by one with the same operations."""
     nq = hi - lo
     second = np.uint64(CHUNK)
     x0 = xo + lo
     y0 = yo + lo
-    for q in range(nq):
-        interval[q], u[q] = _locate(np.float64(src[x0 + q]), key0, shift, node_mask, last)
-    for q in range(nq):
-        interval[second + q], u[second + q] = _locate(np.float64(src[y0 + q]), key0, shift,
-                                                      node_mask, last)
+    if narrow:
+        for q in range(nq):
+            interval[q], u[q] = _locate(np.float64(src32[x0 + q]), key0, shift, node_mask, last)
+        for q in range(nq):
+            interval[second + q], u[second + q] = _locate(np.float64(src32[y0 + q]), key0,
+                                                          shift, node_mask, last)
+    else:
+        for q in range(nq):
+            interval[q], u[q] = _locate(np.float64(src[x0 + q]), key0, shift, node_mask, last)
+        for q in range(nq):
+            interval[second + q], u[second + q] = _locate(np.float64(src[y0 + q]), key0,
+                                                          shift, node_mask, last)
     q = np.uint64(0)
     eight = np.uint64(8)
     while q + eight <= nq:
@@ -135,8 +147,10 @@ def _signal_two(src, xo, yo, wx, wy, coef, key0, shift, node_mask, last, interva
 
 
 @numba.njit(**INNER)
-def _signal_row(x, g, e, used, w, mode, grey, use_map, tables, interval, u, value, factor, a3):
-    """a3 += w · S(T) along one row of pieces ``x`` (grey map row ``g``, index map row ``e``), with
+def _signal_row(x32, x, narrow, g, e, used, w, mode, grey, use_map, tables, interval, u, value,
+                factor, a3):
+    """a3 += w · S(T) along one row of pieces ``x`` (``x32``, float32, when ``narrow``; grey map
+    row ``g``, index map row ``e``), with
     S = L(T) · grey (SIGNAL_SCALAR), L(T) · (grey · map) (SIGNAL_MAP) or L_e(T) · grey_e (· map)
     with e from the index map (SIGNAL_INDEX); L the cubic of the sample's table (a row of the flat
     ``coef``, from the table's ``offset``) at its interval and position (:func:`_locate`). Modes
@@ -162,7 +176,7 @@ def _signal_row(x, g, e, used, w, mode, grey, use_map, tables, interval, u, valu
         j = entry_table[0]
         s = np.uint64(shift[j])
         node_mask = ~((np.uint64(1) << s) - np.uint64(1))
-        _signal_one(x, np.uint64(0), g, np.uint64(0), w, use_map, grey,
+        _signal_one(x32, x, narrow, np.uint64(0), g, np.uint64(0), w, use_map, grey,
                     coef[np.uint64(offset[j]) * np.uint64(4):], key0[j], s, node_mask,
                     np.uint64(last[j]), interval, u, a3, np.uint64(0), np.uint64(nq))
         return status
@@ -172,7 +186,7 @@ def _signal_row(x, g, e, used, w, mode, grey, use_map, tables, interval, u, valu
         n_high = 0
         n_index = 0
         for q in range(nq):
-            t = np.float64(x[q])
+            t = np.float64(x32[q]) if narrow else np.float64(x[q])
             h = np.int64(e[q])
             checked = np.int64(used[q] > 0.0)
             n_index += checked * (np.int64(h < 0) + np.int64(h >= n_entries))

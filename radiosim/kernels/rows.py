@@ -14,7 +14,7 @@ import numpy as np
 
 from radiosim.kernels.codes import (SIGNAL_INDEX, SIGNAL_MAP, SIGNAL_NONE, SIGNAL_SCALAR,
                                     STATUS_BELOW_TABLE)
-from radiosim.kernels.intrinsics import INF, INNER, per_frame_dtype
+from radiosim.kernels.intrinsics import FRAME_DTYPES, INF, INNER, JIT
 from radiosim.kernels.radiance import _signal_row, _signal_rows
 from radiosim.kernels.sweeps import CHUNK, MAX_ROWS, _gather, _lin
 
@@ -37,9 +37,9 @@ def _setup_row(reference, i, slot_runs, with_signal, ce, a3):
 
 @numba.njit(**INNER)
 def _pixel_done(j, v1, v2, v3, m, n, t_low, t_high, s1, s2, s3, sm):
-    """Store pixel j's sums and maximum (m, n: its extremes in the frame's dtype, widened
-    here) and return its status bits: 1 a bad sample (NaN in Σ w (T − c), +inf, ≤ 0 K), 2 one
-    below ``t_low``, 4 one above ``t_high``."""
+    """Store pixel j's sums and maximum (m, n: its extremes) and return its status bits: 1 a
+    bad sample (NaN in Σ w (T − c), +inf, ≤ 0 K), 2 one below ``t_low``, 4 one above
+    ``t_high``."""
     s1[j], s2[j], s3[j], sm[j] = v1, v2, v3, np.float64(m)
     bad = np.int64(n <= 0.0) | np.int64(np.float64(m) == INF) | np.int64(v1 != v1)
     return bad | (np.int64(np.float64(n) < t_low) << 1) | (np.int64(np.float64(m) > t_high) << 2)
@@ -61,7 +61,7 @@ def _pixel_sums(a1, a2, a3, am, an, slot_weight, slot_of_piece, col_bounds, iden
         v3 = 0.0
         first = col_bounds[j]
         k = first if identity else slot_of_piece[first]
-        m = am[k]  # extremes in the frame's dtype (exact), widened once
+        m = am[k]  # extremes (float64: a float32 sample widened exactly)
         n = an[k]
         for q in range(first, col_bounds[j + 1]):
             k = q if identity else slot_of_piece[q]
@@ -97,7 +97,7 @@ def _pixel_sums_regular(a1, a2, a3, am, an, slot_weight, slot_of_piece, col_boun
         v1 = a1[k] * w
         v2 = a2[k] * w
         v3 = a3[k] * w if with_signal else 0.0
-        m = am[k]  # extremes in the frame's dtype (exact), widened once
+        m = am[k]  # extremes (float64: a float32 sample widened exactly)
         n = an[k]
         if stop - first > one:
             k = stop - one if identity else slot_of_piece[stop - one]
@@ -227,22 +227,29 @@ def accumulate_kernel(b, n_blocks, start, frames, rows, cols, acc, members, tabl
                       buffers, status):
     """Block ``b`` of the frames' pixel rows in ``n_blocks`` contiguous blocks, one per thread
     (:func:`~radiosim.kernels.threads.run_blocks`; block b uses row b of ``buffers``); frame
-    f starts at ``frames.base[f * frames.frame_stride]``, and the merging weights
-    (``members``) and ``status`` have one row per frame. The block takes frames start[b] …
+    f starts at ``frames.base[f * frames.frame_stride]`` (``frames.base32`` for float32 frames:
+    ``frames.narrow``), and the merging weights (``members``) and ``status`` have one row per
+    frame. The block takes frames start[b] …
     n_frames − 1 of its rows, one after the other, without waiting for the other blocks (no
     barrier per frame), and stops after its first frame with a status. Returns that frame, or
     n_frames. The bundles: :mod:`radiosim.kernels.bundles`.
 
+    One compiled entry point serves both frame dtypes: the helpers that read samples
+    (:func:`~radiosim.kernels.sweeps._lin`, the radiance pass) take both arrays and read the
+    float32 one in a loop of their own where ``narrow``, widening each sample (exact); nothing
+    else sees the frame's dtype.
+
     Row b of the :class:`~radiosim.kernels.bundles.ThreadBuffers` (``buffers``) holds the
     block's buffers for the duplicate slots' samples, each written through the first array and
     read through the second (a read-only view of the same memory, so that the gathered rows have
-    the type of the frame's rows: one compilation serves both), and the running maximum and
-    minimum per slot, in the frame's dtype.
+    the type of float64 frame rows: one compilation serves both), and the running maximum and
+    minimum per slot (float64).
 
     Each pixel row is swept along the columns in chunks of CHUNK slots, up to MAX_ROWS sample
     rows per sweep (all of them, for pixels of up to MAX_ROWS pieces), so the accumulators are
     read and written once per chunk while the frame's rows stream through."""
     n_frames = frames.n_frames
+    narrow = frames.narrow
     frame_stride = frames.frame_stride
     row_length = frames.row_length
     n_rows = rows.bounds.size - 1
@@ -316,9 +323,12 @@ def accumulate_kernel(b, n_blocks, start, frames, rows, cols, acc, members, tabl
     mo = np.empty(MAX_ROWS, np.uint64)
     ws = np.empty(MAX_ROWS)
     # The pixel rows' pass, frame by frame, written here (numba's inlining of a helper would
-    # copy its IR and type it again: about a second of compile per frame dtype).
+    # copy its IR and type it again: about a second of compile).
     for f in range(start[b], n_frames):
-        frame = frames.base[f * frame_stride:]  # frame f's samples, rows row_length apart
+        # Frame f's samples, rows row_length apart: float64 (``frame``) or float32 (``frame32``,
+        # when ``narrow``), each read in place; the other is empty.
+        frame = frames.base[f * frame_stride:]
+        frame32 = frames.base32[f * frame_stride:]
         frame_status = status[f]  # per pixel row
         for i in range(first_row, stop_row):
             _setup_row(reference, i, cols.runs, with_signal, ce, a3)
@@ -337,30 +347,36 @@ def accumulate_kernel(b, n_blocks, start, frames, rows, cols, acc, members, tabl
                 # slots, along rows gathered into the buffers (row h at h · size − n_samples,
                 # so that slot q reads sample q − n_samples of it).
                 for part in range(2 if n_dups else 1):
-                    if part == 1:
+                    if part == 1:  # gathered rows in float64 (a float32 sample widens exactly)
                         for h in range(n):
-                            _gather(frame[o[h]:], dup_source, rows_w[h])
+                            if narrow:
+                                _gather(frame32[o[h]:], dup_source, rows_w[h])
+                            else:
+                                _gather(frame[o[h]:], dup_source, rows_w[h])
                     first, end = (zero, samples_u) if part == 0 else (samples_u, slots_u)
                     src = frame if part == 0 else dup_rows
+                    narrow_src = narrow and part == 0  # the float32 frame read in place
                     offsets = o if part == 0 else dup_offsets
                     for lo in range(first, end, chunk):
                         hi = min(end, lo + chunk)
-                        _lin(n, p == first_p, lo, hi, src, offsets, ws, ce, a1, a2, am, an,
-                             sums)
+                        _lin(n, p == first_p, lo, hi, frame32, src, narrow_src, offsets, ws, ce,
+                             a1, a2, am, an, sums)
                         if with_signal and part == 0 and mode != SIGNAL_INDEX:
-                            _signal_rows(n, lo, hi, src, offsets, ws, grey_map, mo, use_map,
-                                         grey, table_rows, table_key0, table_shift,
-                                         table_last, interval, u, a3)
+                            _signal_rows(n, lo, hi, frame32, src, narrow_src, offsets, ws,
+                                         grey_map, mo, use_map, grey, table_rows, table_key0,
+                                         table_shift, table_last, interval, u, a3)
                         elif with_signal:
                             lo_i, hi_i = np.int64(lo), np.int64(hi)
                             for h in range(n):
                                 m_off = row_source[p + h] * map_length
                                 if part == 0:
                                     x = frame[o[h] + lo:]
+                                    x32 = frame32[o[h] + lo:]
                                     g = grey_map[m_off + lo_i:]
                                     e = index_map[m_off + lo_i:]
                                 else:
                                     x = rows_r[h][lo_i - ns:]
+                                    x32 = frame32  # not read
                                     dups = dup_source[lo_i - ns:hi_i - ns]
                                     if use_map or mode != SIGNAL_INDEX:  # scalar: the ones
                                         _gather(grey_map[m_off:], dups, grey_w[:hi_i - lo_i])
@@ -369,8 +385,9 @@ def accumulate_kernel(b, n_blocks, start, frames, rows, cols, acc, members, tabl
                                     g = grey_r
                                     e = index_r
                                 row_status |= _signal_row(
-                                    x, g, e, slot_weight[lo_i:hi_i], ws[h], mode, grey,
-                                    use_map, tables, interval, u, value, factor, a3[lo_i:hi_i])
+                                    x32, x, narrow_src, g, e, slot_weight[lo_i:hi_i], ws[h],
+                                    mode, grey, use_map, tables, interval, u, value, factor,
+                                    a3[lo_i:hi_i])
                 p += n
             row_status |= _row_sums(a1, a2, a3, am, an, cols, with_signal, t_low, t_high, s1, s2,
                                     s3, sm)
@@ -384,7 +401,7 @@ def accumulate_kernel(b, n_blocks, start, frames, rows, cols, acc, members, tabl
     return n_frames
 
 
-#: The kernel compiled per frame dtype ({"float32": …, "float64": …}: own dispatchers and cache
-#: files); ``accumulate_kernel`` is float64's.
-ACCUMULATE_KERNELS = per_frame_dtype(accumulate_kernel)
-accumulate_kernel = ACCUMULATE_KERNELS["float64"]
+accumulate_kernel = numba.njit(**JIT)(accumulate_kernel)
+#: The kernel each frame dtype launches ({"float32": …, "float64": …}): one compiled entry
+#: point for both (:class:`~radiosim.kernels.bundles.FrameBlock` carries either dtype).
+ACCUMULATE_KERNELS = {dtype: accumulate_kernel for dtype in FRAME_DTYPES}

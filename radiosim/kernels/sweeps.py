@@ -44,30 +44,38 @@ BLOCKS = (8, 4, 1)
 
 
 def _rows_source(k: int) -> str:
-    """Source of ``_rows{k}``: k sample rows (row h: ``src[o{h} + q]``, weight ``w{h}``) into
-    the slots lo ≤ q < hi: s[q − lo] += w (T − c) row by row, a2[q] += w (T − c)² (fused
-    multiply-adds, row by row), am[q] = max(am[q], T), an[q] = min(an[q], T) in the frame's
-    own dtype (exact). Offsets and bounds are uint64: indexed, not sliced (a slice is a
-    reference count, an atomic operation both threads would share)."""
+    """Source of ``_rows{k}``: k sample rows (row h: ``src[o{h} + q]``, weight ``w{h}``; read
+    from ``src32``, float32, when ``narrow``) into the slots lo ≤ q < hi: s[q − lo] += w (T − c)
+    row by row, a2[q] += w (T − c)² (fused multiply-adds, row by row), am[q] = max(am[q], T),
+    an[q] = min(an[q], T) (float64 for either dtype: a float32 sample widens exactly). Two
+    loops, one per frame dtype, the same operations: one compiled function reads either in
+    place. Offsets and bounds are uint64: indexed, not sliced (a slice is a reference count,
+    an atomic operation both threads would share)."""
     rows = range(k)
-    lines = [f"def _rows{k}(lo, hi, src, o, ws, h, ce, s, a2, am, an):"]
+    lines = [f"def _rows{k}(lo, hi, src32, src, narrow, o, ws, h, ce, s, a2, am, an):"]
     lines += [f"    o{r} = o[h + {r}]" for r in rows] + [f"    w{r} = ws[h + {r}]" for r in rows]
-    body = ["for q in range(lo, hi):", "    c = ce[q]"]
-    body += [f"    x{r} = src[o{r} + q]" for r in rows]
-    body += [f"    d{r} = np.float64(x{r}) - c" for r in rows]
-    body += [f"    e{r} = w{r} * d{r}" for r in rows]
-    body.append("    k = q - lo")
-    body.append("    s[k] = s[k] + " + " + ".join(f"e{r}" for r in rows))
-    square = "a2[q]"
-    for r in rows:
-        square = f"_fma(e{r}, d{r}, {square})"
-    body.append(f"    a2[q] = {square}")
-    body.append("    m = am[q]")
-    body.append("    n = an[q]")
-    for r in rows:
-        body.append(f"    m = x{r} if x{r} > m else m")
-        body.append(f"    n = x{r} if x{r} < n else n")
-    body += ["    am[q] = m", "    an[q] = n"]
+
+    def loop(array):
+        body = ["for q in range(lo, hi):", "    c = ce[q]"]
+        body += [f"    x{r} = np.float64({array}[o{r} + q])" for r in rows]
+        body += [f"    d{r} = x{r} - c" for r in rows]
+        body += [f"    e{r} = w{r} * d{r}" for r in rows]
+        body.append("    k = q - lo")
+        body.append("    s[k] = s[k] + " + " + ".join(f"e{r}" for r in rows))
+        square = "a2[q]"
+        for r in rows:
+            square = f"_fma(e{r}, d{r}, {square})"
+        body.append(f"    a2[q] = {square}")
+        body.append("    m = am[q]")
+        body.append("    n = an[q]")
+        for r in rows:
+            body.append(f"    m = x{r} if x{r} > m else m")
+            body.append(f"    n = x{r} if x{r} < n else n")
+        body += ["    am[q] = m", "    an[q] = n"]
+        return body
+
+    body = ["if narrow:"] + ["    " + line for line in loop("src32")]
+    body += ["else:"] + ["    " + line for line in loop("src")]
     return "\n".join(lines + ["    " + line for line in body]) + "\n"
 
 
@@ -83,11 +91,12 @@ _rows8, _rows4, _rows1 = _make_blocks()
 
 
 @numba.njit(**INNER, inline="always")
-def _lin(n, first, lo, hi, src, o, ws, ce, a1, a2, am, an, s):
+def _lin(n, first, lo, hi, src32, src, narrow, o, ws, ce, a1, a2, am, an, s):
     """The sweep of ``n`` (1 … MAX_ROWS) sample rows (row h: ``src[o[h] + q]``, weight
     ``ws[h]``; ``o`` and ``ws`` arrays of MAX_ROWS) into the column accumulators of slots
     lo ≤ q < hi: a1 += Σₕ w (T − c) (the rows' sum first, in scratch ``s``, then added),
-    a2 += Σₕ w (T − c)², am = max(am, T), an = min(an, T); with ``first`` (a pixel row's first
+    a2 += Σₕ w (T − c)², am = max(am, T), an = min(an, T) (float32 rows when ``narrow``:
+    ``src32``, widened); with ``first`` (a pixel row's first
     sweep) the accumulators start from 0, 0, −∞ and +∞ instead of their contents. The same
     additions in the same order as one loop over all n rows per slot."""
     for k in range(hi - lo):
@@ -102,13 +111,13 @@ def _lin(n, first, lo, hi, src, o, ws, ce, a1, a2, am, an, s):
     # compiled variant.
     h = 0
     if n >= 8:
-        _rows8(lo, hi, src, o, ws, 0, ce, s, a2, am, an)
+        _rows8(lo, hi, src32, src, narrow, o, ws, 0, ce, s, a2, am, an)
         h = 8
     while h + 4 <= n:
-        _rows4(lo, hi, src, o, ws, h, ce, s, a2, am, an)
+        _rows4(lo, hi, src32, src, narrow, o, ws, h, ce, s, a2, am, an)
         h += 4
     while h < n:
-        _rows1(lo, hi, src, o, ws, h, ce, s, a2, am, an)
+        _rows1(lo, hi, src32, src, narrow, o, ws, h, ce, s, a2, am, an)
         h += 1
     if first:
         for q in range(lo, hi):
