@@ -61,18 +61,32 @@ def compile_integrator_aside(scene) -> None:
 
 def warmup_command(args) -> int:
     """``radiosim warmup``."""
+    import shutil
     import time
 
-    from radiosim.kernels import FRAME_DTYPES, compile_in_background, warmup, warmup_bands
-    from radiosim.kernels.background import wait_for_background
-    from radiosim.scenes import SegmentedChip
+    from radiosim import compiling_process
 
     began = time.perf_counter()
     progress = Progress("step", args.quiet)
-    # Another process compiles the integrator's kernel (one for both frame dtypes) while this
-    # one compiles the chip's and the image stage's (shares of about equal work on two cores);
+    # Another process compiles the integrator's kernel (one for both frame dtypes), started
+    # before this one imports numba and the kernels (the imports overlap), while this one
+    # compiles the chip's and the image stage's (shares of about equal work on two cores);
     # then every variant is launched here (loaded).
-    started = compile_in_background(FRAME_DTYPES)
+    child = compiling_process.start()
+    try:
+        from radiosim.kernels import FRAME_DTYPES, warmup, warmup_bands
+        from radiosim.kernels.background import register, wait_for_background
+        from radiosim.scenes import SegmentedChip
+    except BaseException:  # interrupted while importing: the process and its folder go too
+        if child is not None:
+            child[0].kill()
+            child[0].wait()
+            shutil.rmtree(child[1], ignore_errors=True)
+        raise
+    started = []
+    if child is not None:  # else this process compiles everything itself
+        register(*child)
+        started.append(child[0])
     steps = 2 + len(started) + 2 * len(FRAME_DTYPES) * 5  # chip, sub-bands, processes, variants
     chip = SegmentedChip()  # its moving terms, on a small region at the band's time
     middle = tuple(slice(n // 2, n // 2 + 16) for n in chip.shape)

@@ -230,14 +230,14 @@ def test_progress_on_a_terminal_is_one_bar_created_before_the_work(capsys):
 def test_warmup_compiles_every_path_and_says_so_in_one_line(capsys, monkeypatch):
     # Last in this file: the tests above have compiled most paths, so this loads them from
     # numba's cache and compiles only the rest (float32 frames, intp maps, memory maps).
-    import radiosim.kernels as kernels
+    from radiosim import compiling_process
     from radiosim.kernels import compile_pending, compiling
     from radiosim.kernels.bands import band_kernel
 
-    asked = []  # the processes compile the integrator only: the sub-band kernel is this one's
-    start = kernels.compile_in_background
-    monkeypatch.setattr(kernels, "compile_in_background",
-                        lambda *a, **k: asked.append(k.get("bands", False)) or start(*a, **k))
+    asked = []  # one process, the integrator only: the sub-band kernel is this one's
+    start = compiling_process.start
+    monkeypatch.setattr(compiling_process, "start",
+                        lambda *a, **k: asked.append(k.get("with_bands", False)) or start(*a, **k))
     assert main(["warmup", "-q"]) == 0
     assert asked == [False]
     out = capsys.readouterr().out.splitlines()

@@ -24,12 +24,11 @@ second. Here:
 from __future__ import annotations
 
 import os
-import subprocess
-import sys
 import threading
 
 import numpy as np
 
+from radiosim.compiling_process import CHILD, start
 from radiosim.kernels import background
 from radiosim.kernels.bands import band_kernel
 from radiosim.kernels.intrinsics import FRAME_DTYPES
@@ -248,38 +247,22 @@ def compile_in_background(frame_dtypes=("float64",), bands: bool = False) -> lis
     started (none when all are cached, else one; its ``frame_dtypes`` and ``with_bands`` say
     what it launches). This process goes on; its first kernel launch waits for them
     (:func:`~radiosim.kernels.background.wait_for_background`). They write nothing but
-    numba's cache and their own temporary folder (made here, their working folder, removed
-    once they have ended); they import this process's radiosim; their output
-    is discarded; they stop when this process exits or is interrupted, and end by themselves
-    if it is killed.
+    numba's cache and their own temporary folder (made by
+    :func:`radiosim.compiling_process.start`, their working folder, removed once they have
+    ended); they import this process's radiosim; their output is discarded; they stop when
+    this process exits or is interrupted, and end by themselves if it is killed.
     """
-    import tempfile
-
-    package = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
-    paths = [package, os.environ.get("PYTHONPATH", "")]
-    env = dict(os.environ, PYTHONPATH=os.pathsep.join(p for p in paths if p))
     started = []
     work = _pending_work(frame_dtypes, bands)
-    for dtypes, with_bands in [work] if work is not None else []:
-        folder = None
-        try:
-            folder = tempfile.mkdtemp(prefix="radiosim-compiling-")
-            command = [sys.executable, "-c", _CHILD, *dtypes, "--memmap-dir", folder,
-                       "--parent", str(os.getpid())]
-            process = subprocess.Popen(command + (["--bands"] if with_bands else []),
-                                       cwd=folder, env=env, stdin=subprocess.DEVNULL,
-                                       stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
-        except (OSError, TypeError, ValueError):  # cannot start one (no interpreter to run,
-            if folder is not None:  # no temporary folder): this process compiles itself
-                os.rmdir(folder)
-            continue
-        process.frame_dtypes, process.with_bands = dtypes, with_bands
-        background.register(process, folder)
-        started.append(process)
+    if work is not None:
+        child = start(*work, child=_CHILD)
+        if child is not None:  # else this process compiles itself
+            background.register(*child)
+            started.append(child[0])
     return started
 
 
-_CHILD = "import sys; from radiosim.kernels.compiling import _main; sys.exit(_main(sys.argv[1:]))"
+_CHILD = CHILD
 
 
 def _end_with_parent(parent: int) -> None:
@@ -293,9 +276,9 @@ def _end_with_parent(parent: int) -> None:
 
 
 def _main(argv) -> int:
-    """The other process: ``python -c _CHILD DTYPE [DTYPE ...] [--bands] [--memmap-dir DIR]
+    """The other process: ``python -c _CHILD [DTYPE ...] [--bands] [--memmap-dir DIR]
     [--parent PID]`` (the process that started it: it ends when that one has, even before
-    this one got here)."""
+    this one got here); no DTYPE: every frame dtype."""
     argv = list(argv)
     options = {"--memmap-dir": None, "--parent": None}
     for name in options:
@@ -304,7 +287,7 @@ def _main(argv) -> int:
             options[name] = argv[at + 1]
             del argv[at:at + 2]
     bands = "--bands" in argv
-    dtypes = [a for a in argv if a != "--bands"]
+    dtypes = [a for a in argv if a != "--bands"] or list(FRAME_DTYPES)
     parent = int(options["--parent"] or os.getppid())
     threading.Thread(target=_end_with_parent, args=(parent,), daemon=True).start()
     memmap_dir = options["--memmap-dir"]

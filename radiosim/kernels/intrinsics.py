@@ -21,8 +21,8 @@ from numba.extending import intrinsic
 __all__ = ["JIT", "INNER", "INF", "FRAME_DTYPES", "fast_exp"]
 
 #: The options of a compiled entry point (a kernel launched from Python): kept in numba's
-#: on-disk cache.
-JIT = dict(cache=True, fastmath=False, nogil=True, error_model="numpy")
+#: on-disk cache; a CPython wrapper, no C one (nothing calls the kernels from C).
+JIT = dict(cache=True, fastmath=False, nogil=True, error_model="numpy", no_cfunc_wrapper=True)
 #: A helper called only from compiled code: no CPython or C wrapper is generated for it (each
 #: wrapper unboxes every argument: about a sixth of the compile time of the kernels), and not
 #: cached on its own (its callers' cache holds it; numba's cache index of one function is not

@@ -38,7 +38,8 @@ from radiosim.kernels import fast_exp
 __all__ = ["KernelConstants", "RunLayout", "SET_PERIODIC", "SET_CHIP", "SET_FORMING", "SET_SURFACE",
            "PAD", "moving_terms_kernel", "kernel_coordinates"]
 
-_JIT = dict(cache=True, fastmath=False, nogil=True, error_model="numpy", boundscheck=False)
+_JIT = dict(cache=True, fastmath=False, nogil=True, error_model="numpy", boundscheck=False,
+            no_cfunc_wrapper=True)  # launched from Python only: no C wrapper
 # Helpers called only from compiled code get no CPython or C wrapper (each unboxes every
 # argument) and no cache files of their own (the kernel's hold them); small ones called from
 # one place are inlined into it by numba (not compiled on their own and again inside their
