@@ -7,8 +7,8 @@ ratios next to the issue's targets.
   measure`` without its scene file: exit 2) and ``python -c "import radiosim"``;
 - compile: ``radiosim run --out TMP -q`` (the paper's study, EXR files and figures) with
   ``NUMBA_CACHE_DIR`` set to a new, empty folder, minus the same run warm: every kernel the
-  default study uses, compiled (the paths the study does not take, such as a float32 memory map
-  or a PSF, are not in it);
+  default study uses, compiled (the integrator's, which serves every frame dtype, and the
+  chip's; the sub-band kernel of a PSF, which the study does not take, is not in it);
 - the warm run: the same command again, end to end, and its parts timed inside one process as
   the CLI runs them: import of ``radiosim.cli`` and the study's load (scene built), the
   measurements (``study.run``) and the ``figures`` hook.

@@ -505,7 +505,7 @@ def _compiling():
 
 #: ``radiosim warmup``'s time in its help [s] (radiosim.warmup.WARMUP_SECONDS, kept equal by a
 #: test; not imported here so that --help loads nothing heavy).
-_WARMUP_SECONDS = 20
+_WARMUP_SECONDS = 16
 
 
 def _presets(args) -> int:

@@ -27,8 +27,8 @@ def start(frame_dtypes=(), with_bands: bool = False,
     ``frame_dtypes`` (every frame dtype when empty), with ``with_bands`` the sub-band kernel
     too. It runs in a temporary folder of its own, made here (its working folder and that of
     its small memory-mapped file), imports this process's radiosim, discards its output, and
-    ends by itself if this process is killed. Returns the process (its ``frame_dtypes`` and
-    ``with_bands`` say what it compiles) and its folder, which the caller registers
+    ends by itself if this process is killed. Returns the process (its ``frame_dtypes``, empty
+    for every frame dtype, and ``with_bands`` say what it launches) and its folder, which the caller registers
     (:func:`radiosim.kernels.background.register`: waited for, stopped and removed), or
     ``None`` when no process can start (the caller then compiles itself).
     """

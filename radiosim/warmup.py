@@ -15,14 +15,15 @@ __all__ = ["COMPILE_SECONDS", "WARMUP_SECONDS", "announce_compile", "compile_int
            "warmup_command"]
 
 #: Compile times [s] from an empty cache on 2 cores (measured by benchmarks/bench_cli.py and
-#: bench_compile.py; README): the variants a run needs (one frame type, with the chip's terms),
-#: and every variant (``radiosim warmup``).
-COMPILE_SECONDS, WARMUP_SECONDS = 15, 20
+#: bench_compile.py; README): what a run of the paper's study compiles (the integrator's kernel
+#: and the chip's), and every kernel (``radiosim warmup``).
+COMPILE_SECONDS, WARMUP_SECONDS = 16, 16
 
 
 def announce_compile(args, frame_dtype="float64", chip=False):
-    """Say once, on a terminal's stderr, that the kernels are about to compile (not cached for
-    this frame dtype, or the segmented chip's kernels when ``chip``), before the work starts.
+    """Say once, on a terminal's stderr, that the kernels are about to compile (the integrator's
+    kernel is not cached for frames of ``frame_dtype``, or the segmented chip's kernels are not
+    when ``chip``), before the work starts.
     Not in a log: there an error stays the one line on stderr."""
     if args.quiet or not sys.stderr.isatty():
         return

@@ -228,8 +228,9 @@ def test_progress_on_a_terminal_is_one_bar_created_before_the_work(capsys):
 
 
 def test_warmup_compiles_every_path_and_says_so_in_one_line(capsys, monkeypatch):
-    # Last in this file: the tests above have compiled most paths, so this loads them from
-    # numba's cache and compiles only the rest (float32 frames, intp maps, memory maps).
+    # Last in this file: the tests above have compiled the integrator's kernel (one for every
+    # frame dtype and map), so this loads it from numba's cache and compiles only what is
+    # left (the sub-band kernel, if no test above launched it).
     from radiosim import compiling_process
     from radiosim.kernels import compile_pending, compiling
     from radiosim.kernels.bands import band_kernel

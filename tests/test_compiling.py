@@ -222,3 +222,36 @@ def test_the_sub_band_kernel_waits_for_a_process_compiling_it_and_for_no_other()
     background.register(compiler)
     compiling.warmup_bands(wait_for_processes=False)
     assert compiler.returncode == 0 and not background._RUNNING  # waited for
+
+
+def test_the_compiling_process_launches_every_frame_dtype_when_given_none(monkeypatch):
+    # radiosim warmup starts it with no dtype (before this process could import the list).
+    asked = []
+    monkeypatch.setattr(compiling, "warmup", lambda **k: asked.append(k) or {})
+    parent = str(os.getppid())  # the watch ends the process unless its parent is this one's
+    assert compiling._main(["--parent", parent]) == 0
+    assert compiling._main(["float64", "--bands", "--parent", parent]) == 0
+    assert asked[0]["frame_dtypes"] == ["float32", "float64"] and not asked[0]["bands"]
+    assert asked[1]["frame_dtypes"] == ["float64"] and asked[1]["bands"]
+
+
+def test_warmup_interrupted_while_importing_ends_its_compiling_process(tmp_path, monkeypatch):
+    # radiosim warmup starts the compiling process before it imports the kernels: if the
+    # import is interrupted (or fails), the process is ended and its folder removed.
+    import argparse
+
+    from radiosim import compiling_process, warmup
+
+    folder = tmp_path / "work"
+    folder.mkdir()
+    process = _sleeper(60)
+    monkeypatch.setattr(compiling_process, "start", lambda *a, **k: (process, str(folder)))
+    monkeypatch.setitem(sys.modules, "radiosim.scenes", None)  # its import fails
+    try:
+        warmup.warmup_command(argparse.Namespace(quiet=True))
+    except ImportError:
+        pass
+    else:
+        raise AssertionError("the failed import was not raised")
+    assert process.returncode is not None and not folder.exists()
+    assert not background._RUNNING

@@ -75,7 +75,7 @@ cache files of their own (``INNER``); the pixel rows' pass is written in the ent
 inlining of a helper copies the helper's IR and types it again), and a sweep's row offsets and
 weights are small arrays. The image stage's sub-band kernel has one variant (float32 frames are
 widened for it).
-Compiling every kernel costs about 17–20 s of CPU on a quiet 2-core host
+Compiling every kernel costs about 20–23 s of CPU on a 2-core host
 (``benchmarks/bench_compile.py`` lists it per function: most of it is the integrator's entry
 point; about 60 % numba's typing and lowering, 40 % LLVM); ``radiosim warmup`` spreads it over
 the cores (another process compiles the integrator, :mod:`~radiosim.kernels.compiling`, while

@@ -168,10 +168,11 @@ class Emissivity(NamedTuple):
 class ThreadBuffers(NamedTuple):
     """Per-thread buffers, one row per block of pixel rows: the duplicate slots' gathered
     samples (frame rows, grey map row, index map row), each written through the first array
-    and read through the second (a read-only view of the same memory, so that gathered rows
-    have the type of float64 frame rows: one compilation serves both), and each slot's running
-    maximum and minimum; all float64, for either frame dtype (a float32 sample widens
-    exactly)."""
+    and read through the second (a read-only view of the same memory, so that gathered frame
+    rows have the type of float64 frame rows: one compilation serves the frame's rows and the
+    gathered ones), and each slot's running maximum and minimum. The frame rows and extremes
+    are float64 for either frame dtype (a float32 sample widens exactly), the index map row
+    has the map's dtype."""
 
     rows_w: np.ndarray
     rows_r: np.ndarray

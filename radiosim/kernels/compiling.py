@@ -14,9 +14,10 @@ second. Here:
     chip's and the sub-band kernels: the two cores compile at once). The first launch of a
     kernel here waits for that process
     (:func:`~radiosim.kernels.background.wait_for_background`), then loads what it cached.
-    One process at most compiles the integrator, and the sub-band kernel (one variant), and
-    the helpers have no cache files (``INNER``), so no two processes ever write one
-    function's cache index (numba writes it without a lock).
+    Within one command, at most one process compiles the integrator's kernel and at most one
+    the sub-band kernel (one variant), and the helpers have no cache files (``INNER``), so no
+    two of its processes write one function's cache index (numba writes it without a lock;
+    two commands compiling at once from an empty cache still could).
     If such a process cannot start, fails or is stopped, this one compiles what it needs
     itself, as it would without it: the results do not depend on which process compiled.
 """
@@ -243,14 +244,14 @@ def compile_in_background(frame_dtypes=("float64",), bands: bool = False) -> lis
     """
     Start compiling, in another Python process, the integrator's kernel variants
     (:func:`warmup`, launched on frames of ``frame_dtypes``) if numba's cache does not hold
-    them (with ``bands``, the sub-band kernel too, if it lacks that), and return the processes
-    started (none when all are cached, else one; its ``frame_dtypes`` and ``with_bands`` say
-    what it launches). This process goes on; its first kernel launch waits for them
-    (:func:`~radiosim.kernels.background.wait_for_background`). They write nothing but
-    numba's cache and their own temporary folder (made by
-    :func:`radiosim.compiling_process.start`, their working folder, removed once they have
-    ended); they import this process's radiosim; their output is discarded; they stop when
-    this process exits or is interrupted, and end by themselves if it is killed.
+    them (with ``bands``, the sub-band kernel too, if it lacks that), and return the list of
+    processes started: empty when all are cached, else the one (its ``frame_dtypes`` and
+    ``with_bands`` say what it launches). This process goes on; its first kernel launch waits
+    for it (:func:`~radiosim.kernels.background.wait_for_background`). It writes nothing but
+    numba's cache and its own temporary folder (made by
+    :func:`radiosim.compiling_process.start`, its working folder, removed once it has ended);
+    it imports this process's radiosim; its output is discarded; it stops when this process
+    exits or is interrupted, and ends by itself if this one is killed.
     """
     started = []
     work = _pending_work(frame_dtypes, bands)

@@ -15,8 +15,8 @@ import numpy as np
 from radiosim.errors import RadiosimError
 from radiosim.kernels.bundles import ColumnSlots, FrameBlock
 
-__all__ = ["KernelAxis", "kernel_axis", "rows_of", "frames_of", "frame_region", "frame_block",
-           "per_pixel", "per_frame", "merged_arguments", "read_only"]
+__all__ = ["KernelAxis", "kernel_axis", "rows_of", "frames_of", "frame_bundle", "frame_region",
+           "frame_block", "per_pixel", "per_frame", "merged_arguments", "read_only"]
 
 
 @dataclass(frozen=True)
@@ -176,8 +176,8 @@ def frames_of(a: np.ndarray) -> tuple[np.ndarray, int, int]:
 #: The frame array a :class:`~radiosim.kernels.bundles.FrameBlock` holds for the dtype its
 #: frames are not (one element, read-only: the type of a frame block's flat view).
 _UNUSED = {np.dtype(np.float32): np.zeros(1, np.float32), np.dtype(np.float64): np.zeros(1)}
-for _array in _UNUSED.values():
-    _array.flags.writeable = False
+_UNUSED[np.dtype(np.float32)].flags.writeable = False
+_UNUSED[np.dtype(np.float64)].flags.writeable = False
 
 
 def frame_bundle(block: np.ndarray) -> FrameBlock:

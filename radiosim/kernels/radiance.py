@@ -60,10 +60,10 @@ def _cubic1(coef, i, r):
 @numba.njit(**INNER)
 def _signal_one(src32, src, narrow, xo, g, go, w, use_map, grey, coef, key0, shift, node_mask,
                 last, interval, u, a3, lo, hi):
-    """a3[q] += w · S(src[xo + q]) (``src32``, float32, when ``narrow``: the samples widened) for
-    the slots lo ≤ q < hi of one sample row (modes SIGNAL_SCALAR
-    and SIGNAL_MAP: S = L(T) · grey, or L(T) · (grey · g[go + q]) with ``g`` the grey map). Two
-    loops: the intervals and positions (:func:`_locate`, vectorised), into the scratch ``interval``
+    """a3[q] += w · S(src[xo + q]) (``src32``, float32, when ``narrow``: the samples widened)
+    for the slots lo ≤ q < hi of one sample row (modes SIGNAL_SCALAR and SIGNAL_MAP:
+    S = L(T) · grey, or L(T) · (grey · g[go + q]) with ``g`` the grey map). Two loops: the
+    intervals and positions (:func:`_locate`, vectorised), into the scratch ``interval``
     and ``u`` (from 0); then the cubics, accumulated eight at a time (:func:`_cubic8_grey`,
     :func:`_cubic8_map`), the rest one by one with the same operations. ``coef``: the table's rows;
     offsets, bounds, ``last``, ``shift``, ``node_mask``: uint64."""
@@ -96,9 +96,10 @@ def _signal_one(src32, src, narrow, xo, g, go, w, use_map, grey, coef, key0, shi
 @numba.njit(**INNER, inline="always")
 def _signal_rows(n, lo, hi, src32, src, narrow, o, ws, g, go, use_map, grey, coef, key0, shift,
                  last, interval, u, a3):
-    """a3[q] += Σₕ ws[h] · S(src[o[h] + q]) (``src32`` when ``narrow``) over the sample rows h < n of a sweep and its slots lo ≤
-    q < hi (modes SIGNAL_SCALAR and SIGNAL_MAP; grey map row h at ``g[go[h]:]``): with a grey
-    factor, two rows at a time (:func:`_signal_two`), else row by row (:func:`_signal_one`).
+    """a3[q] += Σₕ ws[h] · S(src[o[h] + q]) (``src32`` when ``narrow``) over the sample rows
+    h < n of a sweep and its slots lo ≤ q < hi (modes SIGNAL_SCALAR and SIGNAL_MAP; grey map
+    row h at ``g[go[h]:]``): with a grey factor, two rows at a time (:func:`_signal_two`), else
+    row by row (:func:`_signal_one`).
     ``interval`` and ``u``: scratch of two chunks."""
     node_mask = ~((np.uint64(1) << shift) - np.uint64(1))
     h = 0
@@ -117,9 +118,10 @@ def _signal_rows(n, lo, hi, src32, src, narrow, o, ws, g, go, use_map, grey, coe
 def _signal_two(src32, src, narrow, xo, yo, wx, wy, coef, key0, shift, node_mask, last,
                 interval, u, a3, lo, hi):
     """a3[q] += wx · L(src[xo + q]) + wy · L(src[yo + q]) (``src32`` when ``narrow``) for
-    lo ≤ q < hi (two sample rows of a grey scene, weights times the grey factor): the intervals and positions of both rows
-    into the scratch (the second's from CHUNK on), then their cubics eight at a time
-    (:func:`_cubic8_pair`), the rest one by one with the same operations."""
+    lo ≤ q < hi (two sample rows of a grey scene, weights times the grey factor): the
+    intervals and positions of both rows into the scratch (the second's from CHUNK on), then
+    their cubics eight at a time (:func:`_cubic8_pair`), the rest one by one with the same
+    operations."""
     nq = hi - lo
     second = np.uint64(CHUNK)
     x0 = xo + lo
@@ -149,10 +151,10 @@ def _signal_two(src32, src, narrow, xo, yo, wx, wy, coef, key0, shift, node_mask
 @numba.njit(**INNER)
 def _signal_row(x32, x, narrow, g, e, used, w, mode, grey, use_map, tables, interval, u, value,
                 factor, a3):
-    """a3 += w · S(T) along one row of pieces ``x`` (``x32``, float32, when ``narrow``; grey map
-    row ``g``, index map row ``e``), with
-    S = L(T) · grey (SIGNAL_SCALAR), L(T) · (grey · map) (SIGNAL_MAP) or L_e(T) · grey_e (· map)
-    with e from the index map (SIGNAL_INDEX); L the cubic of the sample's table (a row of the flat
+    """a3 += w · S(T) along one row of pieces ``x`` (``x32``, float32, when ``narrow``; grey
+    map row ``g``, index map row ``e``), with S = L(T) · grey (SIGNAL_SCALAR),
+    L(T) · (grey · map) (SIGNAL_MAP) or L_e(T) · grey_e (· map) with e from the index map
+    (SIGNAL_INDEX); L the cubic of the sample's table (a row of the flat
     ``coef``, from the table's ``offset``) at its interval and position (:func:`_locate`). Modes
     1–2: :func:`_signal_one` (the rows of the sample slots go through :func:`_signal_rows` instead,
     a sweep at a time); SIGNAL_INDEX: three loops, the entry, checks and interval per sample, the

@@ -40,9 +40,9 @@ def _pixel_done(j, v1, v2, v3, m, n, t_low, t_high, s1, s2, s3, sm):
     """Store pixel j's sums and maximum (m, n: its extremes) and return its status bits: 1 a
     bad sample (NaN in Σ w (T − c), +inf, ≤ 0 K), 2 one below ``t_low``, 4 one above
     ``t_high``."""
-    s1[j], s2[j], s3[j], sm[j] = v1, v2, v3, np.float64(m)
-    bad = np.int64(n <= 0.0) | np.int64(np.float64(m) == INF) | np.int64(v1 != v1)
-    return bad | (np.int64(np.float64(n) < t_low) << 1) | (np.int64(np.float64(m) > t_high) << 2)
+    s1[j], s2[j], s3[j], sm[j] = v1, v2, v3, m
+    bad = np.int64(n <= 0.0) | np.int64(m == INF) | np.int64(v1 != v1)
+    return bad | (np.int64(n < t_low) << 1) | (np.int64(m > t_high) << 2)
 
 
 @numba.njit(**INNER)
@@ -229,21 +229,22 @@ def accumulate_kernel(b, n_blocks, start, frames, rows, cols, acc, members, tabl
     (:func:`~radiosim.kernels.threads.run_blocks`; block b uses row b of ``buffers``); frame
     f starts at ``frames.base[f * frames.frame_stride]`` (``frames.base32`` for float32 frames:
     ``frames.narrow``), and the merging weights (``members``) and ``status`` have one row per
-    frame. The block takes frames start[b] …
-    n_frames − 1 of its rows, one after the other, without waiting for the other blocks (no
-    barrier per frame), and stops after its first frame with a status. Returns that frame, or
-    n_frames. The bundles: :mod:`radiosim.kernels.bundles`.
+    frame. The block takes frames start[b] … n_frames − 1 of its rows, one after the other,
+    without waiting for the other blocks (no barrier per frame), and stops after its first
+    frame with a status. Returns that frame, or n_frames. The bundles:
+    :mod:`radiosim.kernels.bundles`.
 
-    One compiled entry point serves both frame dtypes: the helpers that read samples
-    (:func:`~radiosim.kernels.sweeps._lin`, the radiance pass) take both arrays and read the
-    float32 one in a loop of their own where ``narrow``, widening each sample (exact); nothing
-    else sees the frame's dtype.
+    One compiled entry point serves both frame dtypes. What reads samples takes both arrays
+    and reads the float32 one where ``narrow``, widening each sample (exact): the sweeps
+    (:func:`~radiosim.kernels.sweeps._lin`) and the radiance pass (:func:`_signal_rows`,
+    :func:`_signal_row`), each with a loop of its own per dtype, and here the duplicate slots'
+    gathers and the index-map rows' slices. Everything after the samples is float64.
 
     Row b of the :class:`~radiosim.kernels.bundles.ThreadBuffers` (``buffers``) holds the
     block's buffers for the duplicate slots' samples, each written through the first array and
-    read through the second (a read-only view of the same memory, so that the gathered rows have
-    the type of float64 frame rows: one compilation serves both), and the running maximum and
-    minimum per slot (float64).
+    read through the second (a read-only view of the same memory, so that the gathered frame
+    rows have the type of float64 frame rows: one compilation serves the frame's rows and the
+    gathered ones), and the running maximum and minimum per slot (float64).
 
     Each pixel row is swept along the columns in chunks of CHUNK slots, up to MAX_ROWS sample
     rows per sweep (all of them, for pixels of up to MAX_ROWS pieces), so the accumulators are
@@ -326,7 +327,8 @@ def accumulate_kernel(b, n_blocks, start, frames, rows, cols, acc, members, tabl
     # copy its IR and type it again: about a second of compile).
     for f in range(start[b], n_frames):
         # Frame f's samples, rows row_length apart: float64 (``frame``) or float32 (``frame32``,
-        # when ``narrow``), each read in place; the other is empty.
+        # when ``narrow``), each read in place; the other, sliced from a one-element
+        # placeholder, is never read.
         frame = frames.base[f * frame_stride:]
         frame32 = frames.base32[f * frame_stride:]
         frame_status = status[f]  # per pixel row

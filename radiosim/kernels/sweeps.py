@@ -96,9 +96,9 @@ def _lin(n, first, lo, hi, src32, src, narrow, o, ws, ce, a1, a2, am, an, s):
     ``ws[h]``; ``o`` and ``ws`` arrays of MAX_ROWS) into the column accumulators of slots
     lo ≤ q < hi: a1 += Σₕ w (T − c) (the rows' sum first, in scratch ``s``, then added),
     a2 += Σₕ w (T − c)², am = max(am, T), an = min(an, T) (float32 rows when ``narrow``:
-    ``src32``, widened); with ``first`` (a pixel row's first
-    sweep) the accumulators start from 0, 0, −∞ and +∞ instead of their contents. The same
-    additions in the same order as one loop over all n rows per slot."""
+    ``src32``, widened); with ``first`` (a pixel row's first sweep) the accumulators start
+    from 0, 0, −∞ and +∞ instead of their contents. The same additions in the same order as
+    one loop over all n rows per slot."""
     for k in range(hi - lo):
         s[k] = 0.0
     if first:
