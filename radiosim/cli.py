@@ -30,7 +30,8 @@ from typing import TYPE_CHECKING
 # (one line and exit 130 on Ctrl-C or SIGTERM while the heavy modules load).
 from radiosim.errors import (Interrupted, RadiosimError, RadiosimIOError, RadiosimWarning,
                              command_state as _Command, exit_done as _exit_done,
-                             exit_interrupted as _exit_now, on_interrupt as _interrupt)
+                             exit_interrupted as _exit_now, on_interrupt as _interrupt,
+                             on_unraisable as _on_unraisable)
 from radiosim import __version__  # noqa: E402
 from radiosim.console import Progress as _Progress, show_warning as _show_warning
 from radiosim.units import (AMBIENT_TEMPERATURE, join_negatives as _join_negatives,
@@ -84,7 +85,7 @@ def _run(args) -> int:
         progress = _Progress("measurement", args.quiet)
         _compiling().announce_compile(args, chip=True)
         if args.scheduler is None and args.workers is None:
-            _compiling().compile_integrator_aside(study.scene)
+            _compiling().compile_for_run(study.scene)
         result = study.run(out.staging, rng=args.seed, write_exr=not args.no_exr,
                            progress=None if args.quiet else progress,
                            scheduler=args.scheduler, workers=args.workers,
@@ -727,6 +728,9 @@ def _command(argv) -> int:
         if previous[signal.SIGINT] is not signal.SIG_IGN:  # e.g. a background job
             signal.signal(signal.SIGINT, _interrupt)
         signal.signal(signal.SIGTERM, _interrupt)
+    unraisable = sys.unraisablehook
+    if command:  # an interrupt raised in a callback from C: sent again, not reported
+        sys.unraisablehook = _on_unraisable
     _Command.active, _Command.interrupted = command, False
     try:
         with warnings.catch_warnings():
@@ -763,6 +767,7 @@ def _command(argv) -> int:
     finally:
         for signum, handler in previous.items():
             signal.signal(signum, handler)
+        sys.unraisablehook = unraisable
         if _Command.interrupted:  # only the command silences logging (and then exits)
             logging.disable(logging.NOTSET)
         _Command.active = False

@@ -1,9 +1,11 @@
 """
-Starting the Python process that compiles radiosim's integrator kernel beside this one
+Starting a Python process that compiles radiosim's kernels beside this one: the integrator's
 (:func:`radiosim.kernels.compiling.compile_in_background` starts it where the cache lacks the
 kernel; ``radiosim warmup`` starts it first thing, before this process imports numba, so that
-the two imports overlap). Imports nothing heavy: the process imports radiosim itself
-(:func:`radiosim.kernels.compiling._main`).
+the two imports overlap), or the segmented chip's (``radiosim run``, while this process compiles
+the integrator's: :func:`radiosim.warmup.compile_for_run`). Imports nothing heavy: the process
+imports radiosim itself (:func:`radiosim.kernels.compiling._main`,
+:func:`radiosim.warmup.chip_main`).
 """
 
 from __future__ import annotations
@@ -12,20 +14,27 @@ import os
 import subprocess
 import sys
 import tempfile
+import threading
+import time
 
-__all__ = ["CHILD", "start"]
+__all__ = ["CHILD", "CHIP_CHILD", "start", "watch_parent"]
 
-#: What the process runs (``python -c CHILD [DTYPE ...] [--bands] --memmap-dir DIR --parent
-#: PID``): :func:`radiosim.kernels.compiling._main`.
+#: What the integrator's process runs (``python -c CHILD [DTYPE ...] [--bands] --memmap-dir
+#: DIR --parent PID``): :func:`radiosim.kernels.compiling._main`.
 CHILD = "import sys; from radiosim.kernels.compiling import _main; sys.exit(_main(sys.argv[1:]))"
+#: What the chip's process runs (``python -c CHIP_CHILD --memmap-dir DIR --parent PID``):
+#: :func:`radiosim.warmup.chip_main`.
+CHIP_CHILD = "import sys; from radiosim.warmup import chip_main; sys.exit(chip_main(sys.argv[1:]))"
 
 
 def start(frame_dtypes=(), with_bands: bool = False,
           child: str = CHILD) -> tuple[subprocess.Popen, str] | None:
     """
-    Start the compiling process: :func:`radiosim.kernels.compiling.warmup` on frames of
+    Start a compiling process: :func:`radiosim.kernels.compiling.warmup` on frames of
     ``frame_dtypes`` (every frame dtype when empty), with ``with_bands`` the sub-band kernel
-    too. It runs in a temporary folder of its own, made here (its working folder and that of
+    too (its ``with_integrator`` set: a launch of the integrator waits for it); or, with
+    ``child`` :data:`CHIP_CHILD`, the segmented chip's kernels (its ``with_chip`` set: the
+    chip's first frame waits for it). It runs in a temporary folder of its own, made here (its working folder and that of
     its small memory-mapped file), imports this process's radiosim, discards its output, and
     ends by itself if this process is killed. Returns the process (its ``frame_dtypes``, empty
     for every frame dtype, and ``with_bands`` say what it launches) and its folder, which the caller registers
@@ -48,4 +57,25 @@ def start(frame_dtypes=(), with_bands: bool = False,
             os.rmdir(folder)
         return None
     process.frame_dtypes, process.with_bands = tuple(frame_dtypes), with_bands
+    process.with_chip = child == CHIP_CHILD
+    process.with_integrator = not process.with_chip
     return process, folder
+
+
+def watch_parent(argv: list) -> None:
+    """In a compiling process: take ``--parent PID`` out of ``argv`` and watch that process
+    (the one that started this one) on a daemon thread; this one ends when it has ended
+    without stopping it (killed), even before this one got here, instead of compiling on for
+    no one."""
+    parent = os.getppid()
+    if "--parent" in argv:
+        at = argv.index("--parent")
+        parent = int(argv[at + 1])
+        del argv[at:at + 2]
+
+    def watch():
+        while os.getppid() == parent:
+            time.sleep(0.5)
+        os._exit(1)
+
+    threading.Thread(target=watch, daemon=True).start()

@@ -91,6 +91,7 @@ class command_state:  # noqa: N801 - a namespace, not a class of objects
     active = False  # main() runs as the radiosim command
     interrupted = False
     signal_name = ""  # the interrupting signal: "Ctrl-C" or "SIGTERM"
+    signum = 0  # its number
 
 
 def on_interrupt(signum, frame):
@@ -104,6 +105,7 @@ def on_interrupt(signum, frame):
         import threading
 
         command_state.interrupted = True
+        command_state.signum = signum
         command_state.signal_name = ("Ctrl-C" if signum == signal.SIGINT
                                      else signal.Signals(signum).name)
         logging.disable(logging.CRITICAL)
@@ -114,6 +116,27 @@ def on_interrupt(signum, frame):
     if signum == signal.SIGINT:
         raise KeyboardInterrupt
     raise Interrupted(signal.Signals(signum).name)
+
+
+def on_unraisable(unraisable):
+    """The command's ``sys.unraisablehook``: an interrupt that :func:`on_interrupt` raised where
+    it cannot unwind (in Python code that C calls back, such as llvmlite's object cache while
+    numba compiles or loads a kernel: Python reports it as "Exception ignored" with a traceback,
+    and goes on) is not reported; the signal is sent again a moment later, from another thread,
+    so that the command still unwinds once its main thread is back in Python. Anything else
+    goes to Python's own hook."""
+    import sys
+
+    if command_state.interrupted and isinstance(unraisable.exc_value,
+                                                (KeyboardInterrupt, Interrupted)):
+        import os
+        import threading
+
+        timer = threading.Timer(0.01, os.kill, (os.getpid(), command_state.signum))
+        timer.daemon = True
+        timer.start()
+        return
+    sys.__unraisablehook__(unraisable)
 
 
 def _end_children():

@@ -1,8 +1,8 @@
 """
 The command's side of compiling radiosim's kernels (:mod:`radiosim.kernels.compiling` does the
-work): saying once that a command is about to compile, compiling the integrator in another
-process while a chip's kernels compile here, and ``radiosim warmup``, which compiles every
-variant ahead of time on both cores.
+work): saying once that a command is about to compile, compiling a chip's kernels in another
+process while the integrator's compile here before a run, and ``radiosim warmup``, which
+compiles every variant ahead of time on both cores.
 """
 
 from __future__ import annotations
@@ -11,8 +11,8 @@ import sys
 
 from radiosim.console import Progress
 
-__all__ = ["COMPILE_SECONDS", "WARMUP_SECONDS", "announce_compile", "compile_integrator_aside",
-           "warmup_command"]
+__all__ = ["COMPILE_SECONDS", "WARMUP_SECONDS", "announce_compile", "compile_for_run",
+           "warmup_chip", "chip_main", "warmup_command"]
 
 #: Compile times [s] from an empty cache on 2 cores (measured by benchmarks/bench_cli.py and
 #: bench_compile.py; README): what a run of the paper's study compiles (the integrator's kernel
@@ -42,22 +42,58 @@ def announce_compile(args, frame_dtype="float64", chip=False):
               "(radiosim warmup does it ahead of time)", file=sys.stderr, flush=True)
 
 
-def compile_integrator_aside(scene) -> None:
-    """For a segmented chip, have another process compile the integrator's kernel for its
-    frames, if the cache lacks it, while this one compiles the chip's kernels (the second
-    core); the first launch waits for it (:mod:`radiosim.kernels.compiling`). Other scenes
-    have nothing to compile meanwhile: their kernels compile here, at the first launch."""
+def compile_for_run(scene) -> None:
+    """
+    Before a run on a segmented chip whose integrator kernel the cache lacks: compile it here,
+    now, while another process compiles the chip's kernels if the cache lacks those too (the
+    second core). The integrator's is the longer of the two, so it is compiled where it does
+    not wait for a process to start and import radiosim; the chip's first frame waits for that
+    process (:mod:`radiosim.scenes.segmented_chip.compiled`), then loads what it cached. Other
+    scenes, and a chip whose integrator kernel is cached, have nothing to compile side by side:
+    their kernels compile at their first call.
+    """
     import numpy as np
 
     from radiosim.acquisition import frame_dtype
-    from radiosim.kernels import compile_in_background, compile_pending, compiled_selected
+    from radiosim.kernels import compile_pending, compiled_selected, warmup
+    from radiosim.kernels.background import register
     from radiosim.scenes import SegmentedChip
 
-    if not compiled_selected():  # the numpy engine: nothing to compile
+    if not compiled_selected() or not isinstance(scene, SegmentedChip):
+        return  # the numpy engine compiles nothing
+    dtype = np.dtype(frame_dtype(scene)).name
+    if not compile_pending((dtype,)):
         return
-    dtype = np.dtype(frame_dtype(scene)).name if isinstance(scene, SegmentedChip) else None
-    if dtype is not None and compile_pending((dtype,)):
-        compile_in_background((dtype,))
+    if compile_pending((), also=scene.compiled_kernels()):
+        from radiosim import compiling_process
+
+        child = compiling_process.start(child=compiling_process.CHIP_CHILD)
+        if child is not None:  # else the chip's kernels compile here, at its first frame
+            register(*child)
+    warmup(frame_dtypes=(dtype,), bands=False)
+
+
+def warmup_chip() -> None:
+    """Compile (or load) the segmented chip's kernels: its moving terms on a small region at
+    the band's time (frames and region maps)."""
+    from radiosim.scenes import SegmentedChip
+
+    chip = SegmentedChip()
+    middle = tuple(slice(n // 2, n // 2 + 16) for n in chip.shape)
+    chip.temperature(chip.event_time, middle), chip.regions(chip.event_time, middle)
+
+
+def chip_main(argv) -> int:
+    """The process compiling the chip's kernels (:data:`radiosim.compiling_process.CHIP_CHILD`:
+    ``--memmap-dir DIR`` is its working folder, ``--parent PID`` the process it ends with)."""
+    from radiosim.compiling_process import watch_parent
+
+    watch_parent(list(argv))
+    try:
+        warmup_chip()
+    except KeyboardInterrupt:  # the terminal's interrupt reaches this process too
+        return 130
+    return 0
 
 
 def warmup_command(args) -> int:
@@ -77,7 +113,6 @@ def warmup_command(args) -> int:
     try:
         from radiosim.kernels import FRAME_DTYPES, warmup, warmup_bands
         from radiosim.kernels.background import register, wait_for_background
-        from radiosim.scenes import SegmentedChip
     except BaseException:  # interrupted while importing: the process and its folder go too
         if child is not None:
             child[0].kill()
@@ -89,9 +124,7 @@ def warmup_command(args) -> int:
         register(*child)
         started.append(child[0])
     steps = 2 + len(started) + 2 * len(FRAME_DTYPES) * 5  # chip, sub-bands, processes, variants
-    chip = SegmentedChip()  # its moving terms, on a small region at the band's time
-    middle = tuple(slice(n // 2, n // 2 + 16) for n in chip.shape)
-    chip.temperature(chip.event_time, middle), chip.regions(chip.event_time, middle)
+    warmup_chip()
     progress(1, steps, "the chip's moving terms")
     warmup_bands(wait_for_processes=False)
     progress(2, steps, "the image stage's sub-band kernel")

@@ -246,7 +246,7 @@ def test_warmup_interrupted_while_importing_ends_its_compiling_process(tmp_path,
     folder.mkdir()
     process = _sleeper(60)
     monkeypatch.setattr(compiling_process, "start", lambda *a, **k: (process, str(folder)))
-    monkeypatch.setitem(sys.modules, "radiosim.scenes", None)  # its import fails
+    monkeypatch.setitem(sys.modules, "radiosim.kernels.background", None)  # its import fails
     try:
         warmup.warmup_command(argparse.Namespace(quiet=True))
     except ImportError:
@@ -255,3 +255,60 @@ def test_warmup_interrupted_while_importing_ends_its_compiling_process(tmp_path,
         raise AssertionError("the failed import was not raised")
     assert process.returncode is not None and not folder.exists()
     assert not background._RUNNING
+
+
+def test_the_chip_waits_for_a_process_compiling_its_kernels_and_the_integrator_does_not():
+    # radiosim run compiles the integrator's kernel here while another process compiles the
+    # chip's: the integrator's launches do not wait for that process, the chip's frames do.
+    from radiosim.scenes import SegmentedChip
+
+    chip = SegmentedChip()
+    region = tuple(slice(n // 2, n // 2 + 8) for n in chip.shape)
+    chip.temperature(chip.event_time, region)  # compiled (or loaded) here first
+    compiling.warmup(frame_dtypes=("float64",), bands=False)
+    rows, cols = compiling._tiny_axis(2), compiling._tiny_axis(3)
+    frame = np.full((rows.extent, cols.extent), 300.0)
+    chip_compiler = _sleeper(30)
+    chip_compiler.with_chip, chip_compiler.with_integrator = True, False
+    background.register(chip_compiler)
+    try:
+        from radiosim.kernels import pixel_mean
+
+        pixel_mean(frame, rows, cols)
+        assert chip_compiler.poll() is None and background._RUNNING  # not waited for
+    finally:
+        background.stop_all(at_once=True)
+    chip_compiler = _sleeper(1.5)
+    chip_compiler.with_chip, chip_compiler.with_integrator = True, False
+    background.register(chip_compiler)
+    chip.temperature(chip.event_time + 1e-6, region)
+    assert chip_compiler.returncode == 0 and not background._RUNNING  # waited for
+
+
+def test_a_cold_run_on_the_chip_compiles_the_integrator_here_and_the_chip_aside(monkeypatch):
+    # The integrator's kernel (the longer compile) here, at once; the chip's kernels in
+    # another process when the cache lacks them too; nothing when the integrator is cached.
+    import radiosim.kernels as kernels
+    from radiosim import compiling_process, warmup
+    from radiosim.scenes import FrameStack, SegmentedChip
+
+    pending = {"integrator": True, "chip": True}
+    calls = []
+    monkeypatch.setattr(kernels, "compile_pending", lambda dtypes=("float64",), also=(), **k:
+                        pending["chip" if also else "integrator"])
+    monkeypatch.setattr(kernels, "warmup", lambda **k: calls.append(("here", k)))
+    monkeypatch.setattr(compiling_process, "start",
+                        lambda *a, **k: calls.append(("aside", k.get("child"))))
+    chip = SegmentedChip()
+    warmup.compile_for_run(chip)
+    assert calls == [("aside", compiling_process.CHIP_CHILD),
+                     ("here", {"frame_dtypes": ("float64",), "bands": False})]
+    calls.clear()
+    pending["chip"] = False
+    warmup.compile_for_run(chip)
+    assert [c[0] for c in calls] == ["here"]
+    calls.clear()
+    pending["integrator"] = False
+    warmup.compile_for_run(chip)
+    warmup.compile_for_run(FrameStack(np.full((2, 4, 4), 300.0), 1e-6, 1e-6))
+    assert calls == []

@@ -131,3 +131,48 @@ def test_interrupted_run_exits_130_and_leaves_no_litter(interrupted, name):
             for row in rows:
                 if row.get("exr"):
                     assert (staging / row["exr"]).is_file(), row["exr"]
+
+
+def test_an_interrupt_raised_in_a_callback_from_c_is_sent_again_not_reported(capfd,
+                                                                             monkeypatch):
+    # A signal handled while C calls back into Python (llvmlite's object cache, as numba
+    # compiles or loads a kernel): the handler's exception cannot unwind through C, and
+    # Python would print "Exception ignored" and its traceback. The command's hook prints
+    # nothing and sends the signal again, to be handled once back in Python.
+    import ctypes
+    import signal
+    import time
+
+    from radiosim import errors
+
+    got = []
+    previous = signal.signal(signal.SIGUSR1, lambda signum, frame: got.append(signum))
+    monkeypatch.setattr(errors.command_state, "interrupted", True)
+    monkeypatch.setattr(errors.command_state, "signum", signal.SIGUSR1)
+    monkeypatch.setattr(sys, "unraisablehook", errors.on_unraisable)
+
+    raised = []
+
+    @ctypes.CFUNCTYPE(ctypes.c_int, ctypes.c_void_p, ctypes.c_void_p)
+    def compare(a, b):  # on_interrupt's raise, once, inside the callback
+        if not raised:
+            raised.append(1)
+            raise KeyboardInterrupt
+        return 0
+
+    values = (ctypes.c_int * 3)(3, 1, 2)
+    try:
+        ctypes.CDLL(None).qsort(values, 3, ctypes.sizeof(ctypes.c_int), compare)
+        deadline = time.monotonic() + 5
+        while not got and time.monotonic() < deadline:
+            time.sleep(0.01)
+    finally:
+        signal.signal(signal.SIGUSR1, previous)
+    assert got == [signal.SIGUSR1]
+    assert capfd.readouterr().err == ""
+    # Anything else is Python's own report.
+    monkeypatch.setattr(errors.command_state, "interrupted", False)
+    reported = []
+    monkeypatch.setattr(sys, "__unraisablehook__", reported.append)
+    errors.on_unraisable(type("Unraisable", (), {"exc_value": KeyboardInterrupt()})())
+    assert len(reported) == 1

@@ -80,7 +80,8 @@ Compiling every kernel costs about 20–23 s of CPU on a 2-core host
 point; about 60 % numba's typing and lowering, 40 % LLVM); ``radiosim warmup`` spreads it over
 the cores (another process compiles the integrator, :mod:`~radiosim.kernels.compiling`, while
 the command compiles the chip's and the sub-band kernels), and ``radiosim run`` compiles the
-integrator in another process while it compiles the chip's kernels. :func:`warmup` compiles
+integrator while another process compiles the chip's kernels
+(:func:`radiosim.warmup.compile_for_run`). :func:`warmup` compiles
 every variant ahead of time in this process, and :func:`compile_pending` tells, from the cache's
 index files, whether a launch would compile.
 

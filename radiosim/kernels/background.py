@@ -52,7 +52,8 @@ def wait_for_loaders() -> None:
 
 def any_running(flag: str) -> bool:
     """Whether a registered compiling process not yet waited for has the attribute ``flag``
-    set (``with_bands``: it compiles the sub-band kernel too)."""
+    set (``with_integrator``: it compiles the integrator's kernel; ``with_bands``: the
+    sub-band kernel too; ``with_chip``: the segmented chip's kernels)."""
     with _LOCK:
         return any(getattr(process, flag, False) for process, _ in _RUNNING)
 

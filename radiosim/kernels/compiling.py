@@ -9,10 +9,10 @@ second. Here:
 -   :func:`warmup` compiles (or loads) every variant a measurement can launch, on tiny frames,
     in this process: for every frame dtype, or those asked for;
 -   :func:`compile_in_background` has another Python process compile the integrator's kernel
-    (one entry point for both frame dtypes) while this one goes on (``radiosim run`` starts it
-    and meanwhile compiles the scene's own kernels; ``radiosim warmup`` meanwhile compiles the
-    chip's and the sub-band kernels: the two cores compile at once). The first launch of a
-    kernel here waits for that process
+    (one entry point for both frame dtypes) while this one goes on (``radiosim warmup``
+    meanwhile compiles the chip's and the sub-band kernels: the two cores compile at once;
+    ``radiosim run`` does the reverse, :func:`radiosim.warmup.compile_for_run`). The first
+    launch of the integrator here waits for that process
     (:func:`~radiosim.kernels.background.wait_for_background`), then loads what it cached.
     Within one command, at most one process compiles the integrator's kernel and at most one
     the sub-band kernel (one variant), and the helpers have no cache files (``INNER``), so no
@@ -29,7 +29,7 @@ import threading
 
 import numpy as np
 
-from radiosim.compiling_process import CHILD, start
+from radiosim.compiling_process import CHILD, start, watch_parent
 from radiosim.kernels import background
 from radiosim.kernels.bands import band_kernel
 from radiosim.kernels.intrinsics import FRAME_DTYPES
@@ -266,32 +266,19 @@ def compile_in_background(frame_dtypes=("float64",), bands: bool = False) -> lis
 _CHILD = CHILD
 
 
-def _end_with_parent(parent: int) -> None:
-    """The other process's watch: it ends when the process that started it has ended without
-    stopping it (killed), instead of compiling on for no one."""
-    import time
-
-    while os.getppid() == parent:
-        time.sleep(0.5)
-    os._exit(1)
-
-
 def _main(argv) -> int:
     """The other process: ``python -c _CHILD [DTYPE ...] [--bands] [--memmap-dir DIR]
     [--parent PID]`` (the process that started it: it ends when that one has, even before
     this one got here); no DTYPE: every frame dtype."""
     argv = list(argv)
-    options = {"--memmap-dir": None, "--parent": None}
-    for name in options:
-        if name in argv:
-            at = argv.index(name)
-            options[name] = argv[at + 1]
-            del argv[at:at + 2]
+    watch_parent(argv)
+    memmap_dir = None
+    if "--memmap-dir" in argv:
+        at = argv.index("--memmap-dir")
+        memmap_dir = argv[at + 1]
+        del argv[at:at + 2]
     bands = "--bands" in argv
     dtypes = [a for a in argv if a != "--bands"] or list(FRAME_DTYPES)
-    parent = int(options["--parent"] or os.getppid())
-    threading.Thread(target=_end_with_parent, args=(parent,), daemon=True).start()
-    memmap_dir = options["--memmap-dir"]
     try:
         warmup(memmap_dir=memmap_dir, frame_dtypes=dtypes, bands=bands)
     except KeyboardInterrupt:  # the terminal's interrupt reaches this process too

@@ -49,7 +49,7 @@ import numba
 import numpy as np
 
 from radiosim.errors import RadiosimError
-from radiosim.kernels.background import wait_for_background
+from radiosim.kernels import background
 from radiosim.kernels.bundles import Accumulators, Merging, RowPieces, ThreadBuffers
 from radiosim.kernels.codes import (STATUS_ABOVE_TABLE, STATUS_BAD_INDEX, STATUS_BAD_SAMPLE,
                                     STATUS_BELOW_TABLE, STATUS_OK)
@@ -389,7 +389,10 @@ def _launch(block, rows: KernelAxis, cols: KernelAxis, time_weight, reference, d
                        signs.index_map.dtype)
     members = merged if merged is not None else _NO_MEMBERS
     row_pieces = RowPieces(rows.source, rows.weight, rows.bounds)
-    wait_for_background()  # kernels being compiled by another process: load them after
+    if background.any_running("with_integrator"):  # being compiled by another process: load
+        background.wait_for_background()  # it after it has cached it
+    else:
+        background.wait_for_loaders()  # (not for a process compiling the chip's kernels)
     kernel = accumulate_kernel  # one for both frame dtypes
     start = np.zeros(n_blocks, dtype=np.int64)
     pending = np.full(n_blocks, -1, dtype=np.int64)  # a frame whose status awaits handling

@@ -15,8 +15,7 @@ import math
 
 import numpy as np
 
-from radiosim.kernels import run_blocks, thread_count
-from radiosim.kernels.background import wait_for_loaders
+from radiosim.kernels import background, run_blocks, thread_count
 from radiosim.scenes.base import Region
 from radiosim.scenes.segmented_chip.geometry import Geometry, RegionData, rake_fade_of
 from radiosim.scenes.segmented_chip.kernel import (PAD, KernelConstants, RunLayout,
@@ -192,7 +191,10 @@ def evaluate_compiled(p: ChipParameters, r: RegionData, layout: KernelLayout, t:
     regions = np.empty(r.shape, dtype=np.uint8) if want_regions else _NO_REGIONS
     threads, blocks = layout.blocks(forming)
     extremes = np.empty((threads, 2), dtype=np.int64)
-    wait_for_loaders()  # kernels being loaded on another thread: use them after
+    if background.any_running("with_chip"):  # kernels compiled by another process: load
+        background.wait_for_background()  # them after it has cached them
+    else:
+        background.wait_for_loaders()  # kernels being loaded on another thread: use them after
     profile = band_profile(grid, terms, nodes, frame.sin_tb)
     run_blocks(moving_terms_kernel, threads, threads, blocks, r.static, r.regions, temperature,
                regions, want_regions, forming, r.y, frame, profile, r.cos_field, r.sin_field,
