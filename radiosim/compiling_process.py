@@ -32,12 +32,13 @@ def start(frame_dtypes=(), with_bands: bool = False,
     """
     Start a compiling process: :func:`radiosim.kernels.compiling.warmup` on frames of
     ``frame_dtypes`` (every frame dtype when empty), with ``with_bands`` the sub-band kernel
-    too (its ``with_integrator`` set: a launch of the integrator waits for it); or, with
-    ``child`` :data:`CHIP_CHILD`, the segmented chip's kernels (its ``with_chip`` set: the
-    chip's first frame waits for it). It runs in a temporary folder of its own, made here (its working folder and that of
-    its small memory-mapped file), imports this process's radiosim, discards its output, and
-    ends by itself if this process is killed. Returns the process (its ``frame_dtypes``, empty
-    for every frame dtype, and ``with_bands`` say what it launches) and its folder, which the caller registers
+    too (a launch of the integrator waits for it); or, with ``child`` :data:`CHIP_CHILD`, the
+    segmented chip's kernels only (its ``with_chip`` set: the chip's first frame waits for
+    it, the integrator's launches do not). It runs in a temporary folder of its own, made here
+    (its working folder and that of its small memory-mapped file), imports this process's
+    radiosim, discards its output, and ends by itself if this process is killed. Returns the
+    process (its ``frame_dtypes``, empty for every frame dtype, and ``with_bands`` say what it
+    launches) and its folder, which the caller registers
     (:func:`radiosim.kernels.background.register`: waited for, stopped and removed), or
     ``None`` when no process can start (the caller then compiles itself).
     """
@@ -58,7 +59,6 @@ def start(frame_dtypes=(), with_bands: bool = False,
         return None
     process.frame_dtypes, process.with_bands = tuple(frame_dtypes), with_bands
     process.with_chip = child == CHIP_CHILD
-    process.with_integrator = not process.with_chip
     return process, folder
 
 

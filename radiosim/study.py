@@ -531,14 +531,18 @@ class Study:
         the plan is checked and the scene's static fields are built
         (:func:`radiosim.kernels.compiling.load_in_background`: nothing is compiled there)."""
         from radiosim.acquisition import frame_dtype
-        from radiosim.kernels import compiled_selected
+        from radiosim.kernels import background, compiled_selected
         from radiosim.kernels.compiling import load_in_background
         from radiosim.kernels.rows import ACCUMULATE_KERNELS
 
         if compiled_selected():
             scene = self.scene
             integrator = ACCUMULATE_KERNELS.get(np.dtype(frame_dtype(scene)).name)
-            load_in_background([*scene.compiled_kernels(), integrator])
+            # Not the scene's own while a process compiles them (radiosim run, cold): its index
+            # may name one whose data is not written yet, which this thread would compile too.
+            # The scene's first frame waits for that process, then loads them.
+            own = () if background.any_running("with_chip") else scene.compiled_kernels()
+            load_in_background([*own, integrator])
 
     def _prepare_figures(self):
         """Call the figures hook's ``prepare``, if it has one."""

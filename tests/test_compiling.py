@@ -269,7 +269,7 @@ def test_the_chip_waits_for_a_process_compiling_its_kernels_and_the_integrator_d
     rows, cols = compiling._tiny_axis(2), compiling._tiny_axis(3)
     frame = np.full((rows.extent, cols.extent), 300.0)
     chip_compiler = _sleeper(30)
-    chip_compiler.with_chip, chip_compiler.with_integrator = True, False
+    chip_compiler.with_chip = True
     background.register(chip_compiler)
     try:
         from radiosim.kernels import pixel_mean
@@ -279,7 +279,7 @@ def test_the_chip_waits_for_a_process_compiling_its_kernels_and_the_integrator_d
     finally:
         background.stop_all(at_once=True)
     chip_compiler = _sleeper(1.5)
-    chip_compiler.with_chip, chip_compiler.with_integrator = True, False
+    chip_compiler.with_chip = True
     background.register(chip_compiler)
     chip.temperature(chip.event_time + 1e-6, region)
     assert chip_compiler.returncode == 0 and not background._RUNNING  # waited for

@@ -1,7 +1,8 @@
 """
-The compiling processes this one has started
-(:func:`radiosim.kernels.compiling.compile_in_background`), and the wait for them before a
-kernel launches: :func:`wait_for_background` returns at once when there are none (the launch
+The compiling processes this one has started (:mod:`radiosim.compiling_process`: the
+integrator's, :func:`radiosim.kernels.compiling.compile_in_background`, or the segmented
+chip's, :func:`radiosim.warmup.compile_for_run`), and the wait for them before a kernel
+launches: :func:`wait_for_background` returns at once when there are none (the launch
 functions call it every time), else waits until they have ended, so that the launch loads from
 numba's cache what they compiled instead of compiling it a second time. Each process works in a
 folder of its own that this process made and removes once the process has ended. Processes
@@ -41,7 +42,7 @@ def register_loader(thread: threading.Thread) -> None:
 
 def wait_for_loaders() -> None:
     """Wait until the registered loading threads have ended (at once when there are none):
-    before a scene's own kernels run (the compiling processes compile the integrator only)."""
+    before a kernel runs that no registered process compiles."""
     if not _LOADING:
         return
     with _LOCK:
@@ -50,12 +51,13 @@ def wait_for_loaders() -> None:
             _LOADING.pop(0)
 
 
-def any_running(flag: str) -> bool:
+def any_running(flag: str, unset: bool = False) -> bool:
     """Whether a registered compiling process not yet waited for has the attribute ``flag``
-    set (``with_integrator``: it compiles the integrator's kernel; ``with_bands``: the
-    sub-band kernel too; ``with_chip``: the segmented chip's kernels)."""
+    set (``with_bands``: it compiles the sub-band kernel too; ``with_chip``: it compiles the
+    segmented chip's kernels only), or, with ``unset``, one has it not set (e.g. any process
+    but the chip's: one that may compile the integrator)."""
     with _LOCK:
-        return any(getattr(process, flag, False) for process, _ in _RUNNING)
+        return any(bool(getattr(process, flag, False)) != unset for process, _ in _RUNNING)
 
 
 def _remove(folder) -> None:

@@ -14,10 +14,11 @@ second. Here:
     ``radiosim run`` does the reverse, :func:`radiosim.warmup.compile_for_run`). The first
     launch of the integrator here waits for that process
     (:func:`~radiosim.kernels.background.wait_for_background`), then loads what it cached.
-    Within one command, at most one process compiles the integrator's kernel and at most one
-    the sub-band kernel (one variant), and the helpers have no cache files (``INNER``), so no
-    two of its processes write one function's cache index (numba writes it without a lock;
-    two commands compiling at once from an empty cache still could).
+    Within one command, at most one process compiles the integrator's kernel, at most one the
+    sub-band kernel (one variant) and at most one the chip's kernels (``radiosim run``: the
+    chip's frames and the loading thread leave them to it), and the helpers have no cache files
+    (``INNER``), so no two of its processes write one function's cache index (numba writes it
+    without a lock; two commands compiling at once from an empty cache still could).
     If such a process cannot start, fails or is stopped, this one compiles what it needs
     itself, as it would without it: the results do not depend on which process compiled.
 """
