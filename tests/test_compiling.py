@@ -14,6 +14,16 @@ def _sleeper(seconds: float) -> subprocess.Popen:
     return subprocess.Popen([sys.executable, "-c", f"import time; time.sleep({seconds})"])
 
 
+def _registered_sleeper(seconds: float, **flags) -> subprocess.Popen:
+    """A stand-in compiling process, registered, with the attributes ``flags`` (with_bands,
+    with_chip: what it compiles)."""
+    process = _sleeper(seconds)
+    for name, value in flags.items():
+        setattr(process, name, value)
+    background.register(process)
+    return process
+
+
 def test_a_launch_waits_for_the_compiling_processes_to_end():
     processes = [_sleeper(0.3), _sleeper(0.1)]
     for process in processes:
@@ -209,17 +219,13 @@ def test_the_sub_band_kernel_waits_for_a_process_compiling_it_and_for_no_other()
     # radiosim warmup compiles the sub-band kernel here without waiting for the processes
     # compiling the integrator, but waits for one that compiles the sub-band kernel too.
     compiling.warmup_bands()  # compiled (or loaded) here first: the launches below are quick
-    other = _sleeper(30)
-    other.with_bands = False
-    background.register(other)
+    other = _registered_sleeper(30, with_bands=False)
     try:
         compiling.warmup_bands(wait_for_processes=False)
         assert other.poll() is None and background._RUNNING  # not waited for
     finally:
         background.stop_all(at_once=True)
-    compiler = _sleeper(1.5)
-    compiler.with_bands = True
-    background.register(compiler)
+    compiler = _registered_sleeper(1.5, with_bands=True)
     compiling.warmup_bands(wait_for_processes=False)
     assert compiler.returncode == 0 and not background._RUNNING  # waited for
 
@@ -268,9 +274,7 @@ def test_the_chip_waits_for_a_process_compiling_its_kernels_and_the_integrator_d
     compiling.warmup(frame_dtypes=("float64",), bands=False)
     rows, cols = compiling._tiny_axis(2), compiling._tiny_axis(3)
     frame = np.full((rows.extent, cols.extent), 300.0)
-    chip_compiler = _sleeper(30)
-    chip_compiler.with_chip = True
-    background.register(chip_compiler)
+    chip_compiler = _registered_sleeper(30, with_chip=True)
     try:
         from radiosim.kernels import pixel_mean
 
@@ -278,9 +282,7 @@ def test_the_chip_waits_for_a_process_compiling_its_kernels_and_the_integrator_d
         assert chip_compiler.poll() is None and background._RUNNING  # not waited for
     finally:
         background.stop_all(at_once=True)
-    chip_compiler = _sleeper(1.5)
-    chip_compiler.with_chip = True
-    background.register(chip_compiler)
+    chip_compiler = _registered_sleeper(1.5, with_chip=True)
     chip.temperature(chip.event_time + 1e-6, region)
     assert chip_compiler.returncode == 0 and not background._RUNNING  # waited for
 

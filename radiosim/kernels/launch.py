@@ -393,13 +393,12 @@ def _launch(block, rows: KernelAxis, cols: KernelAxis, time_weight, reference, d
         background.wait_for_background()  # integrator: load it after it has cached it
     else:
         background.wait_for_loaders()  # (not for one compiling the chip's kernels only)
-    kernel = accumulate_kernel  # one for both frame dtypes
     start = np.zeros(n_blocks, dtype=np.int64)
     pending = np.full(n_blocks, -1, dtype=np.int64)  # a frame whose status awaits handling
     handled = STATUS_OK
     while True:
         run = np.where(pending >= 0, n_frames, start)
-        stopped = np.array(run_blocks(kernel, n_blocks, n_blocks, run, frames,
+        stopped = np.array(run_blocks(accumulate_kernel, n_blocks, n_blocks, run, frames,
                                       row_pieces, slots, acc, members, tables, signs, buffers,
                                       status))
         ran = run < n_frames

@@ -173,11 +173,10 @@ def frames_of(a: np.ndarray) -> tuple[np.ndarray, int, int]:
     return flat, int(row_length), int(frame_stride)
 
 
-#: The frame array a :class:`~radiosim.kernels.bundles.FrameBlock` holds for the dtype its
+#: The frame arrays a :class:`~radiosim.kernels.bundles.FrameBlock` holds for the dtype its
 #: frames are not (one element, read-only: the type of a frame block's flat view).
-_UNUSED = {np.dtype(np.float32): np.zeros(1, np.float32), np.dtype(np.float64): np.zeros(1)}
-_UNUSED[np.dtype(np.float32)].flags.writeable = False
-_UNUSED[np.dtype(np.float64)].flags.writeable = False
+_NO_FLOAT64, _NO_FLOAT32 = np.zeros(1), np.zeros(1, np.float32)
+_NO_FLOAT64.flags.writeable = _NO_FLOAT32.flags.writeable = False
 
 
 def frame_bundle(block: np.ndarray) -> FrameBlock:
@@ -185,8 +184,8 @@ def frame_bundle(block: np.ndarray) -> FrameBlock:
     (frames, rows, columns), read in place (:func:`frames_of`)."""
     base, row_length, frame_stride = frames_of(block)
     narrow = base.dtype == np.float32
-    return FrameBlock(_UNUSED[np.dtype(np.float64)] if narrow else base,
-                      base if narrow else _UNUSED[np.dtype(np.float32)], bool(narrow),
+    return FrameBlock(_NO_FLOAT64 if narrow else base, base if narrow else _NO_FLOAT32,
+                      bool(narrow),
                       row_length, frame_stride, block.shape[0])
 
 
