@@ -19,7 +19,7 @@ from radiosim.errors import RadiosimError, RadiosimIOError
 
 __all__ = ["DPI", "figure", "fixed_axes", "few_ticks", "preload", "wrap_text", "title_block",
            "markdown_table", "load_results", "select", "plot_versus", "save_figure",
-           "collector_held"]
+           "collector_held", "unhinted_text"]
 
 
 #: Resolution of the PNG files [dots per inch]. Figures are created at it, so the layout computed
@@ -158,13 +158,36 @@ def collector_held():
         gc.collect(0)
 
 
+@contextmanager
+def unhinted_text():
+    """
+    Text measured and drawn from the glyphs' outlines as they are, not hinted to the pixel grid
+    (matplotlib's ``text.hinting: none``, the setting its own image tests draw with), unless the
+    user set ``text.hinting`` (in a matplotlibrc or ``rcParams``): theirs is kept. matplotlib's
+    default runs each glyph's TrueType hinting program whenever a text is shaped; without it
+    the paper's five figures draw in about 1.1 s instead of 1.55 s
+    (``benchmarks/bench_figures.py``), and their pixels do not depend on the FreeType build's
+    hinting. :func:`save_figure` and :func:`wrap_text` measure and draw inside it; the rc
+    settings are restored on exit.
+    """
+    import matplotlib
+
+    if matplotlib.rcParams["text.hinting"] != matplotlib.rcParamsDefault["text.hinting"]:
+        yield  # the user's setting
+        return
+    with matplotlib.rc_context({"text.hinting": "none"}):
+        yield
+
+
 def _text_width(fig, text: str, fontsize: float) -> float:
-    """Width [in] of one line of ``text`` at ``fontsize`` [pt], as Agg draws it on ``fig``."""
+    """Width [in] of one line of ``text`` at ``fontsize`` [pt], as Agg draws it on ``fig``
+    (:func:`save_figure`: text unhinted, :func:`unhinted_text`)."""
     from matplotlib.font_manager import FontProperties
 
     renderer = fig.canvas.get_renderer()
-    width, _, _ = renderer.get_text_width_height_descent(text, FontProperties(size=fontsize),
-                                                         ismath=False)
+    with unhinted_text():
+        width, _, _ = renderer.get_text_width_height_descent(
+            text, FontProperties(size=fontsize), ismath=False)
     return width / fig.dpi
 
 
@@ -368,7 +391,8 @@ def save_figure(fig, path, dpi: float = DPI) -> Path:
     """
     Write ``fig`` as a PNG at ``path`` atomically (a temporary file renamed into place).
 
-    The figure is laid out once and drawn once by Agg, at ``dpi`` [dots per inch]. An opaque
+    The figure is laid out once and drawn once by Agg, at ``dpi`` [dots per inch], its text
+    unhinted (:func:`unhinted_text`: a text.hinting the user set is kept). An opaque
     figure (every pixel's alpha 1, as the paper's) is written as RGB, without the alpha channel
     that carries nothing (a quarter less to filter and compress); one with transparent pixels as
     RGBA. The PNG is compressed lightly (zlib level 1: the encoding costs a fraction of the
@@ -379,7 +403,7 @@ def save_figure(fig, path, dpi: float = DPI) -> Path:
 
     path = Path(path)
     try:
-        with atomic_write(path, "wb") as stream, _laid_out(fig, dpi):
+        with atomic_write(path, "wb") as stream, unhinted_text(), _laid_out(fig, dpi):
             fig.canvas.draw()
             _write_png(stream, fig.canvas.buffer_rgba(), dpi)
     except OSError as exc:

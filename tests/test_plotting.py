@@ -255,3 +255,41 @@ def test_collector_held_holds_the_collector_and_restores_its_state():
         with collector_held():
             1 / 0
     assert gc.isenabled()
+
+
+def _text_png(tmp_path, name, hinting=None):
+    """A figure of one line of text saved by save_figure (under rcParams text.hinting
+    ``hinting`` when given), and the same figure drawn by matplotlib's own Agg canvas under
+    each hinting: (saved pixels, {hinting: pixels})."""
+    import matplotlib
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+    from PIL import Image
+
+    def make():
+        fig = figure(2.5, 0.6, dpi=60, layout=None)
+        fig.text(0.05, 0.3, "Hinting 0.123 °C", fontsize=11)
+        return fig
+
+    drawn = {}
+    for h in ("none", "native"):
+        with matplotlib.rc_context({"text.hinting": h}):
+            canvas = FigureCanvasAgg(make())
+            canvas.draw()
+            drawn[h] = np.asarray(canvas.buffer_rgba())[..., :3].copy()
+    settings = {} if hinting is None else {"text.hinting": hinting}
+    with matplotlib.rc_context(settings):
+        path = save_figure(make(), tmp_path / name, dpi=60)
+        assert matplotlib.rcParams["text.hinting"] == (hinting or "default")  # restored
+    with Image.open(path) as image:
+        return np.asarray(image), drawn
+
+
+def test_save_figure_draws_text_unhinted_unless_the_user_set_a_hinting(tmp_path):
+    import matplotlib
+
+    saved, drawn = _text_png(tmp_path, "default.png")
+    assert not np.array_equal(drawn["none"], drawn["native"])  # the test can tell them apart
+    np.testing.assert_array_equal(saved, drawn["none"])
+    assert matplotlib.rcParams["text.hinting"] == "default"
+    saved, drawn = _text_png(tmp_path, "native.png", hinting="native")  # the user's setting
+    np.testing.assert_array_equal(saved, drawn["native"])
