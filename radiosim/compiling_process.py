@@ -2,8 +2,9 @@
 Starting a Python process that compiles radiosim's kernels beside this one: the integrator's
 (:func:`radiosim.kernels.compiling.compile_in_background` starts it where the cache lacks the
 kernel; ``radiosim warmup`` starts it first thing, before this process imports numba, so that
-the two imports overlap), or the segmented chip's (``radiosim run``, while this process compiles
-the integrator's: :func:`radiosim.warmup.compile_for_run`). Imports nothing heavy: the process
+the two imports overlap), or the integrator's last helpers ahead of this process, then the
+segmented chip's (``radiosim run``, while this process compiles the integrator's:
+:func:`radiosim.warmup.compile_for_run`). Imports nothing heavy: the process
 imports radiosim itself (:func:`radiosim.kernels.compiling._main`,
 :func:`radiosim.warmup.chip_main`).
 """
@@ -33,8 +34,9 @@ def start(frame_dtypes=(), with_bands: bool = False,
     Start a compiling process: :func:`radiosim.kernels.compiling.warmup` on frames of
     ``frame_dtypes`` (every frame dtype when empty), with ``with_bands`` the sub-band kernel
     too (a launch of the integrator waits for it); or, with ``child`` :data:`CHIP_CHILD`, the
-    segmented chip's kernels only (its ``with_chip`` set: the chip's first frame waits for
-    it, the integrator's launches do not). It runs in a temporary folder of its own, made here
+    integrator's last helpers (for this process's compile of the integrator to load) and the
+    segmented chip's kernels (its ``with_chip`` set: the chip's first frame waits for it, the
+    integrator's launches do not). It runs in a temporary folder of its own, made here
     (its working folder and that of its small memory-mapped file), imports this process's
     radiosim, discards its output, and ends by itself if this process is killed. Returns the
     process (its ``frame_dtypes``, empty for every frame dtype, and ``with_bands`` say what it

@@ -45,10 +45,12 @@ def announce_compile(args, frame_dtype="float64", chip=False):
 def compile_for_run(scene) -> None:
     """
     Before a run on a segmented chip whose integrator kernel the cache lacks: compile it here,
-    now, while another process compiles the chip's kernels if the cache lacks those too (the
-    second core). The integrator's is the longer of the two, so it is compiled where it does
-    not wait for a process to start and import radiosim; the chip's first frame waits for that
-    process (:mod:`radiosim.scenes.segmented_chip.compiled`), then loads what it cached. Other
+    now, while another process (the second core) compiles the integrator's last helpers, ahead
+    of this compile reaching them (:func:`~radiosim.kernels.compiling.compile_helpers_ahead`:
+    this one loads them from the cache), then the chip's kernels (or loads them, if cached).
+    The integrator's is the longer of the two, so it is compiled where it does not wait for a
+    process to start and import radiosim; the chip's first frame waits for that process
+    (:mod:`radiosim.scenes.segmented_chip.compiled`), then loads what it cached. Other
     scenes, and a chip whose integrator kernel is cached, have nothing to compile side by side:
     their kernels compile at their first call.
     """
@@ -64,12 +66,11 @@ def compile_for_run(scene) -> None:
     dtype = np.dtype(frame_dtype(scene)).name
     if not compile_pending((dtype,)):
         return
-    if compile_pending((), also=scene.compiled_kernels()):
-        from radiosim import compiling_process
+    from radiosim import compiling_process
 
-        child = compiling_process.start(child=compiling_process.CHIP_CHILD)
-        if child is not None:  # else the chip's kernels compile here, at its first frame
-            register(*child)
+    child = compiling_process.start(child=compiling_process.CHIP_CHILD)
+    if child is not None:  # else the chip's kernels compile here, at its first frame
+        register(*child)
     warmup(frame_dtypes=(dtype,), bands=False)
 
 
@@ -84,12 +85,17 @@ def warmup_chip() -> None:
 
 
 def chip_main(argv) -> int:
-    """The process compiling the chip's kernels (:data:`radiosim.compiling_process.CHIP_CHILD`:
-    ``--memmap-dir DIR`` is its working folder, ``--parent PID`` the process it ends with)."""
+    """The process compiling the integrator's last helpers ahead of the process that started it
+    (:func:`compile_for_run`), then the chip's kernels
+    (:data:`radiosim.compiling_process.CHIP_CHILD`: ``--memmap-dir DIR`` is its working folder,
+    ``--parent PID`` the process it ends with)."""
     from radiosim.compiling_process import watch_parent
 
     watch_parent(list(argv))
     try:
+        from radiosim.kernels.compiling import compile_helpers_ahead
+
+        compile_helpers_ahead()
         warmup_chip()
     except KeyboardInterrupt:  # the terminal's interrupt reaches this process too
         return 130
@@ -107,12 +113,14 @@ def warmup_command(args) -> int:
     progress = Progress("step", args.quiet)
     # Another process compiles the integrator's kernel (one for both frame dtypes), started
     # before this one imports numba and the kernels (the imports overlap), while this one
-    # compiles the chip's and the image stage's (shares of about equal work on two cores);
-    # then every variant is launched here (loaded).
+    # compiles that kernel's last helpers ahead of it (it loads them from the cache), then the
+    # chip's and the image stage's kernels (shares of about equal work on two cores); then
+    # every variant is launched here (loaded).
     child = compiling_process.start()
     try:
-        from radiosim.kernels import FRAME_DTYPES, warmup, warmup_bands
+        from radiosim.kernels import FRAME_DTYPES, compile_pending, warmup, warmup_bands
         from radiosim.kernels.background import register, wait_for_background
+        from radiosim.kernels.compiling import compile_helpers_ahead
     except BaseException:  # interrupted while importing: the process and its folder go too
         if child is not None:
             child[0].kill()
@@ -123,16 +131,20 @@ def warmup_command(args) -> int:
     if child is not None:  # else this process compiles everything itself
         register(*child)
         started.append(child[0])
-    steps = 2 + len(started) + 2 * len(FRAME_DTYPES) * 5  # chip, sub-bands, processes, variants
+    # helpers, chip, sub-bands, processes, variants
+    steps = 3 + len(started) + 2 * len(FRAME_DTYPES) * 5
+    if started and compile_pending(FRAME_DTYPES):  # the other process compiles: go ahead
+        compile_helpers_ahead()
+    progress(1, steps, "the integrator's last helpers")
     warmup_chip()
-    progress(1, steps, "the chip's moving terms")
+    progress(2, steps, "the chip's moving terms")
     warmup_bands(wait_for_processes=False)
-    progress(2, steps, "the image stage's sub-band kernel")
-    for k, process in enumerate(started, start=3):
+    progress(3, steps, "the image stage's sub-band kernel")
+    for k, process in enumerate(started, start=4):
         process.wait()
         progress(k, steps, "the integrator's kernel (another process)")
     wait_for_background()
-    done = 2 + len(started)
+    done = 3 + len(started)
     report = warmup(progress=lambda k, total, label: progress(done + k, done + total, label))
     print(f"compiled radiosim's kernels in {time.perf_counter() - began:.0f} s "
           f"({report['variants']} kernel variants and the chip's moving terms; cached in "

@@ -1,5 +1,6 @@
 """Compiling in other processes: the wait before a launch, and stopping what still runs."""
 
+import json
 import os
 import subprocess
 import sys
@@ -288,8 +289,9 @@ def test_the_chip_waits_for_a_process_compiling_its_kernels_and_the_integrator_d
 
 
 def test_a_cold_run_on_the_chip_compiles_the_integrator_here_and_the_chip_aside(monkeypatch):
-    # The integrator's kernel (the longer compile) here, at once; the chip's kernels in
-    # another process when the cache lacks them too; nothing when the integrator is cached.
+    # The integrator's kernel (the longer compile) here, at once; another process compiles
+    # its last helpers ahead of it, then the chip's kernels (or loads them: it starts whenever
+    # the integrator compiles); nothing when the integrator is cached.
     import radiosim.kernels as kernels
     from radiosim import compiling_process, warmup
     from radiosim.scenes import FrameStack, SegmentedChip
@@ -308,9 +310,43 @@ def test_a_cold_run_on_the_chip_compiles_the_integrator_here_and_the_chip_aside(
     calls.clear()
     pending["chip"] = False
     warmup.compile_for_run(chip)
-    assert [c[0] for c in calls] == ["here"]
+    assert [c[0] for c in calls] == ["aside", "here"]
     calls.clear()
     pending["integrator"] = False
     warmup.compile_for_run(chip)
     warmup.compile_for_run(FrameStack(np.full((2, 4, 4), 300.0), 1e-6, 1e-6))
     assert calls == []
+
+
+def test_helpers_compiled_ahead_are_those_the_entry_point_loads(tmp_path):
+    # In a fresh process with an empty cache: the integrator's last helpers compiled ahead
+    # (as another process does while this one compiles the entry point), then the entry point
+    # compiled. If a helper's types differed from the entry point's call, the entry point
+    # would compile it again (numba's compile events) and the helper would hold two
+    # signatures. The cached helpers' own cache files are there.
+    script = (
+        "import json\n"
+        "from numba.core import event\n"
+        "from radiosim.kernels import compiling\n"
+        "compiling.compile_helpers_ahead()\n"
+        "seen = []\n"
+        "class Listener(event.Listener):\n"
+        "    def on_start(self, ev): seen.append(ev.data['dispatcher'].py_func.__name__)\n"
+        "    def on_end(self, ev): pass\n"
+        "event.register('numba:compile', Listener())\n"
+        "compiling.warmup(frame_dtypes=('float64',), bands=False)\n"
+        "helpers = [d for d, _ in compiling._helpers_ahead()]\n"
+        "print(json.dumps({'seen': seen, 'signatures': [len(d.signatures) for d in helpers],\n"
+        "                  'names': [d.py_func.__name__ for d in helpers],\n"
+        "                  'hits': [sum(d.stats.cache_hits.values()) for d in helpers]}))\n")
+    env = dict(os.environ, NUMBA_CACHE_DIR=str(tmp_path / "cache"))
+    done = subprocess.run([sys.executable, "-c", script], env=env, capture_output=True,
+                          text=True, timeout=600)
+    assert done.returncode == 0, done.stderr[-2000:]
+    report = json.loads(done.stdout.splitlines()[-1])
+    assert "accumulate_kernel" in report["seen"]  # the entry point compiled here
+    assert not set(report["names"]) & set(report["seen"])  # ... and none of its helpers again
+    assert report["signatures"] == [1] * len(report["names"])
+    cached = {p.name.split("-")[0] for p in (tmp_path / "cache").rglob("*.nbi")}
+    assert {f"rows.{n}" for n in ("_commit_row", "_pixel_sums", "_pixel_sums_regular")} <= cached
+    assert "radiance._signal_row" in cached

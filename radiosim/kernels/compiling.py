@@ -18,7 +18,11 @@ second. Here:
     sub-band kernel (one variant) and at most one the chip's kernels (``radiosim run``: the
     chip's frames and the loading thread leave them to it), and the helpers have no cache files
     (``INNER``), so no two of its processes write one function's cache index (numba writes it
-    without a lock; two commands compiling at once from an empty cache still could).
+    without a lock; two commands compiling at once from an empty cache still could), except
+    the integrator's last helpers (``AHEAD``): one process compiles them ahead
+    (:func:`compile_helpers_ahead`) while the other compiles the entry point, which loads them
+    from the cache; where the two meet, both may compile one and one index entry be lost,
+    which costs that helper's compile again some day, never a result.
     If such a process cannot start, fails or is stopped, this one compiles what it needs
     itself, as it would without it: the results do not depend on which process compiled.
 """
@@ -41,7 +45,7 @@ from radiosim.kernels.rows import ACCUMULATE_KERNELS, accumulate_kernel
 from radiosim.kernels.table import SignalTable
 
 __all__ = ["compile_pending", "cache_location", "warmup", "warmup_bands",
-           "compile_in_background", "load_in_background"]
+           "compile_in_background", "load_in_background", "compile_helpers_ahead"]
 
 
 def _fresh_signatures(dispatcher) -> list:
@@ -225,6 +229,52 @@ def _launch_tiny(block, rows: KernelAxis, cols: KernelAxis, response) -> None:
 
 
 # -- other processes ----------------------------------------------------------------------------
+
+
+def _helpers_ahead() -> list:
+    """The integrator entry point's helpers that its compile reaches last (``AHEAD``: cached
+    on their own), each with the types of the entry point's call, in the reverse of the order
+    the entry point's compile reaches them: the pixels' commit, the reductions to pixels (the
+    pixel's end with them), the radiance pass's row (its one-sample loop and the cubics with
+    it). The types are those of the entry point's one signature: its bundles' types from the
+    bundles a launch passes, the rest plain arrays (contiguous; read-only where the entry
+    point reads through read-only views) and scalars. A test compiles them, then the entry
+    point, and checks that it compiled none of them again."""
+    import numba
+    from numba.core import types
+
+    from radiosim.kernels import radiance, rows
+    from radiosim.kernels.bundles import Accumulators
+    from radiosim.kernels.launch import _NO_MEMBERS
+    from radiosim.kernels.packing import NO_TABLES
+
+    f64, u64 = types.float64[::1], types.uint64[::1]
+    i64, flag, real = types.int64, types.boolean, types.float64
+    accumulators = numba.typeof(Accumulators(0.5, *(np.zeros((1, 1)),) * 5))
+    sums = (f64,) * 6 + (u64, u64, flag, flag, real, real) + (f64,) * 4
+    return [
+        (rows._commit_row, (i64, i64, accumulators, numba.typeof(_NO_MEMBERS), i64, flag)
+         + (f64,) * 4 + (i64,)),
+        (rows._pixel_sums, sums),
+        (rows._pixel_sums_regular, sums),
+        (radiance._signal_row, (types.float32[::1].copy(readonly=True),
+                                f64.copy(readonly=True), flag, f64.copy(readonly=True),
+                                types.uint8[::1].copy(readonly=True), f64, real, i64, real, flag,
+                                numba.typeof(NO_TABLES), u64) + (f64,) * 4),
+    ]
+
+
+def compile_helpers_ahead() -> None:
+    """
+    Compile (or load) the integrator entry point's last helpers (:func:`_helpers_ahead`) into
+    numba's cache, in the reverse of the order the entry point's compile reaches them: run by
+    one process while another compiles the entry point (``radiosim warmup``,
+    :func:`radiosim.warmup.compile_for_run`), the two meet in the middle, and that one loads
+    these from the cache instead of compiling them (about 3–4 s of its compile). The entry
+    point's code is the same either way: a cached helper keeps its code for linking.
+    """
+    for dispatcher, signature in _helpers_ahead():
+        dispatcher.compile(signature)
 
 
 def _pending_work(frame_dtypes, bands: bool) -> tuple[tuple[str, ...], bool] | None:

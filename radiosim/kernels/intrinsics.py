@@ -18,7 +18,7 @@ from llvmlite import ir as llvm_ir
 from numba.core import types
 from numba.extending import intrinsic
 
-__all__ = ["JIT", "INNER", "INF", "FRAME_DTYPES", "fast_exp"]
+__all__ = ["JIT", "INNER", "AHEAD", "INF", "FRAME_DTYPES", "fast_exp"]
 
 #: The options of a compiled entry point (a kernel launched from Python): kept in numba's
 #: on-disk cache; a CPython wrapper, no C one (nothing calls the kernels from C).
@@ -28,6 +28,12 @@ JIT = dict(cache=True, fastmath=False, nogil=True, error_model="numpy", no_cfunc
 #: cached on its own (its callers' cache holds it; numba's cache index of one function is not
 #: safe to write from two processes at once, see :mod:`radiosim.kernels.compiling`).
 INNER = dict(JIT, cache=False, no_cpython_wrapper=True, no_cfunc_wrapper=True)
+#: A helper the integrator's entry point reaches last while it compiles: cached on its own, so
+#: that another process can compile it ahead, meanwhile, and the entry point's compile loads it
+#: (:func:`radiosim.kernels.compiling.compile_helpers_ahead`; numba keeps a cached function's
+#: code for linking too, so the entry point is the same either way). Two processes writing its
+#: cache index at once can lose one's entry: the helper is then compiled again (time only).
+AHEAD = dict(INNER, cache=True)
 #: The frame dtypes the kernels read in place.
 FRAME_DTYPES = ("float32", "float64")
 INF = np.inf
