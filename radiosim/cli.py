@@ -176,6 +176,7 @@ def _measure(args) -> int:
     # the work stays the one line on stderr).
     progress = _Progress("frame", args.quiet, delay=2.0, terminal_only=True)
     _compiling().announce_compile(args, frame_dtype(scene))
+    _compiling().compile_helpers_aside(scene)
     try:
         m = camera.measure(scene, args.integration_time, args.start, args.seed,
                            progress=lambda done, total: progress(done, total, "frames"))

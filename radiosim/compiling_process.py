@@ -28,15 +28,16 @@ CHILD = "import sys; from radiosim.kernels.compiling import _main; sys.exit(_mai
 CHIP_CHILD = "import sys; from radiosim.warmup import chip_main; sys.exit(chip_main(sys.argv[1:]))"
 
 
-def start(frame_dtypes=(), with_bands: bool = False,
-          child: str = CHILD) -> tuple[subprocess.Popen, str] | None:
+def start(frame_dtypes=(), with_bands: bool = False, child: str = CHILD,
+          helpers_only: bool = False) -> tuple[subprocess.Popen, str] | None:
     """
     Start a compiling process: :func:`radiosim.kernels.compiling.warmup` on frames of
     ``frame_dtypes`` (every frame dtype when empty), with ``with_bands`` the sub-band kernel
     too (a launch of the integrator waits for it); or, with ``child`` :data:`CHIP_CHILD`, the
     integrator's last helpers (for this process's compile of the integrator to load) and the
     segmented chip's kernels (its ``with_chip`` set: the chip's first frame waits for it, the
-    integrator's launches do not). It runs in a temporary folder of its own, made here
+    integrator's launches do not), or with ``helpers_only`` those helpers only (for a scene
+    other than the chip). It runs in a temporary folder of its own, made here
     (its working folder and that of its small memory-mapped file), imports this process's
     radiosim, discards its output, and ends by itself if this process is killed. Returns the
     process (its ``frame_dtypes``, empty for every frame dtype, and ``with_bands`` say what it
@@ -52,7 +53,9 @@ def start(frame_dtypes=(), with_bands: bool = False,
         folder = tempfile.mkdtemp(prefix="radiosim-compiling-")
         command = [sys.executable, "-c", child, *frame_dtypes, "--memmap-dir", folder,
                    "--parent", str(os.getpid())]
-        process = subprocess.Popen(command + (["--bands"] if with_bands else []),
+        command += (["--bands"] if with_bands else []) + (
+            ["--helpers-only"] if helpers_only else [])
+        process = subprocess.Popen(command,
                                    cwd=folder, env=env, stdin=subprocess.DEVNULL,
                                    stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
     except (OSError, TypeError, ValueError):  # cannot start one (no interpreter to run, no

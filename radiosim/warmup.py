@@ -12,7 +12,7 @@ import sys
 from radiosim.console import Progress
 
 __all__ = ["COMPILE_SECONDS", "WARMUP_SECONDS", "announce_compile", "compile_for_run",
-           "warmup_chip", "chip_main", "warmup_command"]
+           "compile_helpers_aside", "warmup_chip", "chip_main", "warmup_command"]
 
 #: Compile times [s] from an empty cache on 2 cores (measured by benchmarks/bench_cli.py and
 #: bench_compile.py; README): what a run of the paper's study compiles (the integrator's kernel
@@ -51,8 +51,8 @@ def compile_for_run(scene) -> None:
     The integrator's is the longer of the two, so it is compiled where it does not wait for a
     process to start and import radiosim; the chip's first frame waits for that process
     (:mod:`radiosim.scenes.segmented_chip.compiled`), then loads what it cached. Other
-    scenes, and a chip whose integrator kernel is cached, have nothing to compile side by side:
-    their kernels compile at their first call.
+    scenes (:func:`compile_helpers_aside`), and a chip whose integrator kernel is cached, have
+    nothing compiled here ahead: their kernels compile at their first call.
     """
     import numpy as np
 
@@ -74,6 +74,30 @@ def compile_for_run(scene) -> None:
     warmup(frame_dtypes=(dtype,), bands=False)
 
 
+def compile_helpers_aside(scene) -> None:
+    """
+    Before a measurement of ``scene`` (``radiosim measure``) whose integrator kernel the cache
+    lacks: start another process compiling the integrator's last helpers
+    (:func:`~radiosim.kernels.compiling.compile_helpers_ahead`), while this one checks the
+    inputs and compiles the kernel at its first launch, which loads them from the cache (its
+    compile reaches them last). The process is stopped with this one (an input refused first)
+    and no launch waits for it.
+    """
+    import numpy as np
+
+    from radiosim.acquisition import frame_dtype
+    from radiosim.kernels import compile_pending, compiled_selected
+    from radiosim.kernels.background import register
+
+    if not compiled_selected() or not compile_pending((np.dtype(frame_dtype(scene)).name,)):
+        return
+    from radiosim import compiling_process
+
+    child = compiling_process.start(child=compiling_process.CHIP_CHILD, helpers_only=True)
+    if child is not None:
+        register(*child)
+
+
 def warmup_chip() -> None:
     """Compile (or load) the segmented chip's kernels: its moving terms on a small region at
     the band's time (frames and region maps)."""
@@ -86,17 +110,19 @@ def warmup_chip() -> None:
 
 def chip_main(argv) -> int:
     """The process compiling the integrator's last helpers ahead of the process that started it
-    (:func:`compile_for_run`), then the chip's kernels
+    (:func:`compile_for_run`), then the chip's kernels, unless ``--helpers-only``
     (:data:`radiosim.compiling_process.CHIP_CHILD`: ``--memmap-dir DIR`` is its working folder,
     ``--parent PID`` the process it ends with)."""
     from radiosim.compiling_process import watch_parent
 
-    watch_parent(list(argv))
+    argv = list(argv)
+    watch_parent(argv)
     try:
         from radiosim.kernels.compiling import compile_helpers_ahead
 
         compile_helpers_ahead()
-        warmup_chip()
+        if "--helpers-only" not in argv:
+            warmup_chip()
     except KeyboardInterrupt:  # the terminal's interrupt reaches this process too
         return 130
     return 0

@@ -318,6 +318,32 @@ def test_a_cold_run_on_the_chip_compiles_the_integrator_here_and_the_chip_aside(
     assert calls == []
 
 
+def test_a_cold_measurement_has_another_process_compile_the_helpers_only(monkeypatch):
+    # radiosim measure: another process compiles the integrator's last helpers (not the
+    # chip's kernels) while this one checks the inputs and compiles at its first launch;
+    # nothing when the integrator's kernel is cached. That process runs the helpers only.
+    import radiosim.kernels as kernels
+    from radiosim import compiling_process, warmup
+    from radiosim.scenes import FrameStack
+
+    pending = [True]
+    started = []
+    monkeypatch.setattr(kernels, "compile_pending", lambda *a, **k: pending[0])
+    monkeypatch.setattr(compiling_process, "start", lambda *a, **k: started.append(k))
+    stack = FrameStack(np.full((2, 4, 4), 300.0), 1e-6, 1e-6)
+    warmup.compile_helpers_aside(stack)
+    assert started == [{"child": compiling_process.CHIP_CHILD, "helpers_only": True}]
+    pending[0] = False
+    warmup.compile_helpers_aside(stack)
+    assert len(started) == 1
+    ran = []
+    monkeypatch.setattr(compiling, "compile_helpers_ahead", lambda: ran.append("helpers"))
+    monkeypatch.setattr(warmup, "warmup_chip", lambda: ran.append("chip"))
+    assert warmup.chip_main(["--helpers-only", "--parent", str(os.getppid())]) == 0
+    assert warmup.chip_main(["--parent", str(os.getppid())]) == 0
+    assert ran == ["helpers", "helpers", "chip"]
+
+
 def test_helpers_compiled_ahead_are_those_the_entry_point_loads(tmp_path):
     # In a fresh process with an empty cache: the integrator's last helpers compiled ahead
     # (as another process does while this one compiles the entry point), then the entry point
