@@ -507,7 +507,7 @@ def _compiling():
 
 #: ``radiosim warmup``'s time in its help [s] (radiosim.warmup.WARMUP_SECONDS, kept equal by a
 #: test; not imported here so that --help loads nothing heavy).
-_WARMUP_SECONDS = 17
+_WARMUP_SECONDS = 14
 
 
 def _presets(args) -> int:

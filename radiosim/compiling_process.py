@@ -35,9 +35,9 @@ def start(frame_dtypes=(), with_bands: bool = False, child: str = CHILD,
     ``frame_dtypes`` (every frame dtype when empty), with ``with_bands`` the sub-band kernel
     too (a launch of the integrator waits for it); or, with ``child`` :data:`CHIP_CHILD`, the
     integrator's last helpers (for this process's compile of the integrator to load) and the
-    segmented chip's kernels (its ``with_chip`` set: the chip's first frame waits for it, the
-    integrator's launches do not), or with ``helpers_only`` those helpers only (for a scene
-    other than the chip). It runs in a temporary folder of its own, made here
+    segmented chip's kernels (its ``aside`` set: the integrator's launches do not wait for it;
+    its ``with_chip`` set: the chip's first frame does), or with ``helpers_only`` those helpers
+    only (``with_chip`` not set). It runs in a temporary folder of its own, made here
     (its working folder and that of its small memory-mapped file), imports this process's
     radiosim, discards its output, and ends by itself if this process is killed. Returns the
     process (its ``frame_dtypes``, empty for every frame dtype, and ``with_bands`` say what it
@@ -63,7 +63,10 @@ def start(frame_dtypes=(), with_bands: bool = False, child: str = CHILD,
             os.rmdir(folder)
         return None
     process.frame_dtypes, process.with_bands = tuple(frame_dtypes), with_bands
-    process.with_chip = child == CHIP_CHILD
+    # ``aside``: it compiles nothing an integrator's launch loads (its last helpers are loaded
+    # by a compile); ``with_chip``: the chip's first frame waits for it.
+    process.aside = child == CHIP_CHILD
+    process.with_chip = process.aside and not helpers_only
     return process, folder
 
 

@@ -163,7 +163,9 @@ def unhinted_text():
     """
     Text measured and drawn from the glyphs' outlines as they are, not hinted to the pixel grid
     (matplotlib's ``text.hinting: none``, the setting its own image tests draw with), unless the
-    user set ``text.hinting`` (in a matplotlibrc or ``rcParams``): theirs is kept. matplotlib's
+    user set ``text.hinting`` to another value than matplotlib's default (in a matplotlibrc or
+    ``rcParams``): theirs is kept. (matplotlib caches a text's size whatever the hinting: a
+    figure drawn before on the same canvas keeps the sizes it measured then.) matplotlib's
     default runs each glyph's TrueType hinting program whenever a text is shaped; without it
     the paper's five figures draw in about 1.1 s instead of 1.55 s
     (``benchmarks/bench_figures.py``), and their pixels do not depend on the FreeType build's

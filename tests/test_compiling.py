@@ -17,7 +17,7 @@ def _sleeper(seconds: float) -> subprocess.Popen:
 
 def _registered_sleeper(seconds: float, **flags) -> subprocess.Popen:
     """A stand-in compiling process, registered, with the attributes ``flags`` (with_bands,
-    with_chip: what it compiles)."""
+    with_chip, aside: what it compiles)."""
     process = _sleeper(seconds)
     for name, value in flags.items():
         setattr(process, name, value)
@@ -275,7 +275,7 @@ def test_the_chip_waits_for_a_process_compiling_its_kernels_and_the_integrator_d
     compiling.warmup(frame_dtypes=("float64",), bands=False)
     rows, cols = compiling._tiny_axis(2), compiling._tiny_axis(3)
     frame = np.full((rows.extent, cols.extent), 300.0)
-    chip_compiler = _registered_sleeper(30, with_chip=True)
+    chip_compiler = _registered_sleeper(30, with_chip=True, aside=True)
     try:
         from radiosim.kernels import pixel_mean
 
@@ -283,7 +283,7 @@ def test_the_chip_waits_for_a_process_compiling_its_kernels_and_the_integrator_d
         assert chip_compiler.poll() is None and background._RUNNING  # not waited for
     finally:
         background.stop_all(at_once=True)
-    chip_compiler = _registered_sleeper(1.5, with_chip=True)
+    chip_compiler = _registered_sleeper(1.5, with_chip=True, aside=True)
     chip.temperature(chip.event_time + 1e-6, region)
     assert chip_compiler.returncode == 0 and not background._RUNNING  # waited for
 
@@ -301,16 +301,16 @@ def test_a_cold_run_on_the_chip_compiles_the_integrator_here_and_the_chip_aside(
     monkeypatch.setattr(kernels, "compile_pending", lambda dtypes=("float64",), also=(), **k:
                         pending["chip" if also else "integrator"])
     monkeypatch.setattr(kernels, "warmup", lambda **k: calls.append(("here", k)))
-    monkeypatch.setattr(compiling_process, "start",
-                        lambda *a, **k: calls.append(("aside", k.get("child"))))
+    monkeypatch.setattr(compiling_process, "start", lambda *a, **k: calls.append(
+        ("aside", k.get("child"), k.get("helpers_only"))))
     chip = SegmentedChip()
     warmup.compile_for_run(chip)
-    assert calls == [("aside", compiling_process.CHIP_CHILD),
+    assert calls == [("aside", compiling_process.CHIP_CHILD, False),
                      ("here", {"frame_dtypes": ("float64",), "bands": False})]
     calls.clear()
-    pending["chip"] = False
+    pending["chip"] = False  # cached: the other process compiles the helpers only
     warmup.compile_for_run(chip)
-    assert [c[0] for c in calls] == ["aside", "here"]
+    assert [c[0] for c in calls] == ["aside", "here"] and calls[0][2] is True
     calls.clear()
     pending["integrator"] = False
     warmup.compile_for_run(chip)
@@ -345,34 +345,38 @@ def test_a_cold_measurement_has_another_process_compile_the_helpers_only(monkeyp
 
 
 def test_helpers_compiled_ahead_are_those_the_entry_point_loads(tmp_path):
-    # In a fresh process with an empty cache: the integrator's last helpers compiled ahead
-    # (as another process does while this one compiles the entry point), then the entry point
-    # compiled. If a helper's types differed from the entry point's call, the entry point
-    # would compile it again (numba's compile events) and the helper would hold two
-    # signatures. The cached helpers' own cache files are there.
+    # One process compiles the integrator's last helpers ahead into an empty cache; another,
+    # as the other process of radiosim warmup or run does, compiles the entry point. If a
+    # helper's types differed from the entry point's call, or its cache were not found, the
+    # second process would compile it again (numba's compile events) instead of loading it
+    # (the dispatcher's cache hits).
+    ahead = ("_commit_row", "_pixel_sums", "_pixel_sums_regular", "_pixel_done", "_signal_row",
+             "_signal_one", "_cubic_rows")  # every AHEAD helper, by its Python function
+    env = dict(os.environ, NUMBA_CACHE_DIR=str(tmp_path / "cache"))
+    first = subprocess.run(
+        [sys.executable, "-c", "from radiosim.kernels import compiling; "
+                               "compiling.compile_helpers_ahead()"],
+        env=env, capture_output=True, text=True, timeout=600)
+    assert first.returncode == 0, first.stderr[-2000:]
     script = (
         "import json\n"
         "from numba.core import event\n"
-        "from radiosim.kernels import compiling\n"
-        "compiling.compile_helpers_ahead()\n"
+        "from radiosim.kernels import compiling, radiance\n"
         "seen = []\n"
         "class Listener(event.Listener):\n"
         "    def on_start(self, ev): seen.append(ev.data['dispatcher'].py_func.__name__)\n"
         "    def on_end(self, ev): pass\n"
         "event.register('numba:compile', Listener())\n"
         "compiling.warmup(frame_dtypes=('float64',), bands=False)\n"
-        "helpers = [d for d, _ in compiling._helpers_ahead()]\n"
-        "print(json.dumps({'seen': seen, 'signatures': [len(d.signatures) for d in helpers],\n"
-        "                  'names': [d.py_func.__name__ for d in helpers],\n"
-        "                  'hits': [sum(d.stats.cache_hits.values()) for d in helpers]}))\n")
-    env = dict(os.environ, NUMBA_CACHE_DIR=str(tmp_path / "cache"))
-    done = subprocess.run([sys.executable, "-c", script], env=env, capture_output=True,
-                          text=True, timeout=600)
-    assert done.returncode == 0, done.stderr[-2000:]
-    report = json.loads(done.stdout.splitlines()[-1])
-    assert "accumulate_kernel" in report["seen"]  # the entry point compiled here
-    assert not set(report["names"]) & set(report["seen"])  # ... and none of its helpers again
-    assert report["signatures"] == [1] * len(report["names"])
-    cached = {p.name.split("-")[0] for p in (tmp_path / "cache").rglob("*.nbi")}
-    assert {f"rows.{n}" for n in ("_commit_row", "_pixel_sums", "_pixel_sums_regular")} <= cached
-    assert "radiance._signal_row" in cached
+        "loaded = [d for d, _ in compiling._helpers_ahead()] + [radiance._signal_one]\n"
+        "print(json.dumps({'seen': seen, 'loaded': {d.py_func.__name__: [\n"
+        "    len(d.signatures), sum(d.stats.cache_hits.values())] for d in loaded}}))\n")
+    second = subprocess.run([sys.executable, "-c", script], env=env, capture_output=True,
+                            text=True, timeout=600)
+    assert second.returncode == 0, second.stderr[-2000:]
+    report = json.loads(second.stdout.splitlines()[-1])
+    assert "accumulate_kernel" in report["seen"]  # the entry point compiled there
+    assert not set(ahead) & set(report["seen"])  # ... and none of the helpers again
+    assert report["loaded"] == {name: [1, 1] for name in ("_commit_row", "_pixel_sums",
+                                                          "_pixel_sums_regular", "_signal_row",
+                                                          "_signal_one")}

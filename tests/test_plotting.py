@@ -276,10 +276,11 @@ def _text_png(tmp_path, name, hinting=None):
             canvas = FigureCanvasAgg(make())
             canvas.draw()
             drawn[h] = np.asarray(canvas.buffer_rgba())[..., :3].copy()
-    settings = {} if hinting is None else {"text.hinting": hinting}
-    with matplotlib.rc_context(settings):
+    # matplotlib's default (e.g. a runner's matplotlibrc may set another), or the user's
+    unset = matplotlib.rcParamsDefault["text.hinting"]
+    with matplotlib.rc_context({"text.hinting": hinting or unset}):
         path = save_figure(make(), tmp_path / name, dpi=60)
-        assert matplotlib.rcParams["text.hinting"] == (hinting or "default")  # restored
+        assert matplotlib.rcParams["text.hinting"] == (hinting or unset)  # restored
     with Image.open(path) as image:
         return np.asarray(image), drawn
 
@@ -287,9 +288,10 @@ def _text_png(tmp_path, name, hinting=None):
 def test_save_figure_draws_text_unhinted_unless_the_user_set_a_hinting(tmp_path):
     import matplotlib
 
+    before = matplotlib.rcParams["text.hinting"]
     saved, drawn = _text_png(tmp_path, "default.png")
     assert not np.array_equal(drawn["none"], drawn["native"])  # the test can tell them apart
     np.testing.assert_array_equal(saved, drawn["none"])
-    assert matplotlib.rcParams["text.hinting"] == "default"
+    assert matplotlib.rcParams["text.hinting"] == before
     saved, drawn = _text_png(tmp_path, "native.png", hinting="native")  # the user's setting
     np.testing.assert_array_equal(saved, drawn["native"])

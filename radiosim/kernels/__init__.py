@@ -71,21 +71,21 @@ holding a float64 and a float32 array (:class:`~radiosim.kernels.bundles.FrameBl
 frames in the one of their dtype): only the helpers that read samples (the sweeps' blocks, the
 radiance pass's interval loops, the gathers) have a loop per dtype, so the entry point and
 everything else compile once, not once per dtype. The helpers have no Python wrapper and no
-cache files of their own (``INNER``), but for the last the entry point's compile reaches
+cache files of their own (``INNER``), except the last ones the entry point's compile reaches
 (``AHEAD``), which another process compiles meanwhile and the entry point loads
 (:func:`~radiosim.kernels.compiling.compile_helpers_ahead`: 4–6 s off its compile); the pixel
 rows' pass is written in the entry point (numba's inlining of a helper copies the helper's IR
-and types it again), and a sweep's row offsets and weights are small arrays. The image stage's sub-band kernel has one variant (float32 frames are
-widened for it).
-Compiling every kernel costs about 20–23 s of CPU on a 2-core host
+and types it again), and a sweep's row offsets and weights are small arrays. The image stage's
+sub-band kernel has one variant (float32 frames are widened for it).
+Compiling every kernel costs about 20–24 s of CPU on a 2-core host
 (``benchmarks/bench_compile.py`` lists it per function: most of it is the integrator's entry
 point; about 60 % numba's typing and lowering, 40 % LLVM); ``radiosim warmup`` spreads it over
 the cores (another process compiles the integrator, :mod:`~radiosim.kernels.compiling`, while
 the command compiles its last helpers ahead of it, then the chip's and the sub-band kernels),
 and ``radiosim run`` compiles the integrator while another process compiles its last helpers
-ahead of it, then the chip's kernels (:func:`radiosim.warmup.compile_for_run`). :func:`warmup` compiles
-every variant ahead of time in this process, and :func:`compile_pending` tells, from the cache's
-index files, whether a launch would compile.
+ahead of it, then the chip's kernels (:func:`radiosim.warmup.compile_for_run`).
+:func:`warmup` compiles every variant ahead of time in this process, and
+:func:`compile_pending` tells, from the cache's index files, whether a launch would compile.
 
 The package, one concept per module (imports flow down this list):
 

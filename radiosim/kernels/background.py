@@ -54,8 +54,9 @@ def wait_for_loaders() -> None:
 def any_running(flag: str, unset: bool = False) -> bool:
     """Whether a registered compiling process not yet waited for has the attribute ``flag``
     set (``with_bands``: it compiles the sub-band kernel too; ``with_chip``: it compiles the
-    segmented chip's kernels only), or, with ``unset``, one has it not set (e.g. any process
-    but the chip's: one that may compile the integrator)."""
+    segmented chip's kernels; ``aside``: it compiles nothing an integrator's launch loads, only
+    the integrator's last helpers and the chip's kernels), or, with ``unset``, one has it not
+    set (e.g. any process not ``aside``: one that may compile the integrator)."""
     with _LOCK:
         return any(bool(getattr(process, flag, False)) != unset for process, _ in _RUNNING)
 

@@ -33,9 +33,14 @@ from radiosim.kernels.codes import (SIGNAL_INDEX, STATUS_ABOVE_TABLE, STATUS_BAD
 from radiosim.kernels.intrinsics import INF, INNER, JIT, _cubic8_grey, _cubic8_map
 from radiosim.kernels.layout import frame_bundle, read_only, rows_of
 from radiosim.kernels.packing import _ones, _uint8_index
-from radiosim.kernels.radiance import _cubic1, _locate, cubic
+from radiosim.kernels.radiance import _cubic1, _cubic_rows, _locate
 from radiosim.kernels.table import SignalTable
 from radiosim.kernels.threads import run_blocks
+
+#: The radiance pass's cubics over a row (:func:`~radiosim.kernels.radiance.cubic`), a copy of
+#: this kernel's own, not cached on its own: the integrator's (``AHEAD``) is, and a second
+#: signature in its cache index could be given another's data file by two processes at once.
+_cubic_row = numba.njit(**INNER)(_cubic_rows)
 
 __all__ = ["StackedTables", "stack", "accumulate_bands", "band_kernel"]
 
@@ -212,7 +217,7 @@ def band_kernel(block, n_blocks, frames, weight, tables, emissivity, out, status
             for b in range(n_bands):
                 table = coef[np.uint64(4 * b):]
                 if indexed:  # each sample's entry: its own grey factor
-                    cubic(table, interval, position, value, n_cols)
+                    _cubic_row(table, interval, position, value, n_cols)
                     for j in range(n_cols):
                         g = grey_map[m_off + j] if use_map else emissivity.grey
                         acc[b * n_cols + j] += w * (value[j] * (entry_grey[entry[j], b] * g))

@@ -12,8 +12,10 @@ kernel package and of the chip's package is stamped with the modification times 
 inlined it, once.
 
 The locator wraps numba's own choice (``NUMBA_CACHE_DIR``, the package's ``__pycache__`` or
-the user-wide cache): where the cache lives does not change. It is registered when
-:mod:`radiosim.kernels` is imported, before any kernel is decorated.
+the user-wide cache): where the cache lives does not change. The stamp is also part of the
+cache files' names (``rows.accumulate_kernel-226-<stamp>.py311.nbi``), so that an index can
+only name a data file written for the same sources (numba writes the index first). It is
+registered when :mod:`radiosim.kernels` is imported, before any kernel is decorated.
 
 References
 ----------
@@ -73,7 +75,12 @@ class _PackageStampLocator(caching._CacheLocator):
         return (self._inner.get_source_stamp(), source_stamp())
 
     def get_disambiguator(self):
-        return self._inner.get_disambiguator()
+        # The stamp in the file names too: numba writes a function's index before its data
+        # file, and a reader checks only the index's stamp. With one name for every source
+        # version, a process reading between the two writes (or after a writer was stopped
+        # between them) would load the data file an older version left under that name; with
+        # the stamp in the name, it finds no file, and compiles.
+        return f"{self._inner.get_disambiguator()}-{source_stamp()[:10]}"
 
     @property
     def _py_file(self):

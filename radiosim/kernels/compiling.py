@@ -10,8 +10,9 @@ second. Here:
     in this process: for every frame dtype, or those asked for;
 -   :func:`compile_in_background` has another Python process compile the integrator's kernel
     (one entry point for both frame dtypes) while this one goes on (``radiosim warmup``
-    meanwhile compiles the chip's and the sub-band kernels: the two cores compile at once;
-    ``radiosim run`` does the reverse, :func:`radiosim.warmup.compile_for_run`). The first
+    meanwhile compiles that kernel's last helpers ahead of it, :func:`compile_helpers_ahead`,
+    then the chip's and the sub-band kernels: the two cores compile at once; ``radiosim run``
+    does the reverse, :func:`radiosim.warmup.compile_for_run`). The first
     launch of the integrator here waits for that process
     (:func:`~radiosim.kernels.background.wait_for_background`), then loads what it cached.
     Within one command, at most one process compiles the integrator's kernel, at most one the
@@ -19,10 +20,11 @@ second. Here:
     chip's frames and the loading thread leave them to it), and the helpers have no cache files
     (``INNER``), so no two of its processes write one function's cache index (numba writes it
     without a lock; two commands compiling at once from an empty cache still could), except
-    the integrator's last helpers (``AHEAD``): one process compiles them ahead
-    (:func:`compile_helpers_ahead`) while the other compiles the entry point, which loads them
-    from the cache; where the two meet, both may compile one and one index entry be lost,
-    which costs that helper's compile again some day, never a result.
+    the integrator's last helpers (``AHEAD``, one signature each): one process compiles them
+    ahead (:func:`compile_helpers_ahead`) while the other compiles the entry point, which
+    loads them from the cache; where the two meet, both may compile one and write its index
+    (the same entry, for the same code; the cache files' names carry the sources' stamp, so an
+    index never names a data file of other sources, :mod:`~radiosim.kernels.cache`).
     If such a process cannot start, fails or is stopped, this one compiles what it needs
     itself, as it would without it: the results do not depend on which process compiled.
 """
@@ -269,12 +271,17 @@ def compile_helpers_ahead() -> None:
     Compile (or load) the integrator entry point's last helpers (:func:`_helpers_ahead`) into
     numba's cache, in the reverse of the order the entry point's compile reaches them: run by
     one process while another compiles the entry point (``radiosim warmup``,
-    :func:`radiosim.warmup.compile_for_run`), the two meet in the middle, and that one loads
-    these from the cache instead of compiling them (about 3–4 s of its compile). The entry
-    point's code is the same either way: a cached helper keeps its code for linking.
+    :func:`radiosim.warmup.compile_for_run`, :func:`radiosim.warmup.compile_helpers_aside`),
+    the two meet in the middle, and that one loads these from the cache instead of compiling
+    them (4–6 s of its compile). The results are the same either way (a cached helper keeps
+    its code for linking; no fast-math). Only a speed-up: a helper that fails to compile here
+    is left to the entry point's compile, which then reports what goes wrong.
     """
     for dispatcher, signature in _helpers_ahead():
-        dispatcher.compile(signature)
+        try:
+            dispatcher.compile(signature)
+        except Exception:  # noqa: BLE001 - compiled (and reported) by the entry point's compile
+            return
 
 
 def _pending_work(frame_dtypes, bands: bool) -> tuple[tuple[str, ...], bool] | None:

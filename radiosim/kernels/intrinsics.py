@@ -5,7 +5,8 @@ LLVM intrinsics and inline arithmetic of the compiled kernels: a fused multiply-
 vector fused multiply-adds) that the radiance pass uses (:mod:`radiosim.kernels.radiance`).
 
 ``JIT`` holds the options of the package's entry points (the integrator's kernel, one for both
-frame dtypes), ``INNER`` those of the helpers they call.
+frame dtypes), ``INNER`` those of the helpers they call, ``AHEAD`` those of the helpers another
+process compiles ahead of the entry point (cached on their own).
 """
 
 from __future__ import annotations

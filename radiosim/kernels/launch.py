@@ -389,10 +389,10 @@ def _launch(block, rows: KernelAxis, cols: KernelAxis, time_weight, reference, d
                        signs.index_map.dtype)
     members = merged if merged is not None else _NO_MEMBERS
     row_pieces = RowPieces(rows.source, rows.weight, rows.bounds)
-    if background.any_running("with_chip", unset=True):  # a process that may compile the
+    if background.any_running("aside", unset=True):  # a process that may compile the
         background.wait_for_background()  # integrator: load it after it has cached it
-    else:
-        background.wait_for_loaders()  # (not for one compiling the chip's kernels only)
+    else:  # (not for one compiling only the integrator's last helpers and the chip's kernels)
+        background.wait_for_loaders()
     start = np.zeros(n_blocks, dtype=np.int64)
     pending = np.full(n_blocks, -1, dtype=np.int64)  # a frame whose status awaits handling
     handled = STATUS_OK
