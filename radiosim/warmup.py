@@ -124,7 +124,10 @@ def chip_main(argv) -> int:
     try:
         from radiosim.kernels.compiling import compile_helpers_ahead
 
-        compile_helpers_ahead()
+        # Not the radiance pass's row: the other process's compile reaches it about when this
+        # one, started after that process's imports, could have cached it (measured), and the
+        # chip's kernels come next here.
+        compile_helpers_ahead(count=3)
         if "--helpers-only" not in argv:
             warmup_chip()
     except KeyboardInterrupt:  # the terminal's interrupt reaches this process too

@@ -337,7 +337,8 @@ def test_a_cold_measurement_has_another_process_compile_the_helpers_only(monkeyp
     warmup.compile_helpers_aside(stack)
     assert len(started) == 1
     ran = []
-    monkeypatch.setattr(compiling, "compile_helpers_ahead", lambda: ran.append("helpers"))
+    monkeypatch.setattr(compiling, "compile_helpers_ahead",
+                        lambda count=None: ran.append("helpers"))
     monkeypatch.setattr(warmup, "warmup_chip", lambda: ran.append("chip"))
     assert warmup.chip_main(["--helpers-only", "--parent", str(os.getppid())]) == 0
     assert warmup.chip_main(["--parent", str(os.getppid())]) == 0

@@ -266,18 +266,20 @@ def _helpers_ahead() -> list:
     ]
 
 
-def compile_helpers_ahead() -> None:
+def compile_helpers_ahead(count: int | None = None) -> None:
     """
     Compile (or load) the integrator entry point's last helpers (:func:`_helpers_ahead`) into
     numba's cache, in the reverse of the order the entry point's compile reaches them: run by
     one process while another compiles the entry point (``radiosim warmup``,
     :func:`radiosim.warmup.compile_for_run`, :func:`radiosim.warmup.compile_helpers_aside`),
     the two meet in the middle, and that one loads these from the cache instead of compiling
-    them (4–6 s of its compile). The results are the same either way (a cached helper keeps
-    its code for linking; no fast-math). Only a speed-up: a helper that fails to compile here
-    is left to the entry point's compile, which then reports what goes wrong.
+    them (4–6 s of its compile). ``count``: the first ``count`` of them only (default all),
+    those the other process's compile reaches last. The results are the same either way (a
+    cached helper keeps its code for linking; no fast-math). Only a speed-up: a helper that
+    fails to compile here is left to the entry point's compile, which then reports what goes
+    wrong.
     """
-    for dispatcher, signature in _helpers_ahead():
+    for dispatcher, signature in _helpers_ahead()[:count]:
         try:
             dispatcher.compile(signature)
         except Exception:  # noqa: BLE001 - compiled (and reported) by the entry point's compile
