@@ -286,6 +286,16 @@ def test_the_chip_waits_for_a_process_compiling_its_kernels_and_the_integrator_d
     chip_compiler = _registered_sleeper(1.5, with_chip=True, aside=True)
     chip.temperature(chip.event_time + 1e-6, region)
     assert chip_compiler.returncode == 0 and not background._RUNNING  # waited for
+    # A process compiling the integrator's last helpers only (radiosim measure, or a run
+    # whose chip kernels are cached): neither the integrator's launches nor the chip's frames
+    # wait for it.
+    helpers = _registered_sleeper(30, aside=True, with_chip=False)
+    try:
+        pixel_mean(frame, rows, cols)
+        chip.temperature(chip.event_time + 2e-6, region)
+        assert helpers.poll() is None and background._RUNNING  # not waited for
+    finally:
+        background.stop_all(at_once=True)
 
 
 def test_a_cold_run_on_the_chip_compiles_the_integrator_here_and_the_chip_aside(monkeypatch):
