@@ -65,7 +65,8 @@ def __dir__():
 #: (tests/test_architecture.py checks this with ``ast``).
 CHAIN = (
     "_version", "errors", "units", "checks", "config", "files", "spectral", "radiometry",
-    "compiling_process", "kernels", "scenes", "response", "fpa", "frame_reading", "integrator", "psf", "optics",
+    "compiling_process", "kernels", "scenes", "response", "fpa", "frame_reading", "integrator",
+    "psf", "optics",
     "imaging", "electronics", "calibration", "measurement", "ratio", "presets", "acquisition",
     "camera", "characterization", "calibration_table", "scheduling", "moments", "budget_reuse",
     "uncertainty", "io", "study_spec", "study", "plotting", "reporting", "paper", "example_data",

@@ -1,8 +1,9 @@
 """
 The command's side of compiling radiosim's kernels (:mod:`radiosim.kernels.compiling` does the
-work): saying once that a command is about to compile, compiling a chip's kernels in another
-process while the integrator's compile here before a run, and ``radiosim warmup``, which
-compiles every variant ahead of time on both cores.
+work): saying once that a command is about to compile; before a run or a measurement, another
+process compiling the integrator's last helpers (and a chip's kernels) while the integrator's
+kernel compiles here; and ``radiosim warmup``, which compiles every variant ahead of time on
+both cores.
 """
 
 from __future__ import annotations
@@ -58,7 +59,6 @@ def compile_for_run(scene) -> None:
 
     from radiosim.acquisition import frame_dtype
     from radiosim.kernels import compile_pending, compiled_selected, warmup
-    from radiosim.kernels.background import register
     from radiosim.scenes import SegmentedChip
 
     if not compiled_selected() or not isinstance(scene, SegmentedChip):
@@ -66,16 +66,23 @@ def compile_for_run(scene) -> None:
     dtype = np.dtype(frame_dtype(scene)).name
     if not compile_pending((dtype,)):
         return
-    from radiosim import compiling_process
-
     # The chip's kernels too when the cache lacks them (else this process's loading thread
     # loads them: the chip's first frame waits only for a process compiling them).
-    child = compiling_process.start(
-        child=compiling_process.CHIP_CHILD,
-        helpers_only=not compile_pending((), also=scene.compiled_kernels()))
-    if child is not None:  # else the chip's kernels compile here, at its first frame
-        register(*child)
+    _start_aside(helpers_only=not compile_pending((), also=scene.compiled_kernels()))
     warmup(frame_dtypes=(dtype,), bands=False)
+
+
+def _start_aside(helpers_only: bool) -> None:
+    """Start and register the process compiling the integrator's last helpers, then (unless
+    ``helpers_only``) the chip's kernels (:data:`~radiosim.compiling_process.CHIP_CHILD`); if
+    none can start, what it would compile compiles here, at its first call."""
+    from radiosim import compiling_process
+    from radiosim.kernels.background import register
+
+    child = compiling_process.start(child=compiling_process.CHIP_CHILD,
+                                    helpers_only=helpers_only)
+    if child is not None:
+        register(*child)
 
 
 def compile_helpers_aside(scene) -> None:
@@ -91,15 +98,9 @@ def compile_helpers_aside(scene) -> None:
 
     from radiosim.acquisition import frame_dtype
     from radiosim.kernels import compile_pending, compiled_selected
-    from radiosim.kernels.background import register
 
-    if not compiled_selected() or not compile_pending((np.dtype(frame_dtype(scene)).name,)):
-        return
-    from radiosim import compiling_process
-
-    child = compiling_process.start(child=compiling_process.CHIP_CHILD, helpers_only=True)
-    if child is not None:
-        register(*child)
+    if compiled_selected() and compile_pending((np.dtype(frame_dtype(scene)).name,)):
+        _start_aside(helpers_only=True)
 
 
 def warmup_chip() -> None:

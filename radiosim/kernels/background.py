@@ -1,7 +1,8 @@
 """
 The compiling processes this one has started (:mod:`radiosim.compiling_process`: the
-integrator's, :func:`radiosim.kernels.compiling.compile_in_background`, or the segmented
-chip's, :func:`radiosim.warmup.compile_for_run`), and the wait for them before a kernel
+integrator's, :func:`radiosim.kernels.compiling.compile_in_background`, or one compiling the
+integrator's last helpers and the segmented chip's kernels, :func:`radiosim.warmup.compile_for_run`),
+and the wait for them before a kernel
 launches: :func:`wait_for_background` returns at once when there are none (the launch
 functions call it every time), else waits until they have ended, so that the launch loads from
 numba's cache what they compiled instead of compiling it a second time. Each process works in a
