@@ -55,8 +55,7 @@ def prefetched(scene: Scene, indices, region: Region, checked: bool = True, batc
 
 
 #: Time [s] of the frames a worker thread reads at once in
-#: :func:`frames_inline_or_prefetched` (small generated frames, e.g. a pixel's crop of the
-#: chip, in batches of several).
+#: :func:`frames_inline_or_prefetched` (frames quick to make go in batches of several).
 PREFETCH_SECONDS = 2e-3
 
 
@@ -65,7 +64,12 @@ def frames_inline_or_prefetched(scene, indices, region):
     that come cheap (views of an array or a memory map: under 0.2 ms) are read on this thread;
     as soon as two are slow to produce, the rest are read ahead on a worker thread, so
     producing frames overlaps with integrating the previous ones: one at a time, or in batches
-    of about :data:`PREFETCH_SECONDS` (at most :data:`STACK_BYTES`) when they are small."""
+    of about :data:`PREFETCH_SECONDS` (at most :data:`STACK_BYTES`) when each takes less. Frames
+    small enough to be stacked (:func:`stacked`: a sixteenth of :data:`STACK_BYTES` or less,
+    e.g. a pixel's crop of the chip) stay on this thread however slow: the kernel's work per
+    such frame is too small for reading ahead to pay, and a worker thread making them in
+    Python would only contend with this one for the interpreter (measured: 0.6 s instead of
+    0.8–1.1 s for the paper's long integration, 3625 frames of 9 × 9)."""
     indices = list(indices)
     slow = []  # the times of the slow frames read here: two, the first may pay for set-up
     for n, k in enumerate(indices):
@@ -73,11 +77,11 @@ def frames_inline_or_prefetched(scene, indices, region):
         frame = scene.sample_unchecked(k, region)
         seconds = time.perf_counter() - start
         yield frame
-        if seconds > 2e-4:
+        size = getattr(frame.temperature, "nbytes", STACK_BYTES)
+        if seconds > 2e-4 and 16 * size > STACK_BYTES:
             slow.append(seconds)
         if len(slow) == 2:
-            size = max(1, getattr(frame.temperature, "nbytes", STACK_BYTES))
-            batch = max(1, min(int(PREFETCH_SECONDS / min(slow)), STACK_BYTES // size))
+            batch = max(1, min(int(PREFETCH_SECONDS / min(slow)), STACK_BYTES // max(1, size)))
             yield from prefetched(scene, indices[n + 1:], region, checked=False, batch=batch)
             return
 

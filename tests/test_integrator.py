@@ -417,29 +417,41 @@ def test_only_frames_that_differ_in_temperature_alone_are_stacked():
 
 def test_slow_frames_are_read_ahead_in_batches_in_order_and_in_full():
     # A scene slow to produce its frames (about 0.3 ms each) is read ahead on a worker thread,
-    # in batches once two frames were slow: every frame, once, in order, the same as read here.
+    # in batches once two frames were slow, when its frames are too large to be stacked; small
+    # ones (stacked, the kernel's work per frame tiny) are read on the calling thread however
+    # slow. Either way: every frame, once, in order, the same as read here.
+    import threading
     import time
 
-    from radiosim.frame_reading import frames_inline_or_prefetched, prefetched
+    from radiosim.frame_reading import STACK_BYTES, frames_inline_or_prefetched, prefetched
 
     class Slow(FrameStack):
+        readers = {}
+
         def sample_unchecked(self, k, region=None):
             began = time.perf_counter()
             while time.perf_counter() - began < 3e-4:
                 pass
+            self.readers[k] = threading.current_thread()
             return super().sample_unchecked(k, region)
 
-    frames = np.arange(37 * 4 * 5, dtype=float).reshape(37, 4, 5) + 300.0
-    stack = Slow(frames, 1e-6, 1e-6)
-    region = (slice(1, 3), slice(0, 5))
-    indices = list(range(2, 37))
-    expected = frames[2:, 1:3]
-    for read in (frames_inline_or_prefetched(stack, indices, region),
-                 prefetched(stack, indices, region, checked=False, batch=4),
-                 prefetched(stack, indices, region, batch=1)):
-        got = list(read)
-        assert [f.index for f in got] == indices
-        assert np.array_equal(np.stack([f.temperature for f in got]), expected)
+    for rows, cols, ahead in ((4, 5, False), (3 + STACK_BYTES // (16 * 8 * 40), 40, True)):
+        frames = np.arange(37 * rows * cols, dtype=float).reshape(37, rows, cols) + 300.0
+        stack = Slow(frames, 1e-6, 1e-6)
+        region = (slice(1, rows - 1), slice(0, cols))
+        assert (16 * 8 * (rows - 2) * cols > STACK_BYTES) is ahead
+        indices = list(range(2, 37))
+        expected = frames[2:, 1:rows - 1]
+        for read in (frames_inline_or_prefetched(stack, indices, region),
+                     prefetched(stack, indices, region, checked=False, batch=4),
+                     prefetched(stack, indices, region, batch=1)):
+            Slow.readers = {}
+            got = list(read)
+            assert [f.index for f in got] == indices
+            assert np.array_equal(np.stack([f.temperature for f in got]), expected)
+            if read.__name__ == "frames_inline_or_prefetched":
+                here = [Slow.readers[k] is threading.current_thread() for k in indices]
+                assert here == ([True] * 2 + [False] * 33 if ahead else [True] * 35)
 
 
 def test_a_frame_that_cannot_be_read_ahead_fails_after_the_frames_before_it():
