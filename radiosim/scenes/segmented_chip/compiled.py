@@ -184,9 +184,12 @@ def evaluate_compiled(p: ChipParameters, r: RegionData, layout: KernelLayout, t:
         grid, (terms, nodes) = r.zeta_grid, band_terms(p, r, tau, d)
     else:
         grid, terms, nodes = _NO_PROFILE, _NO_TERMS, _NO_NODES
-    frame = layout.constants._replace(cos=math.cos(angle), sin=math.sin(angle), d=float(d))
     if forming:
-        frame = frame._replace(log_base=math.log(base), reach=float(forming_reach(p, base)))
+        frame = layout.constants._replace(cos=math.cos(angle), sin=math.sin(angle), d=float(d),
+                                          log_base=math.log(base),
+                                          reach=float(forming_reach(p, base)))
+    else:
+        frame = layout.constants._replace(cos=math.cos(angle), sin=math.sin(angle), d=float(d))
     temperature = np.empty(r.shape)
     regions = np.empty(r.shape, dtype=np.uint8) if want_regions else _NO_REGIONS
     threads, blocks = layout.blocks(forming)

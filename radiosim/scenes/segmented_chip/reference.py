@@ -27,7 +27,7 @@ import numpy as np
 
 from radiosim.scenes.segmented_chip.geometry import REGIONS, RegionData
 from radiosim.scenes.segmented_chip.parameters import ChipParameters
-from radiosim.scenes.segmented_chip.profiles import gaussian_reach, hermite_step
+from radiosim.scenes.segmented_chip.profiles import gaussian_reach, tanh_step
 
 __all__ = ["phase", "forming_base", "forming_reach", "band_terms", "band_profile",
            "evaluate_reference"]
@@ -38,8 +38,9 @@ def phase(p: ChipParameters, t: float):
     (stick–slip: a share ε of the period's travel within the slip time)."""
     tau = t % p.period
     theta = tau / p.period
+    slip = min(max(tau / p.slip_time, 0.0), 1.0)  # hermite_step's arithmetic, on one float
     d = p.chip_speed * ((1 - p.slip_fraction) * tau
-                        + p.slip_fraction * p.period * float(hermite_step(tau / p.slip_time)))
+                        + p.slip_fraction * p.period * (slip * slip * (3.0 - 2.0 * slip)))
     return tau, theta, d
 
 
@@ -58,19 +59,25 @@ def forming_reach(p: ChipParameters, base: float) -> float:
 def band_terms(p: ChipParameters, r: RegionData, tau: float, d: float):
     """The released bands, carried with the chip and diffusing: per band k, its ζ_k, σ_k²
     and amplitude, and the range of nodes of the region's ``zeta_grid`` within its reach
-    (shared by both implementations)."""
+    (shared by both implementations). The bands' primary-zone backgrounds are one array
+    operation and their node ranges one search, with each band's arithmetic as written."""
     sin_b = math.sin(p.band_angle)
-    terms = np.empty((int(p.released_bands), 3))
-    nodes = np.empty((int(p.released_bands), 2), dtype=np.int64)
-    for k in range(int(p.released_bands)):
-        zk = d + k * p.segment_pitch
-        sigma2 = p.band_width**2 + 2 * p.chip_diffusivity * (tau + k * p.period)
-        amplitude = (p.band_amplitude + r.background_at_l0
-                     - r.background(zk * sin_b)) * math.sqrt(p.band_width**2 / sigma2)
+    count = int(p.released_bands)
+    pitch, width2, diffusion = p.segment_pitch, p.band_width**2, 2 * p.chip_diffusivity
+    t0, rise, offset, width = p.initial_temperature, p.primary_rise, p.primary_offset, p.primary_width
+    peak = p.band_amplitude + r.background_at_l0
+    zk = [d + k * pitch for k in range(count)]
+    # The primary zone's background at each band, t0 + rise·tanh_step(·): one tanh call.
+    tanh = np.tanh([(z * sin_b - offset) / width for z in zk]).tolist()
+    terms, bounds = [], []
+    for k, (z, th) in enumerate(zip(zk, tanh)):
+        sigma2 = width2 + diffusion * (tau + k * p.period)
+        amplitude = (peak - (t0 + rise * (0.5 * (1.0 + th)))) * math.sqrt(width2 / sigma2)
         reach = gaussian_reach(amplitude) * math.sqrt(sigma2) / sin_b
-        terms[k] = zk, sigma2, amplitude
-        nodes[k] = np.searchsorted(r.zeta_grid, (zk - reach, zk + reach))
-    return terms, nodes
+        terms.append((z, sigma2, amplitude))
+        bounds.append((z - reach, z + reach))
+    nodes = np.searchsorted(r.zeta_grid, bounds)
+    return np.array(terms), nodes.astype(np.int64, copy=False)
 
 
 def band_profile(p: ChipParameters, r: RegionData, tau: float, d: float) -> np.ndarray:
