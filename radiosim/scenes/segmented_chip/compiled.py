@@ -149,7 +149,8 @@ class KernelLayout:
         thread, one block)."""
         work = self.work[forming]
         rows = work.size - 1
-        threads = max(1, min(thread_count(), rows, int(work[-1] // _WORK_PER_THREAD)))
+        shares = min(rows, int(work[-1] // _WORK_PER_THREAD))  # numba is asked only if > 1
+        threads = max(1, min(thread_count(), shares)) if shares > 1 else 1
         bounds = self._bounds.get((threads, forming))
         if bounds is None:
             count = max(1, min(threads * _BLOCKS, rows)) if threads > 1 else 1
@@ -203,6 +204,6 @@ def evaluate_compiled(p: ChipParameters, r: RegionData, layout: KernelLayout, t:
                regions, want_regions, forming, r.y, frame, profile, r.cos_field, r.sin_field,
                layout.run_layout, extremes)
     # Every value finite and > 0 K (see moving_terms_kernel): the frame's check is done.
-    clean = temperature.size == 0 or bool(extremes[:, 0].min() > 0
-                                          and extremes[:, 1].max() < _INF_BITS)
+    low, high = extremes.T.tolist()  # (a list's min and max: no numpy call per frame)
+    clean = temperature.size == 0 or (min(low) > 0 and max(high) < _INF_BITS)
     return temperature, (regions if want_regions else None), clean
