@@ -632,3 +632,42 @@ def test_kernel_cache_stamp_covers_every_kernel_source(tmp_path, monkeypatch):
     with pytest.warns(numba.NumbaWarning, match="Cannot cache compiled function") as caught:
         assert impl.check_cachable(result) is False
     assert Path(caught[0].filename) == Path(rows.__file__).resolve()
+
+
+def test_cache_files_of_other_sources_are_removed_once_a_process_writes_there(tmp_path):
+    # After an update (or a new install: new modification times) the first compile writes the
+    # new sources' files; the files stamped for the old ones (or not stamped: radiosim before
+    # the stamp was in the names) are never read again, and go. Anything else stays.
+    from radiosim.kernels import cache
+
+    now = cache.source_stamp()[:10]
+    old = "0123456789" if now != "0123456789" else "9876543210"
+    kept = [f"rows.accumulate_kernel-226-{now}.py311.nbi",
+            f"rows.accumulate_kernel-226-{now}.py311.1.nbc",
+            f"rows.accumulate_kernel-226-{now}.py312.nbi",  # another Python, these sources
+            f"notakernel.f-12-{old}.py311.nbi",  # not a radiosim kernel module
+            "rows.cpython-311.pyc", "notes.nbi"]
+    stale = [f"rows.accumulate_kernel-226-{old}.py311.nbi",
+             f"rows.accumulate_kernel-226-{old}.py311.12.nbc",
+             f"kernel.moving_terms_kernel-276-{old}.py312d.nbi",
+             "bands._band_pass-104.py311.nbi", "bands._band_pass-104.py311.3.nbc"]
+    for name in kept + stale:
+        (tmp_path / name).write_text("x")
+    assert sorted(p.name for p in cache.prune_stale(tmp_path)) == sorted(stale)
+    assert sorted(p.name for p in tmp_path.iterdir()) == sorted(kept)
+
+    # The kernels' locator prunes a folder the first time this process writes into it only.
+    class Inner:
+        def ensure_cache_path(self):
+            pass
+
+        def get_cache_path(self):
+            return str(tmp_path)
+
+    locator = cache._PackageStampLocator(Inner())
+    (tmp_path / stale[0]).write_text("x")
+    locator.ensure_cache_path()
+    assert not (tmp_path / stale[0]).exists()
+    (tmp_path / stale[0]).write_text("x")
+    locator.ensure_cache_path()  # the same folder again: left as it is
+    assert (tmp_path / stale[0]).exists()

@@ -17,6 +17,12 @@ cache files' names (``rows.accumulate_kernel-226-<stamp>.py311.nbi``), so that a
 only name a data file written for the same sources (numba writes the index first). It is
 registered when :mod:`radiosim.kernels` is imported, before any kernel is decorated.
 
+Files stamped for other sources (an earlier radiosim, or the same one installed again: an
+install gives the files new modification times) are never read again: the first time this
+process writes into a cache folder (it has compiled, so its sources are new to that folder),
+:func:`prune_stale` removes them there, radiosim's kernel files only, so that the folder holds
+one version's files instead of a few MB more after every update.
+
 References
 ----------
 -   numba documentation, "Cache invalidation" (notes on caching): "changes in the functions
@@ -27,11 +33,13 @@ from __future__ import annotations
 
 import functools
 import hashlib
+import re
+import threading
 from pathlib import Path
 
 from numba.core import caching
 
-__all__ = ["KERNEL_SOURCES", "source_stamp", "register"]
+__all__ = ["KERNEL_SOURCES", "source_stamp", "register", "prune_stale"]
 
 _PACKAGE = Path(__file__).resolve().parent.parent  # radiosim/
 
@@ -51,6 +59,41 @@ def source_stamp() -> str:
     return digest.hexdigest()
 
 
+#: A numba cache file of a cached function (index .nbi, data .nbc): module, qualified name,
+#: line, this locator's stamp (absent from files of radiosim before the stamp was in the names),
+#: Python version and ABI flags.
+_CACHE_FILE = re.compile(r"(?P<module>\w+)\.[\w.]+-\d+(-(?P<stamp>[0-9a-f]{10}))?"
+                         r"\.py\d+\w*(\.\d+)?\.nb[ci]")
+
+_PRUNED: set[str] = set()  # the cache folders pruned by this process
+_PRUNING = threading.Lock()
+
+
+def prune_stale(folder) -> list[Path]:
+    """
+    Remove from ``folder`` the numba cache files of radiosim's kernel modules (those of
+    :data:`KERNEL_SOURCES`) stamped for sources other than these, or not stamped: files no
+    radiosim of these sources reads. Other files, and any that cannot be removed, are left.
+    Returns the paths removed.
+    """
+    current = source_stamp()[:10]
+    modules = {path.stem for kernels in KERNEL_SOURCES for path in kernels.glob("*.py")}
+    removed = []
+    try:
+        names = sorted(entry.name for entry in Path(folder).iterdir())
+    except OSError:
+        return removed
+    for name in names:
+        match = _CACHE_FILE.fullmatch(name)
+        if match and match["module"] in modules and match["stamp"] != current:
+            try:
+                (Path(folder) / name).unlink()
+            except OSError:
+                continue
+            removed.append(Path(folder) / name)
+    return removed
+
+
 def _is_kernel_source(py_file) -> bool:
     try:
         folder = Path(py_file).resolve().parent
@@ -66,7 +109,15 @@ class _PackageStampLocator(caching._CacheLocator):
         self._inner = inner
 
     def ensure_cache_path(self):
+        # numba calls it before it writes a function's files: this process compiled, so the
+        # folder may hold an earlier version's files; they go, once per folder and process.
         self._inner.ensure_cache_path()
+        folder = str(self.get_cache_path())
+        with _PRUNING:
+            if folder in _PRUNED:
+                return
+            _PRUNED.add(folder)
+        prune_stale(folder)
 
     def get_cache_path(self):
         return self._inner.get_cache_path()
