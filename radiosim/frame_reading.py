@@ -15,7 +15,7 @@ from radiosim.kernels.merging import FRAME_BLOCK
 from radiosim.scenes.base import Region, Scene
 
 __all__ = ["prefetched", "frames_inline_or_prefetched", "stacked", "PREFETCH_SECONDS",
-           "STACK_BYTES"]
+           "INLINE_BYTES", "STACK_BYTES"]
 
 
 def prefetched(scene: Scene, indices, region: Region, checked: bool = True, batch: int = 1):
@@ -65,11 +65,9 @@ def frames_inline_or_prefetched(scene, indices, region):
     as soon as two are slow to produce, the rest are read ahead on a worker thread, so
     producing frames overlaps with integrating the previous ones: one at a time, or in batches
     of about :data:`PREFETCH_SECONDS` (at most :data:`STACK_BYTES`) when each takes less. Frames
-    small enough to be stacked (:func:`stacked`: a sixteenth of :data:`STACK_BYTES` or less,
-    e.g. a pixel's crop of the chip) stay on this thread however slow: the kernel's work per
-    such frame is too small for reading ahead to pay, and a worker thread making them in
-    Python would only contend with this one for the interpreter (measured: 0.6 s instead of
-    0.8–1.1 s for the paper's long integration, 3625 frames of 9 × 9)."""
+    of at most :data:`INLINE_BYTES` stay on this thread however slow: the kernel's work per such
+    frame is too small for reading ahead to pay, and a worker thread making them would mostly
+    contend with this one for the interpreter."""
     indices = list(indices)
     slow = []  # the times of the slow frames read here: two, the first may pay for set-up
     for n, k in enumerate(indices):
@@ -78,12 +76,21 @@ def frames_inline_or_prefetched(scene, indices, region):
         seconds = time.perf_counter() - start
         yield frame
         size = getattr(frame.temperature, "nbytes", STACK_BYTES)
-        if seconds > 2e-4 and 16 * size > STACK_BYTES:
+        if seconds > 2e-4 and size > INLINE_BYTES:
             slow.append(seconds)
         if len(slow) == 2:
             batch = max(1, min(int(PREFETCH_SECONDS / min(slow)), STACK_BYTES // max(1, size)))
             yield from prefetched(scene, indices[n + 1:], region, checked=False, batch=batch)
             return
+
+
+#: Most bytes of a frame :func:`frames_inline_or_prefetched` reads on the calling thread
+#: however slow it is to make. Measured on 2 cores, read here against read ahead: the paper's
+#: long integration (3625 chip crops of 9 × 9) 0.42–0.65 s against 0.79–1.06 s; chip crops of
+#: 32 × 32 0.14–0.15 against 0.16–0.21 ms a frame, of 64 × 64 to 181 × 181 the same either
+#: way; an FEA nodal scene of 120 × 240 (230 kB) 12 % slower read here (its interpolation
+#: releases the interpreter), so it is read ahead.
+INLINE_BYTES = 1 << 14
 
 
 #: Most bytes of a block of small generated frames stacked into one kernel call

@@ -691,7 +691,7 @@ def integrate(
 
     Frames that are slow to produce (scene evaluation, disk reads) are read ahead on a worker
     thread (:mod:`radiosim.frame_reading`), so producing them overlaps with integrating the
-    previous ones.
+    previous ones; small ones (:data:`~radiosim.frame_reading.INLINE_BYTES`) are made here.
 
     Parameters
     ----------

@@ -417,13 +417,13 @@ def test_only_frames_that_differ_in_temperature_alone_are_stacked():
 
 def test_slow_frames_are_read_ahead_in_batches_in_order_and_in_full():
     # A scene slow to produce its frames (about 0.3 ms each) is read ahead on a worker thread,
-    # in batches once two frames were slow, when its frames are too large to be stacked; small
-    # ones (stacked, the kernel's work per frame tiny) are read on the calling thread however
-    # slow. Either way: every frame, once, in order, the same as read here.
+    # in batches once two frames were slow, when its frames are larger than INLINE_BYTES; small
+    # ones (the kernel's work per frame tiny) are read on the calling thread however slow.
+    # Either way: every frame, once, in order, the same as read here.
     import threading
     import time
 
-    from radiosim.frame_reading import STACK_BYTES, frames_inline_or_prefetched, prefetched
+    from radiosim.frame_reading import INLINE_BYTES, frames_inline_or_prefetched, prefetched
 
     class Slow(FrameStack):
         readers = {}
@@ -435,11 +435,11 @@ def test_slow_frames_are_read_ahead_in_batches_in_order_and_in_full():
             self.readers[k] = threading.current_thread()
             return super().sample_unchecked(k, region)
 
-    for rows, cols, ahead in ((4, 5, False), (3 + STACK_BYTES // (16 * 8 * 40), 40, True)):
+    for rows, cols, ahead in ((4, 5, False), (3 + INLINE_BYTES // (8 * 40), 40, True)):
         frames = np.arange(37 * rows * cols, dtype=float).reshape(37, rows, cols) + 300.0
         stack = Slow(frames, 1e-6, 1e-6)
         region = (slice(1, rows - 1), slice(0, cols))
-        assert (16 * 8 * (rows - 2) * cols > STACK_BYTES) is ahead
+        assert (8 * (rows - 2) * cols > INLINE_BYTES) is ahead
         indices = list(range(2, 37))
         expected = frames[2:, 1:rows - 1]
         for read in (frames_inline_or_prefetched(stack, indices, region),

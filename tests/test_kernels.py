@@ -637,24 +637,31 @@ def test_kernel_cache_stamp_covers_every_kernel_source(tmp_path, monkeypatch):
 def test_cache_files_of_other_sources_are_removed_once_a_process_writes_there(tmp_path):
     # After an update (or a new install: new modification times) the first compile writes the
     # new sources' files; the files stamped for the old ones (or not stamped: radiosim before
-    # the stamp was in the names) are never read again, and go. Anything else stays.
-    from radiosim.kernels import cache
+    # the stamp was in the names) and older than the new sources are never read again, and go.
+    # Anything else stays: a stale-stamped file written since (a run of the old version still
+    # going), files of other modules, numba's temporary files, bytecode.
+    import os
+
+    from radiosim.kernels import cache, rows
 
     now = cache.source_stamp()[:10]
     old = "0123456789" if now != "0123456789" else "9876543210"
-    kept = [f"rows.accumulate_kernel-226-{now}.py311.nbi",
-            f"rows.accumulate_kernel-226-{now}.py311.1.nbc",
-            f"rows.accumulate_kernel-226-{now}.py312.nbi",  # another Python, these sources
-            f"notakernel.f-12-{old}.py311.nbi",  # not a radiosim kernel module
-            "rows.cpython-311.pyc", "notes.nbi"]
-    stale = [f"rows.accumulate_kernel-226-{old}.py311.nbi",
-             f"rows.accumulate_kernel-226-{old}.py311.12.nbc",
-             f"kernel.moving_terms_kernel-276-{old}.py312d.nbi",
-             "bands._band_pass-104.py311.nbi", "bands._band_pass-104.py311.3.nbc"]
+    cache_file = rows.accumulate_kernel._cache._cache_file  # numba's own names, these sources
+    current = [cache_file._index_name, cache_file._data_name(1)]
+    assert all(f"-{now}.py" in name for name in current)
+    stale = [name.replace(now, old) for name in current] + [
+        f"kernel.moving_terms_kernel-276-{old}.py312d.nbi",
+        "bands._band_pass-104.py311.nbi", "bands._band_pass-104.py311.3.nbc"]
+    kept = current + [current[0].replace(".py311", ".py312"),  # another Python, these sources
+                      f"notakernel.f-12-{old}.py311.nbi",  # not a radiosim kernel module
+                      f"{stale[0]}.tmp.3f2a", "rows.cpython-311.pyc", "notes.nbi"]
     for name in kept + stale:
         (tmp_path / name).write_text("x")
+        os.utime(tmp_path / name, (1e9, 1e9))  # 2001: older than any source
+    newer = f"rows.accumulate_kernel-226-{old}.py311.2.nbc"
+    (tmp_path / newer).write_text("x")  # written now, after the sources
     assert sorted(p.name for p in cache.prune_stale(tmp_path)) == sorted(stale)
-    assert sorted(p.name for p in tmp_path.iterdir()) == sorted(kept)
+    assert sorted(p.name for p in tmp_path.iterdir()) == sorted(kept + [newer])
 
     # The kernels' locator prunes a folder the first time this process writes into it only.
     class Inner:
@@ -666,8 +673,10 @@ def test_cache_files_of_other_sources_are_removed_once_a_process_writes_there(tm
 
     locator = cache._PackageStampLocator(Inner())
     (tmp_path / stale[0]).write_text("x")
+    os.utime(tmp_path / stale[0], (1e9, 1e9))
     locator.ensure_cache_path()
     assert not (tmp_path / stale[0]).exists()
     (tmp_path / stale[0]).write_text("x")
+    os.utime(tmp_path / stale[0], (1e9, 1e9))
     locator.ensure_cache_path()  # the same folder again: left as it is
     assert (tmp_path / stale[0]).exists()

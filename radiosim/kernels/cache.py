@@ -20,8 +20,8 @@ registered when :mod:`radiosim.kernels` is imported, before any kernel is decora
 Files stamped for other sources (an earlier radiosim, or the same one installed again: an
 install gives the files new modification times) are never read again: the first time this
 process writes into a cache folder (it has compiled, so its sources are new to that folder),
-:func:`prune_stale` removes them there, radiosim's kernel files only, so that the folder holds
-one version's files instead of a few MB more after every update.
+:func:`prune_stale` removes those older than its sources there, radiosim's kernel files only,
+so that the folder holds one version's files instead of a few MB more after every update.
 
 References
 ----------
@@ -33,6 +33,7 @@ from __future__ import annotations
 
 import functools
 import hashlib
+import logging
 import re
 import threading
 from pathlib import Path
@@ -72,25 +73,32 @@ _PRUNING = threading.Lock()
 def prune_stale(folder) -> list[Path]:
     """
     Remove from ``folder`` the numba cache files of radiosim's kernel modules (those of
-    :data:`KERNEL_SOURCES`) stamped for sources other than these, or not stamped: files no
-    radiosim of these sources reads. Other files, and any that cannot be removed, are left.
-    Returns the paths removed.
+    :data:`KERNEL_SOURCES`) stamped for sources other than these, or not stamped, and older than
+    the newest of these sources: files no radiosim of these sources reads. A newer one was
+    written by a process of other sources since these were installed (a run of the previous
+    version still going): it stays, as do other files and any that cannot be removed. Returns
+    the paths removed.
     """
     current = source_stamp()[:10]
-    modules = {path.stem for kernels in KERNEL_SOURCES for path in kernels.glob("*.py")}
+    sources = [path for kernels in KERNEL_SOURCES for path in kernels.glob("*.py")]
+    modules = {path.stem for path in sources}
     removed = []
     try:
+        installed = max(path.stat().st_mtime for path in sources)
         names = sorted(entry.name for entry in Path(folder).iterdir())
-    except OSError:
+    except (OSError, ValueError):
         return removed
     for name in names:
         match = _CACHE_FILE.fullmatch(name)
-        if match and match["module"] in modules and match["stamp"] != current:
-            try:
-                (Path(folder) / name).unlink()
-            except OSError:
-                continue
-            removed.append(Path(folder) / name)
+        if not (match and match["module"] in modules and match["stamp"] != current):
+            continue
+        path = Path(folder) / name
+        try:
+            if path.stat().st_mtime < installed:
+                path.unlink()
+                removed.append(path)
+        except OSError:
+            continue
     return removed
 
 
@@ -117,7 +125,10 @@ class _PackageStampLocator(caching._CacheLocator):
             if folder in _PRUNED:
                 return
             _PRUNED.add(folder)
-        prune_stale(folder)
+        try:
+            prune_stale(folder)
+        except Exception as exc:  # noqa: BLE001  (a clean-up: never in the way of the compile)
+            logging.getLogger(__name__).info("could not prune %s: %s", folder, exc)
 
     def get_cache_path(self):
         return self._inner.get_cache_path()

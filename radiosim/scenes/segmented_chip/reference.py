@@ -64,20 +64,22 @@ def band_terms(p: ChipParameters, r: RegionData, tau: float, d: float):
     sin_b = math.sin(p.band_angle)
     count = int(p.released_bands)
     pitch, width2, diffusion = p.segment_pitch, p.band_width**2, 2 * p.chip_diffusivity
-    t0, rise, offset, width = p.initial_temperature, p.primary_rise, p.primary_offset, p.primary_width
+    t0, rise = p.initial_temperature, p.primary_rise
     peak = p.band_amplitude + r.background_at_l0
     zk = [d + k * pitch for k in range(count)]
-    # The primary zone's background at each band, t0 + rise·tanh_step(·): one tanh call.
-    tanh = np.tanh([(z * sin_b - offset) / width for z in zk]).tolist()
+    # The primary zone's background at each band, t0 + rise·tanh_step(ξ): RegionData.background
+    # (geometry.py), its tanh_step in one call.
+    step = (0.5 * (1.0 + np.tanh([(z * sin_b - p.primary_offset) / p.primary_width
+                                  for z in zk]))).tolist()
     terms, bounds = [], []
-    for k, (z, th) in enumerate(zip(zk, tanh)):
+    for k, (z, s) in enumerate(zip(zk, step)):
         sigma2 = width2 + diffusion * (tau + k * p.period)
-        amplitude = (peak - (t0 + rise * (0.5 * (1.0 + th)))) * math.sqrt(width2 / sigma2)
+        amplitude = (peak - (t0 + rise * s)) * math.sqrt(width2 / sigma2)
         reach = gaussian_reach(amplitude) * math.sqrt(sigma2) / sin_b
         terms.append((z, sigma2, amplitude))
         bounds.append((z - reach, z + reach))
-    nodes = np.searchsorted(r.zeta_grid, bounds)
-    return np.array(terms), nodes.astype(np.int64, copy=False)
+    nodes = np.searchsorted(r.zeta_grid, bounds).astype(np.int64, copy=False).reshape(count, 2)
+    return np.array(terms, dtype=np.float64).reshape(count, 3), nodes
 
 
 def band_profile(p: ChipParameters, r: RegionData, tau: float, d: float) -> np.ndarray:
