@@ -266,11 +266,17 @@ class Camera:
         return camera_table(self)
 
     def to_toml(self) -> str:
-        """The camera as a TOML preset (see :meth:`to_dict`)."""
-        data = self.to_dict()
-        channels = data.pop("channels", None)
-        text = dumps_toml(data, tables=("optics", "fpa", "electronics"))
-        return text if channels is None else text + "\n" + dumps_toml({"channels": channels})
+        """The camera as a TOML preset (see :meth:`to_dict`). Written once per camera (it is
+        frozen) and kept: every EXR file and dataset of its measurements carries it."""
+        text = self.__dict__.get("_toml")
+        if text is None:
+            data = self.to_dict()
+            channels = data.pop("channels", None)
+            text = dumps_toml(data, tables=("optics", "fpa", "electronics"))
+            if channels is not None:
+                text += "\n" + dumps_toml({"channels": channels})
+            self.__dict__["_toml"] = text
+        return text
 
     def __repr__(self) -> str:
         """One line: the name, response, array, band(s), f-number and converter (the whole

@@ -242,3 +242,17 @@ def test_reprs_are_one_line_with_the_key_settings():
         assert "\n" not in text and len(text) < 200, (what, text)
         for part in parts:
             assert part in text, (what, part, text)
+
+
+def test_a_cameras_toml_is_written_once_and_a_changed_copy_has_its_own(tmp_path):
+    # Every EXR file of a study carries its camera's TOML: it is made once per camera (frozen)
+    # and kept; a copy with a field changed is another camera, with its own text.
+    camera = Camera.preset("nist-ir")
+    text = camera.to_toml()
+    assert camera.to_toml() is text
+    (tmp_path / "camera.toml").write_text(text, encoding="utf-8")
+    assert Camera.from_toml(tmp_path / "camera.toml").to_toml() == text
+    other = camera.replace(name="renamed", assumed_emissivity=0.5)
+    assert other.to_toml() != text
+    assert 'name = "renamed"' in other.to_toml() and "assumed_emissivity = 0.5" in other.to_toml()
+    assert 'name = "renamed"' not in camera.to_toml()
