@@ -680,3 +680,32 @@ def test_cache_files_of_other_sources_are_removed_once_a_process_writes_there(tm
     os.utime(tmp_path / stale[0], (1e9, 1e9))
     locator.ensure_cache_path()  # the same folder again: left as it is
     assert (tmp_path / stale[0]).exists()
+
+
+def test_claimed_blocks_are_each_taken_once_by_threads_that_share_a_counter():
+    # claim_block returns counter[0] and adds 1 atomically: threads taking blocks from one
+    # counter (the chip's moving terms) take every block exactly once, whatever their pace.
+    import numba
+
+    from radiosim.kernels import run_blocks
+    from radiosim.kernels.intrinsics import claim_block
+
+    @numba.njit(nogil=True)
+    def take(thread, counter, n, taken_by):
+        count = 0
+        while True:
+            block = claim_block(counter)
+            if block >= n:
+                return count
+            taken_by[block] += thread + 1
+            count += 1
+
+    counter = np.zeros(1, dtype=np.int64)
+    taken_by = np.zeros(5, dtype=np.int64)
+    assert take(0, counter, 5, taken_by) == 5
+    assert counter[0] == 6 and taken_by.tolist() == [1] * 5  # 0 … 4, then 5: none left
+    n = 400_000
+    counter, taken_by = np.zeros(1, dtype=np.int64), np.zeros(n, dtype=np.int64)
+    counts = run_blocks(take, 2, counter, n, taken_by)
+    assert sum(counts) == n and counter[0] == n + 2
+    assert np.all((taken_by == 1) | (taken_by == 2))  # each block by one thread, once

@@ -19,7 +19,7 @@ from llvmlite import ir as llvm_ir
 from numba.core import types
 from numba.extending import intrinsic
 
-__all__ = ["JIT", "INNER", "AHEAD", "INF", "FRAME_DTYPES", "fast_exp"]
+__all__ = ["JIT", "INNER", "AHEAD", "INF", "FRAME_DTYPES", "fast_exp", "claim_block"]
 
 #: The options of a compiled entry point (a kernel launched from Python): kept in numba's
 #: on-disk cache; a CPython wrapper, no C one (nothing calls the kernels from C).
@@ -96,6 +96,23 @@ fast_exp = _exp
 def _data(context, builder, array_type, array):
     """Data pointer of a numba array argument of an intrinsic."""
     return context.make_array(array_type)(context, builder, array).data
+
+
+@intrinsic
+def claim_block(typingctx, counter):
+    """The value of ``counter[0]`` (int64), incremented by one atomically (LLVM's atomicrmw
+    add): threads that share the counter each take the next block of work as they finish the
+    last, so none waits on another's share (the chip scene's moving terms)."""
+    if not (isinstance(counter, types.Array) and counter.dtype == types.int64):
+        return None
+    signature = types.int64(counter)
+
+    def codegen(context, builder, sig, args):
+        one = llvm_ir.Constant(llvm_ir.IntType(64), 1)
+        return builder.atomic_rmw("add", _data(context, builder, sig.args[0], args[0]), one,
+                                  "monotonic")
+
+    return signature, codegen
 
 
 def _mask(*lanes):

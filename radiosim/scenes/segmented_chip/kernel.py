@@ -5,16 +5,16 @@ A frame is the static field plus the moving terms on four index sets of the regi
 (:class:`~.geometry.RegionData`): the travelling modulation (``periodic``), the released bands
 (``chip``), the forming band (``forming``) and the free surface (``surface``), each stored as
 runs of columns per row (:class:`~.compiled.KernelLayout`). :func:`moving_terms_kernel` writes
-the frame in one pass over the region's rows (blocks of rows dealt to the threads in turn): each
-row is copied from the static field and, while it is in cache, each term is applied to its runs
-in the reference's order (modulation, released bands, forming band, surface), so every sample
-sees the reference's (:mod:`.reference`) operations in the reference's order. The coordinates
-n, ζ, ξ of a sample are recomputed from its (x, y) with :class:`~.geometry.Geometry`'s
-arithmetic (bitwise the same; fastmath is off: no reassociation, no FMA contraction), so only
-the modulation's two fields are read per sample besides the static field. exp is ``_exp``
-below, not libm's, so that the loops vectorise (relative error < 1e-15): the two
-implementations differ by rounding only (< 1e-15 relative in temperature, the region map
-identical).
+the frame in one pass over the region's rows (blocks of rows, each thread taking the next as it
+finishes one: :func:`~radiosim.kernels.intrinsics.claim_block`): each row is copied from the
+static field and, while it is in cache, each term is applied to its runs in the reference's
+order (modulation, released bands, forming band, surface), so every sample sees the reference's
+(:mod:`.reference`) operations in the reference's order. The coordinates n, ζ, ξ of a sample are
+recomputed from its (x, y) with :class:`~.geometry.Geometry`'s arithmetic (bitwise the same;
+fastmath is off: no reassociation, no FMA contraction), so only the modulation's two fields are
+read per sample besides the static field. exp is ``_exp`` below, not libm's, so that the loops
+vectorise (relative error < 1e-15): the two implementations differ by rounding only (< 1e-15
+relative in temperature, the region map identical).
 
 The kernel's scalars travel in one named bundle, :class:`KernelConstants` (a numba-supported
 named tuple of floats): the grid's constants, set once per region, and five set per frame; the
@@ -34,6 +34,7 @@ import numba
 import numpy as np
 
 from radiosim.kernels import fast_exp
+from radiosim.kernels.intrinsics import claim_block
 
 __all__ = ["KernelConstants", "RunLayout", "SET_PERIODIC", "SET_CHIP", "SET_FORMING", "SET_SURFACE",
            "PAD", "moving_terms_kernel", "kernel_coordinates"]
@@ -276,16 +277,18 @@ def band_profile(grid, terms, nodes, sin_b):
 @numba.njit(**_JIT)
 def moving_terms_kernel(thread, threads, bounds, static, regions_static, out, regions_out,
                         want_regions, forming, y, k, profile, cos_field, sin_field, layout,
-                        extremes):
+                        extremes, counter):
     """Thread ``thread``'s share (of ``threads``, each on its own thread:
     :func:`radiosim.kernels.run_blocks`) of the frame over the region: rows bounds[block] …
-    bounds[block + 1] − 1 in each block, the blocks dealt to the threads in turn (so that each
-    thread's work spans the frame, and the threads' shares are even however the blocks' work
-    was estimated); together they write ``out`` (and, with ``want_regions``, ``regions_out``)
-    in full. ``layout`` (:class:`RunLayout`) holds the runs, the fades and the columns' x
-    coordinates and PAD more (any finite values); ``k`` the scalars (:class:`KernelConstants`);
-    ``profile`` the released bands' profile on the ζ grid (:func:`band_profile`). Each row: the
-    static row, then the moving terms on the row's runs.
+    bounds[block + 1] − 1 in each block it takes, the next from ``counter`` (int64, 0 at the
+    launch: :func:`~radiosim.kernels.intrinsics.claim_block`) each time it finishes one, so
+    that a thread the system holds back leaves its blocks to the others instead of making
+    them wait; together they write ``out`` (and, with ``want_regions``, ``regions_out``) in
+    full, each row once, whichever thread writes it. ``layout`` (:class:`RunLayout`) holds
+    the runs, the fades and the columns' x coordinates and PAD more (any finite values);
+    ``k`` the scalars (:class:`KernelConstants`); ``profile`` the released bands' profile on
+    the ζ grid (:func:`band_profile`). Each row: the static row, then the moving terms on
+    the row's runs.
     ``extremes[thread]``: the least and greatest bit pattern (as int64) of the values the
     thread wrote — as integers, positive finite floats keep their order, and any value ≤ 0 K
     gives one ≤ 0, any +inf or NaN one ≥ that of +inf (the frame's check, in registers)."""
@@ -309,7 +312,10 @@ def moving_terms_kernel(thread, threads, bounds, static, regions_static, out, re
     n_cols = out.shape[1]
     low = np.int64(0x7FFFFFFFFFFFFFFF)
     high = -low
-    for block in range(thread, n_blocks, threads):
+    while True:
+        block = claim_block(counter)
+        if block >= n_blocks:
+            break
         for i in range(bounds[block], bounds[block + 1]):
             # Row i of the frame: the static row, then the moving terms on the row's runs.
             row = out[i]
