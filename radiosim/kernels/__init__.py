@@ -93,7 +93,8 @@ The package, one concept per module (imports flow down this list):
 -   :mod:`~radiosim.kernels.bundles`: the named bundles the kernel takes (frames, axes,
     accumulators, merging, packed tables, emissivity, thread buffers);
 -   :mod:`~radiosim.kernels.intrinsics`: LLVM intrinsics (fused multiply-add, the eight-sample
-    cubics by shuffles) and :data:`fast_exp`;
+    cubics by shuffles, the atomic block counter :func:`~.intrinsics.claim_block`) and
+    :data:`fast_exp`;
 -   :mod:`~radiosim.kernels.sweeps`: the generated row sweeps;
 -   :mod:`~radiosim.kernels.radiance`: the radiance pass (interval, position, cubic, grey);
 -   :mod:`~radiosim.kernels.rows`: the integrator's kernel (pixel rows, reduction to pixels,

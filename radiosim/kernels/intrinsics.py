@@ -1,8 +1,9 @@
 """
 LLVM intrinsics and inline arithmetic of the compiled kernels: a fused multiply-add
-(``llvm.fma``), a vectorisable exp (:data:`fast_exp`), and the eight-sample cubic evaluations
+(``llvm.fma``), a vectorisable exp (:data:`fast_exp`), the eight-sample cubic evaluations
 (rows of four coefficients loaded whole and transposed into vectors by shuffles, Horner by
-vector fused multiply-adds) that the radiance pass uses (:mod:`radiosim.kernels.radiance`).
+vector fused multiply-adds) that the radiance pass uses (:mod:`radiosim.kernels.radiance`), and
+an atomic counter from which threads take blocks of work (:func:`claim_block`).
 
 ``JIT`` holds the options of the package's entry points (the integrator's kernel, one for both
 frame dtypes), ``INNER`` those of the helpers they call, ``AHEAD`` those of the helpers another
@@ -103,7 +104,8 @@ def claim_block(typingctx, counter):
     """The value of ``counter[0]`` (int64), incremented by one atomically (LLVM's atomicrmw
     add): threads that share the counter each take the next block of work as they finish the
     last, so none waits on another's share (the chip scene's moving terms)."""
-    if not (isinstance(counter, types.Array) and counter.dtype == types.int64):
+    if not (isinstance(counter, types.Array) and counter.dtype == types.int64
+            and counter.mutable):
         return None
     signature = types.int64(counter)
 

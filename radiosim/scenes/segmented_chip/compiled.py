@@ -201,10 +201,13 @@ def evaluate_compiled(p: ChipParameters, r: RegionData, layout: KernelLayout, t:
     else:
         background.wait_for_loaders()  # kernels being loaded on another thread: use them after
     profile = band_profile(grid, terms, nodes, frame.sin_tb)
+    counter = np.zeros(1, dtype=np.int64)  # the next block a thread takes
     run_blocks(moving_terms_kernel, threads, threads, blocks, r.static, r.regions, temperature,
                regions, want_regions, forming, r.y, frame, profile, r.cos_field, r.sin_field,
-               layout.run_layout, extremes, np.zeros(1, dtype=np.int64))
+               layout.run_layout, extremes, counter)
     # Every value finite and > 0 K (see moving_terms_kernel): the frame's check is done.
     low, high = extremes.T.tolist()  # (a list's min and max: no numpy call per frame)
     clean = temperature.size == 0 or (min(low) > 0 and max(high) < _INF_BITS)
+    # Every block taken: each thread's last claim found none left.
+    clean = clean and int(counter[0]) == blocks.size - 1 + threads
     return temperature, (regions if want_regions else None), clean
