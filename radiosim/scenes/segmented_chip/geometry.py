@@ -41,13 +41,20 @@ from radiosim.scenes.segmented_chip.profiles import (
 if TYPE_CHECKING:
     from radiosim.scenes.segmented_chip.compiled import KernelLayout
 
-__all__ = ["REGIONS", "COLUMNS", "Geometry", "RegionData", "rake_fade_of", "band_exponent_of"]
+__all__ = ["REGIONS", "COLUMNS", "Geometry", "RegionData", "primary_step_of", "rake_fade_of",
+           "band_exponent_of"]
 
 #: Region codes of :meth:`SegmentedChip.regions`.
 REGIONS = {"air": 0, "workpiece": 1, "chip": 2, "tool": 3}
 #: Reference columns: distance from the rake face, along the shear plane L0, where each
 #: vertical column of pixels crosses L0 [m]. Column I is the paper's (near the free surface).
 COLUMNS = {"I": 440e-6, "II": 300e-6, "III": 160e-6}
+
+
+def primary_step_of(p: ChipParameters, xi):
+    """The primary zone's step across L0, S((ξ − offset) / width), at signed distances ξ [m]
+    from L0 (its rise is ``p.primary_rise`` times this)."""
+    return tanh_step((xi - p.primary_offset) / p.primary_width)
 
 
 def rake_fade_of(p: ChipParameters, n):
@@ -122,8 +129,7 @@ class Geometry:
 
         def primary(at):
             """The primary zone's rise across L0 at the flat indices ``at`` [K]."""
-            return p.primary_rise * tanh_step((np.take(xi, at) - p.primary_offset)
-                                              / p.primary_width)
+            return p.primary_rise * primary_step_of(p, np.take(xi, at))
 
         # Secondary zone (mean field) and the two static fields of its travelling modulation.
         s_chip, n_chip, s_tool = np.take(s, in_chip), np.take(n, in_chip), np.take(s, in_tool)
@@ -153,8 +159,7 @@ class Geometry:
         interface_s = np.minimum(s_t, p.contact_length)
         beyond = erfc(np.clip(s_t - p.contact_length, 0.0, None) / p.tool_conduction_length)
         xi_face = interface_s * math.sin(tb)  # on the rake face, n = 0
-        face_primary = p.primary_rise * tanh_step((xi_face - p.primary_offset)
-                                                  / p.primary_width)
+        face_primary = p.primary_rise * primary_step_of(p, xi_face)
         face_secondary = p.secondary_rise * lookup(np.column_stack(
             [np.zeros_like(interface_s), interface_s]))
         static_[in_tool] = t0 + (face_primary + face_secondary) * beyond * erfc(
@@ -167,8 +172,7 @@ class Geometry:
         self.face_s = np.arange(0.0, s_max + step, step)
         on_face = np.minimum(self.face_s, p.contact_length)
         self.face_temperature = t0 + (
-            p.primary_rise * tanh_step((on_face * math.sin(tb) - p.primary_offset)
-                                       / p.primary_width)
+            p.primary_rise * primary_step_of(p, on_face * math.sin(tb))
             + p.secondary_rise * lookup(np.column_stack([np.zeros_like(on_face), on_face]))
         ) * erfc(np.clip(self.face_s - p.contact_length, 0.0, None) / p.tool_conduction_length)
 
@@ -260,8 +264,7 @@ class RegionData:
         self.surface_zeta = zeta[self.surface]
         self.surface_n = n_all[self.surface]
         t0, rise = p.initial_temperature, p.primary_rise
-        self.background = lambda xi_: t0 + rise * float(
-            tanh_step((xi_ - p.primary_offset) / p.primary_width))
+        self.background = lambda xi_: t0 + rise * float(primary_step_of(p, xi_))
         self.background_at_l0 = self.background(0.0)
         # For the compiled kernel: the region's place in the grid and its coordinates, and its
         # run layout (built on its first compiled evaluation, see KernelLayout).

@@ -25,9 +25,9 @@ import math
 
 import numpy as np
 
-from radiosim.scenes.segmented_chip.geometry import REGIONS, RegionData
+from radiosim.scenes.segmented_chip.geometry import REGIONS, RegionData, primary_step_of
 from radiosim.scenes.segmented_chip.parameters import ChipParameters
-from radiosim.scenes.segmented_chip.profiles import gaussian_reach, tanh_step
+from radiosim.scenes.segmented_chip.profiles import gaussian_reach
 
 __all__ = ["phase", "forming_base", "forming_reach", "band_terms", "band_profile",
            "evaluate_reference"]
@@ -67,10 +67,8 @@ def band_terms(p: ChipParameters, r: RegionData, tau: float, d: float):
     t0, rise = p.initial_temperature, p.primary_rise
     peak = p.band_amplitude + r.background_at_l0
     zk = [d + k * pitch for k in range(count)]
-    # The primary zone's background at each band, t0 + rise·tanh_step(ξ): RegionData.background
-    # (geometry.py), its tanh_step in one call.
-    step = (0.5 * (1.0 + np.tanh([(z * sin_b - p.primary_offset) / p.primary_width
-                                  for z in zk]))).tolist()
+    # The primary zone's background at each band, RegionData.background: its step in one call.
+    step = primary_step_of(p, np.array(zk) * sin_b).tolist()
     terms, bounds = [], []
     for k, (z, s) in enumerate(zip(zk, step)):
         sigma2 = width2 + diffusion * (tau + k * p.period)
