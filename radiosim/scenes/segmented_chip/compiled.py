@@ -202,7 +202,7 @@ def evaluate_compiled(p: ChipParameters, r: RegionData, layout: KernelLayout, t:
         background.wait_for_loaders()  # kernels being loaded on another thread: use them after
     profile = band_profile(grid, terms, nodes, frame.sin_tb)
     counter = np.zeros(1, dtype=np.int64)  # the next block a thread takes
-    run_blocks(moving_terms_kernel, threads, threads, blocks, r.static, r.regions, temperature,
+    run_blocks(moving_terms_kernel, threads, blocks, r.static, r.regions, temperature,
                regions, want_regions, forming, r.y, frame, profile, r.cos_field, r.sin_field,
                layout.run_layout, extremes, counter)
     # Every value finite and > 0 K (see moving_terms_kernel): the frame's check is done.

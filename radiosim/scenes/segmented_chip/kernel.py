@@ -275,10 +275,9 @@ def band_profile(grid, terms, nodes, sin_b):
 
 
 @numba.njit(**_JIT)
-def moving_terms_kernel(thread, threads, bounds, static, regions_static, out, regions_out,
-                        want_regions, forming, y, k, profile, cos_field, sin_field, layout,
-                        extremes, counter):
-    """Thread ``thread``'s share (of ``threads``, each on its own thread:
+def moving_terms_kernel(thread, bounds, static, regions_static, out, regions_out, want_regions,
+                        forming, y, k, profile, cos_field, sin_field, layout, extremes, counter):
+    """Thread ``thread``'s share (the threads each on its own thread:
     :func:`radiosim.kernels.run_blocks`) of the frame over the region: rows bounds[block] …
     bounds[block + 1] − 1 in each block it takes, the next from ``counter`` (int64, 0 at the
     launch: :func:`~radiosim.kernels.intrinsics.claim_block`) each time it finishes one, so
