@@ -15,11 +15,13 @@ ratios next to the issue's targets.
 
 Everything is written in a temporary folder, removed at the end; numba's cache for the runs is
 in it too (the user's cache is neither read nor written; matplotlib's font cache is read
-where it is, as every run reads it), and so is Python's bytecode cache
-(``PYTHONPYCACHEPREFIX``, ``PYTHONDONTWRITEBYTECODE`` unset): the first process writes it, as
-``pip install`` does for an installed package, and the others read it, as a user's runs do
-(without it, every process of an editable install under ``PYTHONDONTWRITEBYTECODE``
-compiles radiosim's sources again, about 0.3 s). The machine's load shows in the
+where it is, as every run reads it). Python's bytecode is read and written where Python keeps
+it (``PYTHONDONTWRITEBYTECODE`` unset), as a user's runs do: the installed libraries' bytecode
+is the one ``pip install`` wrote, and radiosim's is written by the first process if missing,
+as at a user's first import. (An earlier version put the bytecode in a new folder under the
+temporary one, ``PYTHONPYCACHEPREFIX``: then the cold run, the first process to import numba,
+scipy and matplotlib, also compiled their Python sources, 5-6 s on 2 cores that no
+installed copy pays, and counted them as kernel compile.) The machine's load shows in the
 numbers: run it on a quiet host for the README's times. Run on demand:
 
     python benchmarks/bench_cli.py [--repeat 5]
@@ -95,9 +97,9 @@ def main(argv=None):
     if not Path(radiosim[0]).is_file():
         radiosim = [python, "-c", "import sys; from radiosim.cli import main; sys.exit(main())"]
     tmp = Path(tempfile.mkdtemp(prefix="bench_cli_"))
-    env = dict(os.environ, NUMBA_CACHE_DIR=str(tmp / "numba-cache"),
-               PYTHONPYCACHEPREFIX=str(tmp / "bytecode"))
-    env.pop("PYTHONDONTWRITEBYTECODE", None)
+    env = dict(os.environ, NUMBA_CACHE_DIR=str(tmp / "numba-cache"))
+    for name in ("PYTHONDONTWRITEBYTECODE", "PYTHONPYCACHEPREFIX"):
+        env.pop(name, None)
     rows = []  # (what, seconds, ratio to numpy's import or None, target text, met)
     try:
         numpy = _best([python, "-c", "import numpy"], env, args.repeat)
