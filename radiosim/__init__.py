@@ -69,8 +69,8 @@ CHAIN = (
     "psf", "optics",
     "imaging", "electronics", "calibration", "measurement", "ratio", "presets", "acquisition",
     "camera", "characterization", "calibration_table", "scheduling", "moments", "budget_reuse",
-    "uncertainty", "io", "study_spec", "study", "plotting", "reporting", "paper", "example_data",
-    "console", "warmup", "cli",
+    "uncertainty", "io", "study_spec", "study", "plotting", "drawing", "reporting", "paper",
+    "example_data", "console", "warmup", "cli",
 )
 
 __all__ = [

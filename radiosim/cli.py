@@ -66,11 +66,25 @@ MAX_DRAWS = 1_000_000
 
 
 def _run(args) -> int:
-    from radiosim.files import OutputFolder
+    from radiosim import drawing
 
     _check_scheduler(args.scheduler)
+    if not args.no_figures:  # they load matplotlib meanwhile, on the other core
+        drawing.start_drawers(drawing.DRAWERS)
+    try:
+        return _run_study(args, drawing)
+    finally:
+        drawing.stop_drawers()  # those the figures did not take
+
+
+def _run_study(args, drawing) -> int:
+    """:func:`_run`'s work."""
+    from radiosim.files import OutputFolder
+
     study = _study(args.study)
     draw = None if args.no_figures else study.hook("figures")
+    if draw is None:
+        drawing.stop_drawers()
     study.scene  # build (and check) the scene before anything is written
     out = OutputFolder(Path(args.out or f"radiosim-{study.name}"), overwrite=args.overwrite,
                        inputs=study.inputs())
@@ -89,7 +103,7 @@ def _run(args) -> int:
         result = study.run(out.staging, rng=args.seed, write_exr=not args.no_exr,
                            progress=None if args.quiet else progress,
                            scheduler=args.scheduler, workers=args.workers,
-                           cluster=args.cluster)
+                           cluster=args.cluster, figures=draw is not None)
         progress.close()
         if draw is not None and not args.quiet:
             print("drawing the figures", file=sys.stderr, flush=True)

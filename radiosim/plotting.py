@@ -17,9 +17,9 @@ import numpy as np
 
 from radiosim.errors import RadiosimError, RadiosimIOError
 
-__all__ = ["DPI", "figure", "fixed_axes", "few_ticks", "preload", "wrap_text", "title_block",
-           "markdown_table", "load_results", "select", "plot_versus", "save_figure",
-           "collector_held", "unhinted_text"]
+__all__ = ["DPI", "figure", "fixed_axes", "few_ticks", "load_matplotlib", "preload",
+           "wrap_text", "title_block", "markdown_table", "load_results", "select", "plot_versus",
+           "save_figure", "collector_held", "unhinted_text"]
 
 
 #: Resolution of the PNG files [dots per inch]. Figures are created at it, so the layout computed
@@ -102,26 +102,31 @@ def _in_view_class():
 _PRELOAD: list = []
 
 
+def load_matplotlib() -> None:
+    """Import matplotlib's figure, Agg canvas, ticker, legend and colorbar modules and load its
+    default font (what a figure drawn here would otherwise wait for)."""
+    import matplotlib.colorbar  # noqa: F401
+    import matplotlib.figure  # noqa: F401
+    import matplotlib.legend  # noqa: F401
+    import matplotlib.ticker  # noqa: F401
+    from matplotlib.backends import backend_agg  # noqa: F401
+    from matplotlib.font_manager import FontProperties, findfont, get_font
+
+    get_font(findfont(FontProperties()))
+
+
 def preload():
     """
-    Import matplotlib's figure, Agg canvas, ticker, legend and colorbar modules and load its
-    default font on a background (daemon) thread, once per process, so that a figure drawn
-    later does not wait for them (a study's ``run`` calls it while it measures, through its
-    figures hook's ``prepare``); returns the thread. Any error is left for the figure that
-    needs the module to raise.
+    :func:`load_matplotlib` on a background (daemon) thread, once per process, so that a figure
+    drawn later does not wait for it; returns the thread. Any error is left for the figure that
+    needs the module to raise. (The paper's figures are drawn in processes of their own where
+    the machine has two cores, :mod:`radiosim.drawing`: they load matplotlib there.)
     """
     import threading
 
     def load():
         try:
-            import matplotlib.colorbar  # noqa: F401
-            import matplotlib.figure  # noqa: F401
-            import matplotlib.legend  # noqa: F401
-            import matplotlib.ticker  # noqa: F401
-            from matplotlib.backends import backend_agg  # noqa: F401
-            from matplotlib.font_manager import FontProperties, findfont, get_font
-
-            get_font(findfont(FontProperties()))
+            load_matplotlib()
         except Exception:  # noqa: BLE001  (the figure that needs it raises it)
             pass
 

@@ -413,7 +413,7 @@ class Study:
     def run(self, out=None, rng=0, write_exr: bool = True,
             progress: Callable[[int, int, str], None] | None = None, scheduler=None,
             workers: int | None = None, overwrite: bool = False,
-            cluster: str = "auto") -> StudyResult:
+            cluster: str = "auto", figures: bool = True) -> StudyResult:
         """
         Run every measurement of the study.
 
@@ -449,12 +449,15 @@ class Study:
             it regardless.
         overwrite
             Allow ``out`` to hold radiosim's own earlier results (see above).
+        figures
+            Whether the study's figures will be drawn after the run: then, with an ``out``
+            folder, its figures hook's ``prepare`` (if it has one) is called first (see below).
 
         Warnings raised while measuring a row are kept in its ``warnings`` column and reach
         the caller as :class:`~radiosim.errors.RadiosimWarning`\\ s (never silenced). With an
         ``out`` folder, the study's figures hook's ``prepare`` (if it has one) is called first:
-        the figures drawn after the run then find their libraries loaded (the paper's import
-        matplotlib on a background thread while the study measures).
+        the figures drawn after the run then find their libraries loaded (the paper's start
+        the processes that will draw them, :func:`radiosim.paper.figures.prepare`).
         """
         seeds = spawn_seeds(rng, scheduler is not None or workers is not None)
         plan = list(self.plan())
@@ -486,7 +489,7 @@ class Study:
                                       f"{exc.strerror or exc}") from None
             exr_dir = out / "exr" if write_exr else None
         result = StudyResult(rows=[], exr_directory=exr_dir, columns=columns)
-        if out is not None:
+        if out is not None and figures:
             self._prepare_figures()
         history = {}
         run = close = None  # the Dask engine's (run, close), if one is asked for

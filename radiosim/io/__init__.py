@@ -7,12 +7,33 @@ Every reader states units explicitly (from the file's header or the caller) and 
 cannot read with an error naming the file, the line or frame, and the problem.
 """
 
-from radiosim.io.exr import read_exr, read_exr_sequence, write_exr, write_exr_sequence
-from radiosim.io.fea import read_fea_mesh, read_fea_nodes
-from radiosim.io.frames import read_frames
-from radiosim.io.netcdf import (from_xarray, read_netcdf, read_results, results_to_xarray,
-                                to_xarray, write_netcdf)
-from radiosim.io.scenes import SCENE_TYPES, SceneArgumentError, SceneType, read_scene
+import importlib
+
+# The readers and writers load their module on first use (PEP 562), so that reading an EXR
+# file (radiosim.io.exr) does not import the FEA readers' scenes, scipy and numba with it.
+_LAZY = {
+    "read_exr": "exr", "read_exr_sequence": "exr", "write_exr": "exr",
+    "write_exr_sequence": "exr",
+    "read_fea_mesh": "fea", "read_fea_nodes": "fea",
+    "read_frames": "frames",
+    "from_xarray": "netcdf", "read_netcdf": "netcdf", "read_results": "netcdf",
+    "results_to_xarray": "netcdf", "to_xarray": "netcdf", "write_netcdf": "netcdf",
+    "SCENE_TYPES": "scenes", "SceneArgumentError": "scenes", "SceneType": "scenes",
+    "read_scene": "scenes",
+}
+
+
+def __getattr__(name):
+    if name not in _LAZY:
+        raise AttributeError(f"module 'radiosim.io' has no attribute {name!r}")
+    value = getattr(importlib.import_module(f"radiosim.io.{_LAZY[name]}"), name)
+    globals()[name] = value
+    return value
+
+
+def __dir__():
+    return sorted(set(globals()) | set(_LAZY))
+
 
 __all__ = [
     "read_scene",

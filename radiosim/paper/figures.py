@@ -12,13 +12,15 @@ from pathlib import Path
 
 import numpy as np
 
+from radiosim.drawing import DRAWERS, MODULES, draw_aside, idle_drawers, start_drawers
 from radiosim.paper.columns import COLUMN_NAMES, column_index, has_columns
 from radiosim.plotting import (collector_held, few_ticks, figure, fixed_axes, load_results,
                                plot_versus, preload, save_figure, select, title_block, wrap_text)
 from radiosim.units import CELSIUS_OFFSET
 
 __all__ = ["preview_scene", "plot_peak", "plot_column_i", "plot_column_profiles",
-           "plot_long_integration", "plot_maps", "make_figures", "ERROR_BARS"]
+           "plot_long_integration", "plot_maps", "make_figures", "draw_figures", "prepare",
+           "ERROR_BARS", "FIGURE_SECONDS"]
 
 #: What the error bars of Figures 5 and 7 are.
 ERROR_BARS = ("bars: ±1σ, the standard deviation of the scene temperature over the pixel's "
@@ -148,9 +150,10 @@ def plot_column_i(rows, sweeps=("integration-time", "size-of-source")):
 
 
 def plot_column_profiles(rows, folder, scene, sweep="integration-time", camera="linear",
-                         cache=None):
+                         cache=None, event=None):
     """Figure 6: vertical temperature profiles along Columns I, II and III, one line per
-    integration time, with the scene's event frame. ``cache`` as in :func:`plot_maps`."""
+    integration time, with the scene's event frame [K] (``event``, else computed from ``scene``
+    if it has ``temperature``). ``cache`` as in :func:`plot_maps`."""
     mine = sorted(select(rows, sweep, camera=camera), key=lambda r: r["integration_time_us"])
     fig = figure(12, 4.8, layout=None)
     top = title_block(fig, f"Figure 6: vertical profiles of the camera {camera!r} "
@@ -159,7 +162,8 @@ def plot_column_profiles(rows, folder, scene, sweep="integration-time", camera="
                       "scene's event frame")
     axes = fixed_axes(fig, 1, 3, _LEFT, _RIGHT, _BOTTOM, top + _axes_title_height(1, 12) + 0.04,
                       wspace=0.2, sharey=True)
-    event = scene.temperature(scene.event_time) if hasattr(scene, "temperature") else None
+    if event is None and hasattr(scene, "temperature"):
+        event = scene.temperature(scene.event_time)
     for ax, name in zip(axes, ("I", "II", "III")):
         for r in mine:
             m = _read(folder, r["exr"], cache)
@@ -301,49 +305,126 @@ def _read(folder, name, cache=None):
     return measurement
 
 
+#: The paper's figures in the order they are written, and the seconds [s] each takes to build
+#: and save (bench_figures.py, best round): how they are shared among drawing processes.
+FIGURE_SECONDS = {"fig05_peak.png": 0.17, "fig07_column_I.png": 0.18,
+                  "fig06_profiles.png": 0.18, "fig08_long_integration.png": 0.13,
+                  "fig09-11_maps.png": 0.36}
+
+class _Columns:
+    """What Figure 6 reads of a scene with reference columns, small to send to a drawing
+    process: its shape, sample size [m], event time [s] and the columns' x [m]."""
+
+    def __init__(self, scene):
+        self.shape, self.dx, self.event_time = tuple(scene.shape), scene.dx, scene.event_time
+        self._x = {name: scene.column_x(name) for name in COLUMN_NAMES}
+
+    def column_x(self, name):
+        return self._x[name]
+
+
+def _cases(rows, camera):
+    """The cases of Figures 9-11: the 9-sample size-of-source case and the 10, 45 and 90 µs
+    integration times of ``camera``, those with an EXR file."""
+    cases = [r for r in rows if r["sweep"] == "size-of-source" and r["camera"] == camera
+             and round(r["pixel_samples"], 6) == 9]
+    cases += [r for r in rows if r["sweep"] == "integration-time" and r["camera"] == camera
+              and r["integration_time_us"] in (10, 45, 90)]
+    return [c for c in cases if c.get("exr")]
+
+
+def _names(rows, scene, camera) -> list[str]:
+    """The figures ``rows`` (and ``scene``) make, in the order they are written."""
+    names = []
+    sweeps = {r["sweep"] for r in rows}
+    if {"integration-time", "size-of-source"} <= sweeps:
+        names.append("fig05_peak.png")
+        if any(np.isfinite(r.get("column_I_C", math.nan)) for r in rows):
+            names.append("fig07_column_I.png")
+    timed = [r for r in rows if r["sweep"] == "integration-time" and r["camera"] == camera]
+    if scene is not None and has_columns(scene) and timed and all(r.get("exr") for r in timed):
+        names.append("fig06_profiles.png")
+    if "long-integration" in sweeps:
+        names.append("fig08_long_integration.png")
+    if _cases(rows, camera):
+        names.append("fig09-11_maps.png")
+    return names
+
+
+def draw_figures(folder, names, scene=None, camera="linear", event=None) -> list[Path]:
+    """
+    Write the figures ``names`` (of :func:`make_figures`) of a study's results ``folder`` into
+    ``folder/figures``, which exists; returns their paths. ``scene``: the scene with reference
+    columns (Figure 6), ``event`` its event frame [K] if already computed.
+    """
+    folder = Path(folder)
+    rows, history = load_results(folder)
+    cache = {}  # the EXR files Figures 6 and 9-11 share, read once
+    builders = {
+        "fig05_peak.png": lambda: plot_peak(rows),
+        "fig07_column_I.png": lambda: plot_column_i(rows),
+        "fig06_profiles.png": lambda: plot_column_profiles(rows, folder, scene, camera=camera,
+                                                           cache=cache, event=event),
+        "fig08_long_integration.png": lambda: plot_long_integration(rows, history),
+        "fig09-11_maps.png": lambda: plot_maps(folder, rows, _cases(rows, camera),
+                                               cache=cache),
+    }
+    # The collector held off: the figures' objects are freed at once at the end, and the
+    # process's old objects are not walked on the way (radiosim.plotting.collector_held).
+    with collector_held():
+        return [save_figure(builders[name](), folder / "figures" / name) for name in names]
+
+
+def _shares(names, count) -> list[list[str]]:
+    """``names`` in at most ``count`` shares of about equal drawing time
+    (:data:`FIGURE_SECONDS`, longest first into the least loaded), each in the written order."""
+    shares = [[] for _ in range(max(1, min(count, len(names))))]
+    load = [0.0] * len(shares)
+    for name in sorted(names, key=lambda n: -FIGURE_SECONDS.get(n, 0.2)):
+        i = load.index(min(load))
+        shares[i].append(name)
+        load[i] += FIGURE_SECONDS.get(name, 0.2)
+    return [sorted(share, key=names.index) for share in shares if share]
+
+
 def make_figures(folder, scene=None, camera="linear") -> list[Path]:
     """
     Write the paper's figures for a study's results folder into ``folder/figures`` (the
     ``figures`` hook of the ``msec2009`` study).
 
-    Returns the PNG paths written: figures whose sweeps the study lacks, or whose EXR files
-    were not written (profiles, maps), are skipped.
+    Returns the PNG paths written, in the order of :data:`FIGURE_SECONDS`: figures whose sweeps
+    the study lacks, or whose EXR files were not written (profiles, maps), are skipped.
+    Where :func:`prepare` has started drawing processes, the figures are shared among them
+    (:mod:`radiosim.drawing`); else, or where one fails, they are drawn here. The files are
+    the same either way.
     """
     folder = Path(folder)
-    rows, history = load_results(folder)
-    out = folder / "figures"
-    out.mkdir(exist_ok=True)
-    written = []
-    cache = {}  # the EXR files Figures 6 and 9-11 share, read once
-
-    def save(fig, name):
-        written.append(save_figure(fig, out / name))
-
-    # The collector held off: the figures' objects are freed at once at the end, and the
-    # process's old objects are not walked on the way (radiosim.plotting.collector_held).
-    with collector_held():
-        sweeps = {r["sweep"] for r in rows}
-        if {"integration-time", "size-of-source"} <= sweeps:
-            save(plot_peak(rows), "fig05_peak.png")
-            if any(np.isfinite(r.get("column_I_C", math.nan)) for r in rows):
-                save(plot_column_i(rows), "fig07_column_I.png")
-        timed = [r for r in rows if r["sweep"] == "integration-time" and r["camera"] == camera]
-        if (scene is not None and has_columns(scene) and timed
-                and all(r.get("exr") for r in timed)):
-            save(plot_column_profiles(rows, folder, scene, camera=camera, cache=cache),
-                 "fig06_profiles.png")
-        if "long-integration" in sweeps:
-            save(plot_long_integration(rows, history), "fig08_long_integration.png")
-        cases = [r for r in rows if r["sweep"] == "size-of-source" and r["camera"] == camera
-                 and round(r["pixel_samples"], 6) == 9]
-        cases += [r for r in rows if r["sweep"] == "integration-time" and r["camera"] == camera
-                  and r["integration_time_us"] in (10, 45, 90)]
-        cases = [c for c in cases if c.get("exr")]
-        if cases:
-            save(plot_maps(folder, rows, cases, cache=cache), "fig09-11_maps.png")
-    return written
+    rows, _ = load_results(folder)
+    names = _names(rows, scene, camera)
+    if not names:
+        return []
+    (folder / "figures").mkdir(exist_ok=True)
+    columns = event = None
+    if "fig06_profiles.png" in names:
+        columns = _Columns(scene)  # a recipe's scene would build its geometry again there
+        if hasattr(scene, "temperature"):
+            event = scene.temperature(scene.event_time)
+    jobs = [(draw_figures, (folder, share) + ((columns, camera, event)
+                                              if "fig06_profiles.png" in share else
+                                              (None, camera, None)))
+            for share in _shares(names, idle_drawers())]
+    written = [path for paths in draw_aside(jobs) for path in paths]
+    return sorted(written, key=lambda path: names.index(path.name))
 
 
-#: A study calls its figures hook's ``prepare`` when it starts measuring: matplotlib is then
-#: imported on a background thread meanwhile (:func:`radiosim.plotting.preload`).
-make_figures.prepare = preload
+def prepare() -> None:
+    """Before a study measures (its figures hook's ``prepare``): have
+    :data:`radiosim.drawing.DRAWERS` processes load matplotlib and this module meanwhile, then
+    wait to draw the figures (:func:`radiosim.drawing.start_drawers`); on one core, load
+    matplotlib here on a background thread instead (:func:`radiosim.plotting.preload`)."""
+    if not start_drawers(DRAWERS, modules=(*MODULES, "radiosim.paper.figures")):
+        preload()
+
+
+#: A study calls its figures hook's ``prepare`` when it starts measuring.
+make_figures.prepare = prepare

@@ -1,0 +1,146 @@
+"""Drawing figures in other processes (radiosim.drawing) and the paper's figures drawn there."""
+
+import os
+import pickle
+import shutil
+import signal
+import subprocess
+import sys
+import time
+import warnings
+
+import pytest
+
+from radiosim import drawing
+
+pytestmark = pytest.mark.skipif(os.name != "posix" or drawing._cores() < 2,
+                                reason="drawing processes need two cores and POSIX pipes")
+
+
+@pytest.fixture(autouse=True)
+def no_idle_drawers():
+    drawing.stop_drawers()
+    yield
+    drawing.stop_drawers()
+
+
+def test_a_job_runs_in_a_drawing_process_and_its_value_comes_back():
+    assert drawing.start_drawers(2) == 2
+    assert drawing.start_drawers(2) == 2  # the idle ones are reused, none started
+    pids = drawing.draw_aside([(os.getpid, ()), (os.getpid, ()), (abs, (-3,))])
+    assert os.getpid() not in pids[:2] and pids[0] != pids[1]  # one process per job
+    assert pids[2] == 3  # no process left for it: run here
+    assert drawing.idle_drawers() == 0
+
+
+def test_without_drawing_processes_the_jobs_run_here_in_order():
+    assert drawing.draw_aside([(os.getpid, ()), (divmod, (7, 2))]) == [os.getpid(), (3, 1)]
+
+
+def test_a_job_that_does_not_pickle_runs_here_and_leaves_the_process_idle():
+    drawing.start_drawers(1)
+    assert drawing.draw_aside([(lambda: os.getpid(), ())]) == [os.getpid()]
+    assert drawing.idle_drawers() == 1
+
+
+def test_a_drawing_process_that_ended_leaves_its_job_to_this_one():
+    drawing.start_drawers(1)
+    process = drawing._IDLE[0]
+    process.kill()
+    process.wait()
+    assert drawing.draw_aside([(os.getpid, ())]) == [os.getpid()]
+
+
+def test_a_job_that_raises_there_runs_here_and_raises_here():
+    drawing.start_drawers(1)
+    with pytest.raises(ValueError, match="invalid literal"):
+        drawing.draw_aside([(int, ("x",))])
+    assert drawing.idle_drawers() == 0
+
+
+def test_the_warnings_a_job_raises_there_are_raised_here():
+    drawing.start_drawers(1)
+    with pytest.warns(UserWarning, match="drawn elsewhere"):
+        assert drawing.draw_aside([(warnings.warn, ("drawn elsewhere", UserWarning))]) == [None]
+
+
+def _handles_sigterm(pid) -> bool:
+    """Whether process ``pid`` has a handler for SIGTERM (Linux: its status's SigCgt mask)."""
+    with open(f"/proc/{pid}/status") as status:
+        caught = next(int(line.split()[1], 16) for line in status if line.startswith("SigCgt"))
+    return bool(caught >> (signal.SIGTERM - 1) & 1)
+
+
+@pytest.mark.skipif(not os.path.exists("/proc/self/status"), reason="reads /proc (Linux)")
+def test_a_drawing_process_unwinds_when_stopped_at_any_moment():
+    """SIGTERM while it starts, imports or runs its job: it ends within the grace; once its
+    handler is in, unwinding as on Ctrl-C (its ``finally`` blocks remove their partial files;
+    before that it has written nothing) and ending with 130, not killed by the signal."""
+    for wait in (None, 0.0, 4.0):  # starting; importing matplotlib; in its job
+        drawing.start_drawers(1)
+        process = drawing._IDLE.pop()
+        assert drawing._send(process, pickle.dumps((time.sleep, (60,))))
+        if wait is not None:
+            for _ in range(200):
+                if _handles_sigterm(process.pid):
+                    break
+                time.sleep(0.05)
+            time.sleep(wait)
+        began = time.perf_counter()
+        drawing._stop(process, grace=10)
+        assert time.perf_counter() - began < 5
+        assert process.returncode in ((130, -signal.SIGTERM) if wait is None else (130,))
+
+
+def test_an_idle_drawing_process_ends_with_its_parent():
+    code = ("import sys, time; from radiosim import drawing; drawing.start_drawers(1); "
+            "print(drawing._IDLE[0].pid, flush=True); time.sleep(60)")
+    parent = subprocess.Popen([sys.executable, "-c", code], stdout=subprocess.PIPE, text=True)
+    child = int(parent.stdout.readline())
+    parent.kill()
+    parent.wait()
+    for _ in range(100):  # its stdin closed, or its parent gone: it ends within a second
+        try:
+            os.kill(child, 0)
+        except ProcessLookupError:
+            break
+        time.sleep(0.1)
+    else:
+        os.kill(child, signal.SIGKILL)
+        pytest.fail("the drawing process outlived its parent")
+
+
+def test_the_paper_figures_drawn_in_processes_are_the_files_drawn_here(tmp_path):
+    from radiosim.paper import figures as F
+    from radiosim.study import Study
+    from test_cli import SMALL_STUDY
+
+    study_file = tmp_path / "small.toml"
+    study_file.write_text(SMALL_STUDY)
+    study = Study.from_toml(study_file)
+    study.run(tmp_path / "out", write_exr=True)  # its prepare starts the drawing processes
+    assert drawing.idle_drawers() == drawing.DRAWERS
+    written = F.make_figures(tmp_path / "out", study.scene)
+    assert drawing.idle_drawers() == 0  # each took a share
+    names = [p.name for p in written]
+    assert names == ["fig05_peak.png", "fig07_column_I.png", "fig06_profiles.png",
+                     "fig09-11_maps.png"]  # the written order, whoever drew them
+    here = tmp_path / "here"
+    shutil.copytree(tmp_path / "out", here, ignore=shutil.ignore_patterns("figures"))
+    (here / "figures").mkdir()
+    F.draw_figures(here, names, study.scene)
+    for name in names:
+        assert (here / "figures" / name).read_bytes() == (tmp_path / "out" / "figures" /
+                                                          name).read_bytes(), name
+
+
+def test_a_run_without_figures_starts_no_drawing_process(tmp_path, monkeypatch):
+    from radiosim.cli import main
+    from test_cli import SMALL_STUDY
+
+    started = []
+    monkeypatch.setattr(drawing, "start_drawers", lambda *a, **k: started.append(a) or 0)
+    study = tmp_path / "small.toml"
+    study.write_text(SMALL_STUDY)
+    assert main(["run", str(study), "--out", str(tmp_path / "o"), "--no-figures", "-q"]) == 0
+    assert started == [] and not (tmp_path / "o" / "figures").exists()
