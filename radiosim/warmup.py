@@ -18,7 +18,7 @@ __all__ = ["COMPILE_SECONDS", "WARMUP_SECONDS", "announce_compile", "compile_for
 #: Compile times [s] from an empty cache on 2 cores (measured by benchmarks/bench_cli.py and
 #: bench_compile.py; README): what a run of the paper's study compiles (the integrator's kernel
 #: and the chip's), and every kernel (``radiosim warmup``).
-COMPILE_SECONDS, WARMUP_SECONDS = 15, 14
+COMPILE_SECONDS, WARMUP_SECONDS = 14, 14
 
 
 def announce_compile(args, frame_dtype="float64", chip=False):
