@@ -1,17 +1,21 @@
 """
 Drawing figures in other processes: a figure is Python work (ticks, texts, paths) that holds the
-interpreter for about a second, and matplotlib's import holds it for half a second more. In a
-process of their own, started while a study measures (:func:`start_drawers`), matplotlib loads
-beside the measurements instead of taking the interpreter from them, and the figures are drawn
-there, on the other core, when the results are in (:func:`draw_aside`).
+interpreter for about a second, and matplotlib's import holds it for half a second more. In
+processes of their own, started by ``radiosim run`` before it loads the study
+(:func:`start_drawers`), matplotlib loads beside the measurements instead of taking the
+interpreter from them, and the figures are drawn there, on the other core, when the results
+are in (:func:`draw_aside`).
 
-A drawing process runs one job, a module-level function and its (picklable) arguments, and
-sends back its return value and the warnings it raised, which are raised again here, never
-silenced. Whatever goes wrong there (no process could start, it ended, the job raised), the
-job runs in this process instead, as it would without it: the results, and the error a broken
-input gives, do not depend on where the figures were drawn. On an interrupt the processes are
-asked to stop (their files are written atomically: a stopped job leaves none half-written) and
-waited for; an idle process ends with this one (its parent), or after :data:`IDLE_SECONDS`.
+A drawing process runs one job, a module-level function and its (picklable) arguments, in the
+parent's working folder, and sends back its return value and every warning it raised (all of
+them recorded, whatever the filters there), which are raised again here, through this process's
+filters, as if raised here. Whatever goes wrong there (no process could start, it ended, the
+job raised), the job runs in this process instead, as it would without it, and the error a
+broken input gives is raised here. A caller that has set matplotlib up in this process
+(rcParams, a style) draws here: a drawing process draws with matplotlib's defaults
+(:func:`matplotlib_configured`). On an interrupt the processes drawing are asked to stop (they
+unwind: files written atomically leave nothing half-written) and waited for; an idle process
+ends with this one (its parent), or after :data:`IDLE_SECONDS`. POSIX only, two cores or more.
 """
 
 from __future__ import annotations
@@ -20,21 +24,34 @@ import atexit
 import os
 import pickle
 import signal
+import struct
 import subprocess
 import sys
+import threading
 import warnings
 
 __all__ = ["IDLE_SECONDS", "DRAWERS", "MODULES", "start_drawers", "idle_drawers", "draw_aside",
-           "stop_drawers"]
+           "stop_drawers", "matplotlib_configured"]
 
-#: An idle drawing process ends after this long [s] without a job (a study measured from a
-#: notebook whose figures are never drawn); a job sent later then runs in this process.
+#: An idle drawing process ends after this long [s] without a job; a job sent later then runs
+#: in this process.
 IDLE_SECONDS = 900.0
 
-#: What a drawing process runs (``python -c CHILD --parent PID [MODULE ...]``): :func:`_main`.
+#: How many drawing processes ``radiosim run`` starts (on two cores or more): the paper's
+#: figures in two shares of about equal time (:data:`radiosim.paper.figures.FIGURE_SECONDS`).
+DRAWERS = 2
+
+#: What a drawing process imports while it waits, besides matplotlib: the reading of results
+#: (an EXR file's measurement and its camera) and the paper's figures.
+MODULES = ("radiosim.plotting", "radiosim.io.exr", "radiosim.camera", "radiosim.paper.figures")
+
+#: What a drawing process runs (``python -P -c CHILD --parent PID [MODULE ...]``, ``-P``: its
+#: working folder is not on its import path): :func:`_main`.
 CHILD = "import sys; from radiosim.drawing import _main; _main(sys.argv[1:])"
 
 _IDLE: list = []  # started drawing processes without a job yet
+_LOCK = threading.Lock()  # guards _IDLE
+_HEADER = struct.Struct("<Q")  # a job's length [bytes], before it
 
 
 def _cores() -> int:
@@ -44,68 +61,88 @@ def _cores() -> int:
         return os.cpu_count() or 1
 
 
-#: How many drawing processes ``radiosim run`` starts (on two cores or more): the paper's
-#: figures in two shares of about equal time (:data:`radiosim.paper.figures.FIGURE_SECONDS`).
-DRAWERS = 2
+def _close(process) -> None:
+    for stream in (process.stdin, process.stdout):
+        try:
+            stream.close()
+        except OSError:
+            pass
 
-#: What a drawing process imports while it waits, besides matplotlib: the reading of results
-#: (an EXR file's measurement and its camera).
-MODULES = ("radiosim.plotting", "radiosim.io.exr", "radiosim.camera")
+
+def _prune() -> None:
+    """Forget the idle processes that have ended (their pipes closed). Under ``_LOCK``."""
+    for process in [p for p in _IDLE if p.poll() is not None]:
+        _IDLE.remove(process)
+        _close(process)
 
 
 def start_drawers(count: int, modules=MODULES) -> int:
     """
     Have ``count`` drawing processes ready (started now, or idle from before), each importing
-    matplotlib and ``modules`` (names of modules) while it waits for its job; none on a machine
-    of one core (there the figures are drawn here). Returns how many are ready. A process that
-    cannot start is left out: its job will run here.
+    ``modules`` (names of modules) and matplotlib while it waits for its job; none on a
+    machine of one core or off POSIX (there the figures are drawn here). Returns how many are
+    ready. A process that cannot start is left out: its job will run here.
     """
-    _IDLE[:] = [p for p in _IDLE if p.poll() is None]
     if _cores() < 2 or os.name != "posix":  # one core, or no select() on a pipe
         return 0
     package = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
     paths = [package, os.environ.get("PYTHONPATH", "")]
     env = dict(os.environ, PYTHONPATH=os.pathsep.join(p for p in paths if p))
-    while len(_IDLE) < count:
-        try:
-            process = subprocess.Popen(
-                [sys.executable, "-c", CHILD, "--parent", str(os.getpid()), *modules],
-                env=env, stdin=subprocess.PIPE, stdout=subprocess.PIPE,
-                stderr=subprocess.DEVNULL)
-        except (OSError, ValueError):
-            break
-        _IDLE.append(process)
-        if len(_IDLE) == 1:
-            atexit.register(_end_idle)
-    return len(_IDLE)
+    command = [sys.executable, *subprocess._args_from_interpreter_flags(), "-P", "-c", CHILD,
+               "--parent", str(os.getpid()), *modules]
+    with _LOCK:
+        _prune()
+        while len(_IDLE) < count:
+            try:
+                process = subprocess.Popen(command, env=env, stdin=subprocess.PIPE,
+                                           stdout=subprocess.PIPE, stderr=subprocess.DEVNULL)
+            except (OSError, ValueError):
+                break
+            _IDLE.append(process)
+        return len(_IDLE)
 
 
-def _end_idle() -> None:
-    """End the idle drawing processes at once (also at exit)."""
-    while _IDLE:
-        process = _IDLE.pop()
+def idle_drawers() -> int:
+    """How many drawing processes are ready for a job."""
+    with _LOCK:
+        _prune()
+        return len(_IDLE)
+
+
+def stop_drawers() -> None:
+    """End the idle drawing processes at once (a study whose figures will not be drawn; also
+    at exit): they hold nothing to clean up."""
+    with _LOCK:
+        idle = list(_IDLE)
+        _IDLE.clear()
+    for process in idle:
         try:
             process.kill()
             process.wait()
         except OSError:
             pass
-        for stream in (process.stdin, process.stdout):
-            try:
-                stream.close()
-            except OSError:
-                pass
+        _close(process)
 
 
-def idle_drawers() -> int:
-    """How many drawing processes are ready for a job."""
-    _IDLE[:] = [p for p in _IDLE if p.poll() is None]
-    return len(_IDLE)
+atexit.register(stop_drawers)
 
 
-def stop_drawers() -> None:
-    """End the idle drawing processes (a study whose figures will not be drawn): they hold
-    nothing to clean up."""
-    _end_idle()
+def _forget_in_fork() -> None:
+    """In a child forked from this process (multiprocessing, Dask): the drawing processes are
+    not its own; close its copies of their pipes."""
+    for process in _IDLE:
+        _close(process)
+    _IDLE.clear()
+
+
+if hasattr(os, "register_at_fork"):
+    os.register_at_fork(after_in_child=_forget_in_fork)
+
+
+def matplotlib_configured() -> bool:
+    """Whether this process has imported matplotlib, whose settings (rcParams, a style, a
+    context) a drawing process would not share: figures are then drawn here."""
+    return "matplotlib" in sys.modules
 
 
 def _stop(process, grace: float = 2.0) -> None:
@@ -120,17 +157,15 @@ def _stop(process, grace: float = 2.0) -> None:
             process.wait()
         except OSError:
             pass
-    for stream in (process.stdin, process.stdout):
-        try:
-            stream.close()
-        except OSError:
-            pass
+    _close(process)
 
 
 def _send(process, job: bytes) -> bool:
-    """Give ``process`` its job; False if it has ended (then the job runs here)."""
+    """Give ``process`` its job, its length first (the process reads exactly that: a copy of
+    the pipe in a forked child cannot hold it waiting for the end of its input); False if it
+    has ended (then the job runs here)."""
     try:
-        process.stdin.write(job)
+        process.stdin.write(_HEADER.pack(len(job)) + job)
         process.stdin.close()
         return True
     except (OSError, ValueError):
@@ -147,10 +182,21 @@ def _receive(process):
     except Exception:  # noqa: BLE001 - a truncated or unreadable reply: the job runs here
         return None
     finally:
-        process.stdout.close()
+        _close(process)
     if not isinstance(outcome, tuple) or len(outcome) != 3 or outcome[0] != "done":
         return None
     return outcome[1], outcome[2]
+
+
+def _raise_again(raised) -> None:
+    """Raise the warnings a drawing process recorded, through this process's filters, as from
+    their module (its registry: one shown once per place, as if raised here)."""
+    for message, category, filename, lineno, module in raised:
+        where = sys.modules.get(module)
+        registry = (None if where is None
+                    else where.__dict__.setdefault("__warningregistry__", {}))
+        warnings.warn_explicit(message, category, filename, lineno, module=module,
+                               registry=registry)
 
 
 def draw_aside(jobs) -> list:
@@ -161,20 +207,23 @@ def draw_aside(jobs) -> list:
     ``jobs``; the warnings a job raised there are raised here again, in the jobs' order.
     """
     jobs = list(jobs)
-    sent = []
+    sent, taken = [], []
     try:
         for function, args in jobs:
             process = None
             try:
-                job = pickle.dumps((function, tuple(args)), protocol=pickle.HIGHEST_PROTOCOL)
+                job = pickle.dumps((os.getcwd(), function, tuple(args)),
+                                   protocol=pickle.HIGHEST_PROTOCOL)
             except Exception:  # noqa: BLE001 - e.g. a local function: it runs here
                 job = None
-            while job is not None and _IDLE and process is None:
-                candidate = _IDLE.pop(0)
+            while job is not None and process is None:
+                with _LOCK:
+                    candidate = _IDLE.pop(0) if _IDLE else None
+                if candidate is None:
+                    break
+                taken.append(candidate)
                 if candidate.poll() is None and _send(candidate, job):
                     process = candidate
-                else:
-                    _stop(candidate)
             sent.append(process)
         values = []
         for (function, args), process in zip(jobs, sent):
@@ -183,23 +232,31 @@ def draw_aside(jobs) -> list:
                 values.append(function(*args))
                 continue
             value, raised = outcome
-            for message, category, filename, lineno in raised:
-                warnings.warn_explicit(message, category, filename, lineno)
+            _raise_again(raised)
             values.append(value)
         return values
     finally:  # an interrupt or an error here: the processes still drawing stop, cleanly
-        for process in sent:
-            if process is not None:
-                _stop(process)
+        for process in taken:
+            _stop(process)
+
+
+def _read_job(stream) -> bytes:
+    """The job on ``stream``: its length, then that many bytes (``b""`` if it ends first)."""
+    head = stream.read(_HEADER.size)
+    if len(head) < _HEADER.size:
+        return b""
+    size = _HEADER.unpack(head)[0]
+    data = stream.read(size)
+    return data if len(data) == size else b""
 
 
 def _main(argv) -> None:
-    """A drawing process: import matplotlib and the modules named (on a thread of lowest
-    priority), wait for one job on stdin, run it (at normal priority, once those imports are
-    done), write ``("done", value, warnings)`` to stdout (nothing if it raised), and end the
-    process: 0, 130 when stopped (SIGTERM or Ctrl-C, unwound), 1 when its job raised."""
+    """A drawing process: import the modules named and matplotlib (on a thread of lowest
+    priority), wait for one job on stdin, run it (once those imports are done, at normal
+    priority) in the parent's working folder, write ``("done", value, warnings)`` to stdout
+    (nothing if it raised), and end: 0, 130 when stopped (SIGTERM or Ctrl-C, unwound), 1 when
+    its job raised."""
     import select
-    import threading
 
     from radiosim.compiling_process import watch_parent
 
@@ -207,43 +264,55 @@ def _main(argv) -> None:
     reply = os.fdopen(os.dup(1), "wb")  # the job's own prints go nowhere, not into the reply
     os.dup2(os.open(os.devnull, os.O_WRONLY), 1)
     signal.signal(signal.SIGTERM, signal.default_int_handler)  # unwind as on Ctrl-C
+    code = 1
     try:
         watch_parent(argv)
+        # Everything, numpy first, is imported at the lowest priority (the threads numpy's
+        # BLAS starts keep it: figures do not use them).
         loader = threading.Thread(target=_preload, args=(argv, True), daemon=True,
                                   name="radiosim-drawing-preload")
         loader.start()
         ready, _, _ = select.select([sys.stdin.buffer], [], [], IDLE_SECONDS)
-        data = sys.stdin.buffer.read() if ready else b""
-        if not data:  # idle too long, or the parent is done without a job for it
-            os._exit(0)
-        loader.join()
-        function, args = pickle.loads(data)
-        with warnings.catch_warnings(record=True) as raised:
-            value = function(*args)
-        raised = [_picklable(w) for w in raised]
-        reply.write(pickle.dumps(("done", value, raised), protocol=pickle.HIGHEST_PROTOCOL))
-        reply.close()
+        data = _read_job(sys.stdin.buffer) if ready else b""
+        if data:  # else idle too long, or the parent is done without a job for it
+            loader.join()
+            folder, function, args = pickle.loads(data)
+            os.chdir(folder)
+            with warnings.catch_warnings(record=True) as raised:
+                warnings.simplefilter("always")  # all of them: the parent's filters decide
+                value = function(*args)
+            raised = [_picklable(w) for w in raised]
+            reply.write(pickle.dumps(("done", value, raised), protocol=pickle.HIGHEST_PROTOCOL))
+            reply.close()
         code = 0
     except KeyboardInterrupt:  # unwound: a job's partial files are removed
         code = 130
     except Exception:  # noqa: BLE001 - no reply: the parent runs the job itself, and raises
         code = 1
-    # Its files are complete (written atomically and synced) or removed: end now, without the
-    # interpreter's tear-down of matplotlib and numba, which the parent would wait for.
-    os._exit(code)
+    # Its files are complete (written atomically and synced) or removed. The exit handlers
+    # (matplotlib's removes a temporary configuration folder) run, the interpreter's tear-down
+    # of matplotlib and numba, which the parent would wait for, does not.
+    try:
+        atexit._run_exitfuncs()
+    finally:
+        os._exit(code)
 
 
 def _preload(modules, lowest: bool = False) -> None:
-    """Import matplotlib's drawing modules and its default font, then ``modules``; with
-    ``lowest``, on this thread at the lowest priority (nice 19: the measurements beside it
-    come first; on Linux a thread's priority is its own, so the job runs at normal priority)."""
+    """Import ``modules``, then matplotlib's drawing modules and its default font; with
+    ``lowest`` on Linux, on this thread at the lowest priority (nice 19, a thread's own there:
+    the measurements beside it come first, and the job runs at normal priority)."""
     import importlib
-    import threading
 
-    if lowest:
+    if lowest and sys.platform.startswith("linux"):
         try:
             os.setpriority(os.PRIO_PROCESS, threading.get_native_id(), 19)
-        except (AttributeError, OSError):  # not a thread's own elsewhere: left as it is
+        except (AttributeError, OSError):
+            pass
+    for name in modules:
+        try:
+            importlib.import_module(name)
+        except Exception:  # noqa: BLE001 - the job that needs it raises it (then runs there)
             pass
     try:
         from radiosim.plotting import load_matplotlib
@@ -251,19 +320,19 @@ def _preload(modules, lowest: bool = False) -> None:
         load_matplotlib()
     except Exception:  # noqa: BLE001 - the job raises it (then runs in the parent)
         pass
-    for name in modules:
-        try:
-            importlib.import_module(name)
-        except Exception:  # noqa: BLE001 - the job that needs it raises it (then runs there)
-            pass
 
 
 def _picklable(warning) -> tuple:
-    """A recorded warning as ``(message, category, filename, lineno)``, its message and
-    category as raised where they pickle, else as text and a :class:`UserWarning`."""
-    entry = (warning.message, warning.category, warning.filename, warning.lineno)
+    """A recorded warning as ``(message, category, filename, lineno, module)``, its message and
+    category as raised where they pickle, else as text and a :class:`UserWarning`; ``module``
+    the name of the module of ``filename``, as :func:`warnings.warn` finds it."""
+    module = next((name for name, m in list(sys.modules.items())
+                   if getattr(m, "__file__", None) == warning.filename), None)
+    if module is None:
+        module = os.path.splitext(os.path.basename(warning.filename or ""))[0] or "<unknown>"
+    entry = (warning.message, warning.category, warning.filename, warning.lineno, module)
     try:
         pickle.loads(pickle.dumps(entry))
         return entry
     except Exception:  # noqa: BLE001
-        return (str(warning.message), UserWarning, warning.filename, warning.lineno)
+        return (str(warning.message), UserWarning, warning.filename, warning.lineno, module)

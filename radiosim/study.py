@@ -456,8 +456,9 @@ class Study:
         Warnings raised while measuring a row are kept in its ``warnings`` column and reach
         the caller as :class:`~radiosim.errors.RadiosimWarning`\\ s (never silenced). With an
         ``out`` folder, the study's figures hook's ``prepare`` (if it has one) is called first:
-        the figures drawn after the run then find their libraries loaded (the paper's start
-        the processes that will draw them, :func:`radiosim.paper.figures.prepare`).
+        the figures drawn after the run then find their libraries loaded (the paper's loads
+        matplotlib on a background thread, :func:`radiosim.paper.figures.prepare`, unless
+        processes are ready to draw them: ``radiosim run`` starts them).
         """
         seeds = spawn_seeds(rng, scheduler is not None or workers is not None)
         plan = list(self.plan())

@@ -8,6 +8,7 @@ import subprocess
 import sys
 import time
 import warnings
+from pathlib import Path
 
 import pytest
 
@@ -64,6 +65,44 @@ def test_the_warnings_a_job_raises_there_are_raised_here():
         assert drawing.draw_aside([(warnings.warn, ("drawn elsewhere", UserWarning))]) == [None]
 
 
+def test_every_warning_raised_there_meets_this_process_filters_as_from_its_module():
+    """Recorded there whatever the filters there (a DeprecationWarning too, both of two
+    repeats); here this process's filters decide, by category and by module."""
+    job = (warnings.warn, ("old way", DeprecationWarning))
+    drawing.start_drawers(2)
+    with warnings.catch_warnings(record=True) as seen:
+        warnings.simplefilter("always")
+        drawing.draw_aside([job, job])
+    assert [(w.category, str(w.message)) for w in seen] == [(DeprecationWarning, "old way")] * 2
+    drawing.start_drawers(1)
+    with warnings.catch_warnings(record=True) as seen:
+        warnings.simplefilter("always")
+        warnings.filterwarnings("ignore", module=r"radiosim\.drawing")  # where warn ran there
+        drawing.draw_aside([job])
+    assert seen == []
+
+
+def test_a_job_runs_in_this_process_working_folder(tmp_path, monkeypatch):
+    drawing.start_drawers(1)
+    monkeypatch.chdir(tmp_path)
+    assert drawing.draw_aside([(os.getcwd, ())]) == [str(tmp_path)]
+
+
+def test_a_forked_child_holding_copies_of_the_pipes_does_not_hold_a_job():
+    drawing.start_drawers(1)
+    child = os.fork()
+    if child == 0:  # a multiprocessing or Dask worker forked now would hold the pipes
+        time.sleep(5)
+        os._exit(0)
+    try:
+        began = time.perf_counter()
+        pid = drawing.draw_aside([(os.getpid, ())])[0]
+        assert pid not in (os.getpid(), child) and time.perf_counter() - began < 4
+    finally:
+        os.kill(child, signal.SIGKILL)
+        os.waitpid(child, 0)
+
+
 def _handles_sigterm(pid) -> bool:
     """Whether process ``pid`` has a handler for SIGTERM (Linux: its status's SigCgt mask)."""
     with open(f"/proc/{pid}/status") as status:
@@ -79,7 +118,7 @@ def test_a_drawing_process_unwinds_when_stopped_at_any_moment():
     for wait in (None, 0.0, 4.0):  # starting; importing matplotlib; in its job
         drawing.start_drawers(1)
         process = drawing._IDLE.pop()
-        assert drawing._send(process, pickle.dumps((time.sleep, (60,))))
+        assert drawing._send(process, pickle.dumps((os.getcwd(), time.sleep, (60,))))
         if wait is not None:
             for _ in range(200):
                 if _handles_sigterm(process.pid):
@@ -96,7 +135,8 @@ def test_an_idle_drawing_process_ends_with_its_parent():
     code = ("import sys, time; from radiosim import drawing; drawing.start_drawers(1); "
             "print(drawing._IDLE[0].pid, flush=True); time.sleep(60)")
     parent = subprocess.Popen([sys.executable, "-c", code], stdout=subprocess.PIPE, text=True)
-    child = int(parent.stdout.readline())
+    with parent.stdout:
+        child = int(parent.stdout.readline())
     parent.kill()
     parent.wait()
     for _ in range(100):  # its stdin closed, or its parent gone: it ends within a second
@@ -110,7 +150,7 @@ def test_an_idle_drawing_process_ends_with_its_parent():
         pytest.fail("the drawing process outlived its parent")
 
 
-def test_the_paper_figures_drawn_in_processes_are_the_files_drawn_here(tmp_path):
+def test_the_paper_figures_drawn_in_processes_are_the_files_drawn_here(tmp_path, monkeypatch):
     from radiosim.paper import figures as F
     from radiosim.study import Study
     from test_cli import SMALL_STUDY
@@ -118,13 +158,21 @@ def test_the_paper_figures_drawn_in_processes_are_the_files_drawn_here(tmp_path)
     study_file = tmp_path / "small.toml"
     study_file.write_text(SMALL_STUDY)
     study = Study.from_toml(study_file)
-    study.run(tmp_path / "out", write_exr=True)  # its prepare starts the drawing processes
-    assert drawing.idle_drawers() == drawing.DRAWERS
-    written = F.make_figures(tmp_path / "out", study.scene)
+    study.run(tmp_path / "out", write_exr=True)
+    # As radiosim run: drawing processes, and matplotlib not set up here (the tests import it).
+    monkeypatch.setattr(F, "matplotlib_configured", lambda: False)
+    assert drawing.start_drawers(drawing.DRAWERS) == drawing.DRAWERS
+    (tmp_path / "out" / "figures").mkdir()
+    left = tmp_path / "out" / "figures" / ".fig05_peak.png.k1lled.partial"
+    left.write_bytes(b"a drawing process killed mid-write")
+    monkeypatch.chdir(tmp_path)
+    written = F.make_figures("out", study.scene)  # a folder relative to this one
     assert drawing.idle_drawers() == 0  # each took a share
+    assert not left.exists()
     names = [p.name for p in written]
     assert names == ["fig05_peak.png", "fig07_column_I.png", "fig06_profiles.png",
                      "fig09-11_maps.png"]  # the written order, whoever drew them
+    assert written[0] == Path("out") / "figures" / "fig05_peak.png"  # as the caller named it
     here = tmp_path / "here"
     shutil.copytree(tmp_path / "out", here, ignore=shutil.ignore_patterns("figures"))
     (here / "figures").mkdir()
@@ -134,13 +182,27 @@ def test_the_paper_figures_drawn_in_processes_are_the_files_drawn_here(tmp_path)
                                                           name).read_bytes(), name
 
 
-def test_a_run_without_figures_starts_no_drawing_process(tmp_path, monkeypatch):
+def test_a_study_measured_through_the_api_starts_no_drawing_process(tmp_path):
+    """Only radiosim run starts drawing processes; a study's figures hook loads matplotlib on
+    a thread instead (the caller may set matplotlib up before drawing)."""
+    from radiosim.paper import figures as F
+
+    F.prepare()
+    assert drawing.idle_drawers() == 0
+
+
+def test_a_run_without_figures_starts_no_drawing_process_nor_prepares(tmp_path, monkeypatch):
     from radiosim.cli import main
+    from radiosim.paper import figures as F
     from test_cli import SMALL_STUDY
 
-    started = []
+    started, prepared = [], []
     monkeypatch.setattr(drawing, "start_drawers", lambda *a, **k: started.append(a) or 0)
+    monkeypatch.setattr(F.make_figures, "prepare", lambda: prepared.append(1))
     study = tmp_path / "small.toml"
-    study.write_text(SMALL_STUDY)
+    study.write_text(SMALL_STUDY.replace("radiosim.paper:make_figures",
+                                         "radiosim.paper.figures:make_figures"))
     assert main(["run", str(study), "--out", str(tmp_path / "o"), "--no-figures", "-q"]) == 0
-    assert started == [] and not (tmp_path / "o" / "figures").exists()
+    assert started == [] and prepared == [] and not (tmp_path / "o" / "figures").exists()
+    assert main(["run", str(study), "--out", str(tmp_path / "p"), "-q"]) == 0
+    assert started == [(drawing.DRAWERS,)] and prepared == [1]  # the same, with figures

@@ -23,16 +23,22 @@ _LAZY = {
 }
 
 
+_SUBMODULES = frozenset({"exr", "fea", "frames", "netcdf", "scenes"})
+
+
 def __getattr__(name):
-    if name not in _LAZY:
+    if name in _SUBMODULES:  # radiosim.io.exr after `import radiosim.io`, as before
+        value = importlib.import_module(f"radiosim.io.{name}")
+    elif name in _LAZY:
+        value = getattr(importlib.import_module(f"radiosim.io.{_LAZY[name]}"), name)
+    else:
         raise AttributeError(f"module 'radiosim.io' has no attribute {name!r}")
-    value = getattr(importlib.import_module(f"radiosim.io.{_LAZY[name]}"), name)
     globals()[name] = value
     return value
 
 
 def __dir__():
-    return sorted(set(globals()) | set(_LAZY))
+    return sorted(set(globals()) | set(_LAZY) | _SUBMODULES)
 
 
 __all__ = [

@@ -12,7 +12,7 @@ from pathlib import Path
 
 import numpy as np
 
-from radiosim.drawing import DRAWERS, MODULES, draw_aside, idle_drawers, start_drawers
+from radiosim.drawing import draw_aside, idle_drawers, matplotlib_configured
 from radiosim.paper.columns import COLUMN_NAMES, column_index, has_columns
 from radiosim.plotting import (collector_held, few_ticks, figure, fixed_axes, load_results,
                                plot_versus, preload, save_figure, select, title_block, wrap_text)
@@ -306,10 +306,13 @@ def _read(folder, name, cache=None):
 
 
 #: The paper's figures in the order they are written, and the seconds [s] each takes to build
-#: and save (bench_figures.py, best round): how they are shared among drawing processes.
+#: and save (bench_figures.py, best round, Figures 6 and 9-11 sharing the EXR files they
+#: read): how they are shared among drawing processes (in a new process each share takes
+#: about twice as long: measured, the two shares are within 0.1-0.2 s of each other).
 FIGURE_SECONDS = {"fig05_peak.png": 0.17, "fig07_column_I.png": 0.18,
                   "fig06_profiles.png": 0.18, "fig08_long_integration.png": 0.13,
                   "fig09-11_maps.png": 0.36}
+
 
 class _Columns:
     """What Figure 6 reads of a scene with reference columns, small to send to a drawing
@@ -394,9 +397,10 @@ def make_figures(folder, scene=None, camera="linear") -> list[Path]:
 
     Returns the PNG paths written, in the order of :data:`FIGURE_SECONDS`: figures whose sweeps
     the study lacks, or whose EXR files were not written (profiles, maps), are skipped.
-    Where :func:`prepare` has started drawing processes, the figures are shared among them
-    (:mod:`radiosim.drawing`); else, or where one fails, they are drawn here. The files are
-    the same either way.
+    Where drawing processes are ready (``radiosim run`` starts them,
+    :func:`radiosim.drawing.start_drawers`) and this process has not set matplotlib up
+    (:func:`radiosim.drawing.matplotlib_configured`), the figures are shared among them; else,
+    or where one fails, they are drawn here. The files are the same either way.
     """
     folder = Path(folder)
     rows, _ = load_results(folder)
@@ -409,20 +413,25 @@ def make_figures(folder, scene=None, camera="linear") -> list[Path]:
         columns = _Columns(scene)  # a recipe's scene would build its geometry again there
         if hasattr(scene, "temperature"):
             event = scene.temperature(scene.event_time)
+    drawers = 0 if matplotlib_configured() else idle_drawers()
     jobs = [(draw_figures, (folder, share) + ((columns, camera, event)
                                               if "fig06_profiles.png" in share else
                                               (None, camera, None)))
-            for share in _shares(names, idle_drawers())]
-    written = [path for paths in draw_aside(jobs) for path in paths]
-    return sorted(written, key=lambda path: names.index(path.name))
+            for share in _shares(names, drawers)]
+    try:
+        written = [path.name for paths in draw_aside(jobs) for path in paths]
+    finally:  # what a drawing process killed mid-write left (its figure was drawn here)
+        for name in names:
+            for partial in (folder / "figures").glob(f".{name}.*.partial"):
+                partial.unlink(missing_ok=True)
+    return [folder / "figures" / name for name in sorted(written, key=names.index)]
 
 
 def prepare() -> None:
-    """Before a study measures (its figures hook's ``prepare``): have
-    :data:`radiosim.drawing.DRAWERS` processes load matplotlib and this module meanwhile, then
-    wait to draw the figures (:func:`radiosim.drawing.start_drawers`); on one core, load
-    matplotlib here on a background thread instead (:func:`radiosim.plotting.preload`)."""
-    if not start_drawers(DRAWERS, modules=(*MODULES, "radiosim.paper.figures")):
+    """Before a study measures (its figures hook's ``prepare``): unless drawing processes are
+    ready to draw the figures (``radiosim run`` starts them, :mod:`radiosim.drawing`), load
+    matplotlib here on a background thread meanwhile (:func:`radiosim.plotting.preload`)."""
+    if not idle_drawers():
         preload()
 
 
