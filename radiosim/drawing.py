@@ -15,7 +15,7 @@ broken input gives is raised here. A caller that has set matplotlib up in this p
 (rcParams, a style) draws here: a drawing process draws with matplotlib's defaults
 (:func:`matplotlib_configured`). On an interrupt the processes drawing are asked to stop (they
 unwind: files written atomically leave nothing half-written) and waited for; an idle process
-ends with this one (its parent), or after :data:`IDLE_SECONDS`. POSIX only, two cores or more.
+ends with this one (its parent). POSIX only, two cores or more.
 """
 
 from __future__ import annotations
@@ -30,12 +30,8 @@ import sys
 import threading
 import warnings
 
-__all__ = ["IDLE_SECONDS", "DRAWERS", "MODULES", "start_drawers", "idle_drawers", "draw_aside",
+__all__ = ["DRAWERS", "MODULES", "start_drawers", "idle_drawers", "draw_aside",
            "stop_drawers", "matplotlib_configured"]
-
-#: An idle drawing process ends after this long [s] without a job; a job sent later then runs
-#: in this process.
-IDLE_SECONDS = 900.0
 
 #: How many drawing processes ``radiosim run`` starts (on two cores or more): the paper's
 #: figures in two shares of about equal time (:data:`radiosim.paper.figures.FIGURE_SECONDS`).
@@ -52,6 +48,7 @@ CHILD = "import sys; from radiosim.drawing import _main; _main(sys.argv[1:])"
 _IDLE: list = []  # started drawing processes without a job yet
 _LOCK = threading.Lock()  # guards _IDLE
 _HEADER = struct.Struct("<Q")  # a job's length [bytes], before it
+_REGISTRIES: dict = {}  # warnings' registries of modules a drawing process raised them from
 
 
 def _cores() -> int:
@@ -83,7 +80,7 @@ def start_drawers(count: int, modules=MODULES) -> int:
     machine of one core or off POSIX (there the figures are drawn here). Returns how many are
     ready. A process that cannot start is left out: its job will run here.
     """
-    if _cores() < 2 or os.name != "posix":  # one core, or no select() on a pipe
+    if _cores() < 2 or os.name != "posix":  # one core, or no fork-safe pipes and signals
         return 0
     package = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
     paths = [package, os.environ.get("PYTHONPATH", "")]
@@ -92,14 +89,16 @@ def start_drawers(count: int, modules=MODULES) -> int:
                "--parent", str(os.getpid()), *modules]
     with _LOCK:
         _prune()
-        while len(_IDLE) < count:
-            try:
-                process = subprocess.Popen(command, env=env, stdin=subprocess.PIPE,
-                                           stdout=subprocess.PIPE, stderr=subprocess.DEVNULL)
-            except (OSError, ValueError):
-                break
+        missing = count - len(_IDLE)
+    for _ in range(missing):
+        try:
+            process = subprocess.Popen(command, env=env, stdin=subprocess.PIPE,
+                                       stdout=subprocess.PIPE, stderr=subprocess.DEVNULL)
+        except (OSError, ValueError):
+            break
+        with _LOCK:
             _IDLE.append(process)
-        return len(_IDLE)
+    return idle_drawers()
 
 
 def idle_drawers() -> int:
@@ -129,7 +128,10 @@ atexit.register(stop_drawers)
 
 def _forget_in_fork() -> None:
     """In a child forked from this process (multiprocessing, Dask): the drawing processes are
-    not its own; close its copies of their pipes."""
+    not its own; close its copies of their pipes (and take a new lock: a thread of the parent
+    may have held it at the fork)."""
+    global _LOCK
+    _LOCK = threading.Lock()
     for process in _IDLE:
         _close(process)
     _IDLE.clear()
@@ -140,9 +142,18 @@ if hasattr(os, "register_at_fork"):
 
 
 def matplotlib_configured() -> bool:
-    """Whether this process has imported matplotlib, whose settings (rcParams, a style, a
-    context) a drawing process would not share: figures are then drawn here."""
-    return "matplotlib" in sys.modules
+    """Whether this process has changed matplotlib's settings since it read them from its
+    files (rcParams set, a style or a context in use): a drawing process, which reads the same
+    files, would not share them, so figures are then drawn here. (Its backend is left out: the
+    figures are drawn by Agg either way.)"""
+    mpl = sys.modules.get("matplotlib")
+    if mpl is None:
+        return False
+    try:
+        keys = set(mpl.rcParams) - {"backend"}
+        return any(mpl.rcParams[k] != mpl.rcParamsOrig[k] for k in keys)
+    except Exception:  # noqa: BLE001 - settings that cannot be compared: draw here
+        return True
 
 
 def _stop(process, grace: float = 2.0) -> None:
@@ -177,7 +188,11 @@ def _receive(process):
     (it ended, or its job raised)."""
     try:
         reply = process.stdout.read()
-        process.wait()
+        try:
+            process.wait(5)  # it has replied: only its exit handlers are left
+        except subprocess.TimeoutExpired:
+            process.kill()
+            process.wait()
         outcome = pickle.loads(reply) if reply else None
     except Exception:  # noqa: BLE001 - a truncated or unreadable reply: the job runs here
         return None
@@ -193,7 +208,7 @@ def _raise_again(raised) -> None:
     their module (its registry: one shown once per place, as if raised here)."""
     for message, category, filename, lineno, module in raised:
         where = sys.modules.get(module)
-        registry = (None if where is None
+        registry = (_REGISTRIES.setdefault(module, {}) if where is None
                     else where.__dict__.setdefault("__warningregistry__", {}))
         warnings.warn_explicit(message, category, filename, lineno, module=module,
                                registry=registry)
@@ -256,8 +271,6 @@ def _main(argv) -> None:
     priority) in the parent's working folder, write ``("done", value, warnings)`` to stdout
     (nothing if it raised), and end: 0, 130 when stopped (SIGTERM or Ctrl-C, unwound), 1 when
     its job raised."""
-    import select
-
     from radiosim.compiling_process import watch_parent
 
     argv = list(argv)
@@ -272,9 +285,8 @@ def _main(argv) -> None:
         loader = threading.Thread(target=_preload, args=(argv, True), daemon=True,
                                   name="radiosim-drawing-preload")
         loader.start()
-        ready, _, _ = select.select([sys.stdin.buffer], [], [], IDLE_SECONDS)
-        data = _read_job(sys.stdin.buffer) if ready else b""
-        if data:  # else idle too long, or the parent is done without a job for it
+        data = _read_job(sys.stdin.buffer)
+        if data:  # else the parent is done without a job for it
             loader.join()
             folder, function, args = pickle.loads(data)
             os.chdir(folder)
@@ -287,7 +299,7 @@ def _main(argv) -> None:
         code = 0
     except KeyboardInterrupt:  # unwound: a job's partial files are removed
         code = 130
-    except Exception:  # noqa: BLE001 - no reply: the parent runs the job itself, and raises
+    except BaseException:  # noqa: BLE001 - no reply: the parent runs the job itself, and raises
         code = 1
     # Its files are complete (written atomically and synced) or removed. The exit handlers
     # (matplotlib's removes a temporary configuration folder) run, the interpreter's tear-down

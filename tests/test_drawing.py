@@ -25,6 +25,20 @@ def no_idle_drawers():
     drawing.stop_drawers()
 
 
+@pytest.fixture
+def replies(monkeypatch):
+    """The replies the drawing processes sent (``None`` where the job then ran here)."""
+    seen = []
+    receive = drawing._receive
+
+    def recorded(process):
+        seen.append(receive(process))
+        return seen[-1]
+
+    monkeypatch.setattr(drawing, "_receive", recorded)
+    return seen
+
+
 def test_a_job_runs_in_a_drawing_process_and_its_value_comes_back():
     assert drawing.start_drawers(2) == 2
     assert drawing.start_drawers(2) == 2  # the idle ones are reused, none started
@@ -59,13 +73,14 @@ def test_a_job_that_raises_there_runs_here_and_raises_here():
     assert drawing.idle_drawers() == 0
 
 
-def test_the_warnings_a_job_raises_there_are_raised_here():
+def test_the_warnings_a_job_raises_there_are_raised_here(replies):
     drawing.start_drawers(1)
     with pytest.warns(UserWarning, match="drawn elsewhere"):
         assert drawing.draw_aside([(warnings.warn, ("drawn elsewhere", UserWarning))]) == [None]
+    assert len(replies) == 1 and replies[0] is not None  # raised there, not run again here
 
 
-def test_every_warning_raised_there_meets_this_process_filters_as_from_its_module():
+def test_every_warning_raised_there_meets_this_process_filters_as_from_its_module(replies):
     """Recorded there whatever the filters there (a DeprecationWarning too, both of two
     repeats); here this process's filters decide, by category and by module."""
     job = (warnings.warn, ("old way", DeprecationWarning))
@@ -80,12 +95,23 @@ def test_every_warning_raised_there_meets_this_process_filters_as_from_its_modul
         warnings.filterwarnings("ignore", module=r"radiosim\.drawing")  # where warn ran there
         drawing.draw_aside([job])
     assert seen == []
+    assert len(replies) == 3 and None not in replies  # all three were raised there
 
 
-def test_a_job_runs_in_this_process_working_folder(tmp_path, monkeypatch):
+def test_matplotlib_counts_as_set_up_here_only_once_its_settings_changed():
+    import matplotlib
+
+    assert not drawing.matplotlib_configured()  # imported, as read from its files
+    with matplotlib.rc_context({"lines.linewidth": 3.5}):
+        assert drawing.matplotlib_configured()
+    assert not drawing.matplotlib_configured()
+
+
+def test_a_job_runs_in_this_process_working_folder(tmp_path, monkeypatch, replies):
     drawing.start_drawers(1)
     monkeypatch.chdir(tmp_path)
     assert drawing.draw_aside([(os.getcwd, ())]) == [str(tmp_path)]
+    assert replies[0] is not None
 
 
 def test_a_forked_child_holding_copies_of_the_pipes_does_not_hold_a_job():
@@ -150,45 +176,66 @@ def test_an_idle_drawing_process_ends_with_its_parent():
         pytest.fail("the drawing process outlived its parent")
 
 
-def test_the_paper_figures_drawn_in_processes_are_the_files_drawn_here(tmp_path, monkeypatch):
-    from radiosim.paper import figures as F
+@pytest.fixture(scope="module")
+def small_results(tmp_path_factory):
+    """The results folder of the CLI tests' small study (its figures not drawn) and its
+    scene."""
     from radiosim.study import Study
     from test_cli import SMALL_STUDY
 
-    study_file = tmp_path / "small.toml"
-    study_file.write_text(SMALL_STUDY)
-    study = Study.from_toml(study_file)
-    study.run(tmp_path / "out", write_exr=True)
-    # As radiosim run: drawing processes, and matplotlib not set up here (the tests import it).
-    monkeypatch.setattr(F, "matplotlib_configured", lambda: False)
+    folder = tmp_path_factory.mktemp("small")
+    (folder / "small.toml").write_text(SMALL_STUDY)
+    study = Study.from_toml(folder / "small.toml")
+    study.run(folder / "out", write_exr=True)
+    return folder / "out", study.scene
+
+
+def test_the_paper_figures_drawn_in_processes_are_the_files_drawn_here(
+        tmp_path, monkeypatch, replies, small_results):
+    from radiosim.paper import figures as F
+
+    results, scene = small_results
+    shutil.copytree(results, tmp_path / "out")
+    # As radiosim run: drawing processes, and matplotlib not set up here.
     assert drawing.start_drawers(drawing.DRAWERS) == drawing.DRAWERS
     (tmp_path / "out" / "figures").mkdir()
     left = tmp_path / "out" / "figures" / ".fig05_peak.png.k1lled.partial"
     left.write_bytes(b"a drawing process killed mid-write")
     monkeypatch.chdir(tmp_path)
-    written = F.make_figures("out", study.scene)  # a folder relative to this one
-    assert drawing.idle_drawers() == 0  # each took a share
+    written = F.make_figures("out", scene)  # a folder relative to this one
+    assert drawing.idle_drawers() == 0 and len(replies) == 2 and None not in replies
     assert not left.exists()
     names = [p.name for p in written]
     assert names == ["fig05_peak.png", "fig07_column_I.png", "fig06_profiles.png",
                      "fig09-11_maps.png"]  # the written order, whoever drew them
     assert written[0] == Path("out") / "figures" / "fig05_peak.png"  # as the caller named it
     here = tmp_path / "here"
-    shutil.copytree(tmp_path / "out", here, ignore=shutil.ignore_patterns("figures"))
+    shutil.copytree(results, here)
     (here / "figures").mkdir()
-    F.draw_figures(here, names, study.scene)
+    F.draw_figures(here, names, scene)
     for name in names:
         assert (here / "figures" / name).read_bytes() == (tmp_path / "out" / "figures" /
                                                           name).read_bytes(), name
 
 
-def test_a_study_measured_through_the_api_starts_no_drawing_process(tmp_path):
-    """Only radiosim run starts drawing processes; a study's figures hook loads matplotlib on
-    a thread instead (the caller may set matplotlib up before drawing)."""
+def test_figures_are_drawn_here_when_matplotlib_was_set_up_here(tmp_path, small_results):
+    """A caller's rcParams hold for the figures: with them changed, no drawing process draws,
+    and the figures show them."""
+    import matplotlib
+
     from radiosim.paper import figures as F
 
-    F.prepare()
-    assert drawing.idle_drawers() == 0
+    results, scene = small_results
+    shutil.copytree(results, tmp_path / "set")
+    shutil.copytree(results, tmp_path / "plain")
+    drawing.start_drawers(1)
+    with matplotlib.rc_context({"lines.linewidth": 4.0}):
+        F.make_figures(tmp_path / "set", scene)
+    assert drawing.idle_drawers() == 1  # not sent to it
+    (tmp_path / "plain" / "figures").mkdir()
+    F.draw_figures(tmp_path / "plain", ["fig05_peak.png"], scene)
+    assert ((tmp_path / "set" / "figures" / "fig05_peak.png").read_bytes()
+            != (tmp_path / "plain" / "figures" / "fig05_peak.png").read_bytes())
 
 
 def test_a_run_without_figures_starts_no_drawing_process_nor_prepares(tmp_path, monkeypatch):

@@ -413,11 +413,12 @@ def make_figures(folder, scene=None, camera="linear") -> list[Path]:
         columns = _Columns(scene)  # a recipe's scene would build its geometry again there
         if hasattr(scene, "temperature"):
             event = scene.temperature(scene.event_time)
-    drawers = 0 if matplotlib_configured() else idle_drawers()
+    if matplotlib_configured() or not idle_drawers():
+        return draw_figures(folder, names, columns, camera, event)
     jobs = [(draw_figures, (folder, share) + ((columns, camera, event)
                                               if "fig06_profiles.png" in share else
                                               (None, camera, None)))
-            for share in _shares(names, drawers)]
+            for share in _shares(names, idle_drawers())]
     try:
         written = [path.name for paths in draw_aside(jobs) for path in paths]
     finally:  # what a drawing process killed mid-write left (its figure was drawn here)
