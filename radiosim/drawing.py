@@ -141,16 +141,25 @@ if hasattr(os, "register_at_fork"):
     os.register_at_fork(after_in_child=_forget_in_fork)
 
 
+#: matplotlib's settings that do not change how a figure is drawn (its own list of settings a
+#: style does not set, less the dates' epoch and time zone).
+_NOT_DRAWING = frozenset({
+    "backend", "backend_fallback", "interactive", "toolbar", "figure.max_open_warning",
+    "figure.raise_window", "savefig.directory", "tk.window_focus", "docstring.hardcopy",
+    "webagg.address", "webagg.open_in_browser", "webagg.port", "webagg.port_retries"})
+
+
 def matplotlib_configured() -> bool:
     """Whether this process has changed matplotlib's settings since it read them from its
     files (rcParams set, a style or a context in use): a drawing process, which reads the same
-    files, would not share them, so figures are then drawn here. (Its backend is left out: the
-    figures are drawn by Agg either way.)"""
+    files, would not share them, so figures are then drawn here. (The settings that do not
+    change a drawing are left out, :data:`_NOT_DRAWING`: the backend, e.g., as the figures
+    are drawn by Agg either way.)"""
     mpl = sys.modules.get("matplotlib")
     if mpl is None:
         return False
     try:
-        keys = set(mpl.rcParams) - {"backend"}
+        keys = set(mpl.rcParams) - _NOT_DRAWING
         return any(mpl.rcParams[k] != mpl.rcParamsOrig[k] for k in keys)
     except Exception:  # noqa: BLE001 - settings that cannot be compared: draw here
         return True

@@ -26,6 +26,16 @@ def no_idle_drawers():
 
 
 @pytest.fixture
+def matplotlib_as_read():
+    """matplotlib's settings as read from its files, whatever earlier tests set (restored)."""
+    import matplotlib
+
+    with matplotlib.rc_context():
+        matplotlib.rc_file_defaults()
+        yield
+
+
+@pytest.fixture
 def replies(monkeypatch):
     """The replies the drawing processes sent (``None`` where the job then ran here)."""
     seen = []
@@ -98,7 +108,7 @@ def test_every_warning_raised_there_meets_this_process_filters_as_from_its_modul
     assert len(replies) == 3 and None not in replies  # all three were raised there
 
 
-def test_matplotlib_counts_as_set_up_here_only_once_its_settings_changed():
+def test_matplotlib_counts_as_set_up_here_only_once_its_settings_changed(matplotlib_as_read):
     import matplotlib
 
     assert not drawing.matplotlib_configured()  # imported, as read from its files
@@ -191,7 +201,7 @@ def small_results(tmp_path_factory):
 
 
 def test_the_paper_figures_drawn_in_processes_are_the_files_drawn_here(
-        tmp_path, monkeypatch, replies, small_results):
+        tmp_path, monkeypatch, replies, small_results, matplotlib_as_read):
     from radiosim.paper import figures as F
 
     results, scene = small_results
