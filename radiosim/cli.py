@@ -49,16 +49,6 @@ __all__ = ["main", "parse_time", "parse_length", "parse_temperature", "EXIT_INPU
 EXIT_INPUT, EXIT_FAILURE, EXIT_INTERRUPTED = 2, 1, 130
 
 
-def parse_seed(text: str) -> int:
-    """A noise seed: a whole number ≥ 0."""
-    try:
-        value = int(text)
-    except ValueError:
-        value = -1
-    if value < 0:
-        raise argparse.ArgumentTypeError(f"{text!r} is not a seed; expected a whole number ≥ 0")
-    return value
-
 #: The most Monte Carlo draws a budget may ask for (radiosim.uncertainty.MAX_DRAWS, kept equal
 #: by a test; not imported here so that --help loads nothing heavy): GUM Supplement 1 (7.2.2)
 #: finds 10⁶ enough for a 95 % coverage interval to two significant digits.
@@ -274,7 +264,7 @@ def _add_dask_options(parser, what: str):
 
 
 def _add_seed(parser, default=0, said="0"):
-    parser.add_argument("--seed", type=parse_seed, default=default,
+    parser.add_argument("--seed", type=_count(0, what="a seed (a whole number)"), default=default,
                         help=f"noise seed ≥ 0 (default {said})")
 
 
