@@ -255,9 +255,11 @@ def test_compiled_frames_are_checked_in_the_kernel(scene, monkeypatch):
 
 
 @pytest.mark.parametrize("value, what", [(np.nan, "is NaN"), (-3.0, "is -3 K"), (0.0, "is 0 K"),
-                                         (np.inf, "is inf")])
+                                         (-0.0, "is -0 K"), (np.inf, "is inf"),
+                                         (-np.inf, "is -inf")])
 def test_a_bad_value_the_kernel_writes_is_caught(value, what):
-    # The kernel's extremes, as integers, flag NaN, ±0, negative and infinite values alike.
+    # The kernel's count of values not finite and > 0 K flags NaN, ±0, negative and infinite
+    # values alike.
     scene = SegmentedChip(dx=COARSE, dt=0.5e-6)
     region = (slice(0, 40), slice(0, 60))
     scene.frame(0, region)

@@ -39,9 +39,6 @@ _NO_TERMS = np.zeros((0, 3))
 _NO_NODES = np.zeros((0, 2), dtype=np.int64)
 _NO_REGIONS = np.zeros((1, 1), dtype=np.uint8)
 
-#: The bits of +inf as an int64: a float64 whose bits are ≥ this is +inf or NaN.
-_INF_BITS = int(np.array(np.inf).view(np.int64))
-
 
 def _runs(flat: np.ndarray, rows: int, cols: int):
     """Row-major flat indices (sorted) as runs of consecutive columns: per-row pointers
@@ -195,7 +192,7 @@ def evaluate_compiled(p: ChipParameters, r: RegionData, layout: KernelLayout, t:
     temperature = np.empty(r.shape)
     regions = np.empty(r.shape, dtype=np.uint8) if want_regions else _NO_REGIONS
     threads, blocks = layout.blocks(forming)
-    extremes = np.empty((threads, 2), dtype=np.int64)
+    bad = np.empty(threads, dtype=np.int64)  # per thread: values not finite and > 0 K
     if background.any_running("with_chip"):  # kernels compiled by another process: load
         background.wait_for_background()  # them after it has cached them
     else:
@@ -204,10 +201,9 @@ def evaluate_compiled(p: ChipParameters, r: RegionData, layout: KernelLayout, t:
     counter = np.zeros(1, dtype=np.int64)  # the next block a thread takes
     run_blocks(moving_terms_kernel, threads, blocks, r.static, r.regions, temperature,
                regions, want_regions, forming, r.y, frame, profile, r.cos_field, r.sin_field,
-               layout.run_layout, extremes, counter)
+               layout.run_layout, bad, counter)
     # Every value finite and > 0 K (see moving_terms_kernel): the frame's check is done.
-    low, high = extremes.T.tolist()  # (a list's min and max: no numpy call per frame)
-    clean = temperature.size == 0 or (min(low) > 0 and max(high) < _INF_BITS)
+    clean = not any(bad.tolist())  # (a list: no numpy call per frame)
     # Every block taken: each thread's last claim found none left.
     clean = clean and int(counter[0]) == blocks.size - 1 + threads
     return temperature, (regions if want_regions else None), clean

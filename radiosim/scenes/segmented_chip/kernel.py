@@ -108,6 +108,7 @@ PAD = 16
 # exp(x) inline and vectorisable: the integrator kernels' (Cody–Waite reduction, Taylor
 # polynomial), shared so both evaluate it alike.
 _exp = fast_exp
+_INF = np.inf
 
 
 @numba.njit(**_INNER)
@@ -276,7 +277,7 @@ def band_profile(grid, terms, nodes, sin_b):
 
 @numba.njit(**_JIT)
 def moving_terms_kernel(thread, bounds, static, regions_static, out, regions_out, want_regions,
-                        forming, y, k, profile, cos_field, sin_field, layout, extremes, counter):
+                        forming, y, k, profile, cos_field, sin_field, layout, bad, counter):
     """Thread ``thread``'s share (the threads each on its own thread:
     :func:`radiosim.kernels.run_blocks`) of the frame over the region: rows bounds[block] …
     bounds[block + 1] − 1 in each block it takes, the next from ``counter`` (int64, 0 at the
@@ -288,9 +289,8 @@ def moving_terms_kernel(thread, bounds, static, regions_static, out, regions_out
     ``k`` the scalars (:class:`KernelConstants`); ``profile`` the released bands' profile on
     the ζ grid (:func:`band_profile`). Each row: the static row, then the moving terms on
     the row's runs.
-    ``extremes[thread]``: the least and greatest bit pattern (as int64) of the values the
-    thread wrote — as integers, positive finite floats keep their order, and any value ≤ 0 K
-    gives one ≤ 0, any +inf or NaN one ≥ that of +inf (the frame's check, in registers)."""
+    ``bad[thread]`` (int64): how many of the values the thread wrote are not finite and
+    > 0 K (NaN, ±0, negative, ±inf: the frame's check, each row checked as it is written)."""
     # f = base^m and σ where the exponent m has saturated at 1 (n beyond its reach), with the
     # arithmetic of _forming_values.
     f_saturated = _exp((k.exp_tip + k.exp_slope * 1.0) * k.log_base)
@@ -307,10 +307,8 @@ def moving_terms_kernel(thread, bounds, static, regions_static, out, regions_out
     fade_rows = layout.fade_rows
     ca, sa = k.cos, k.sin
     scratch = np.empty((3, out.shape[1] + PAD))
-    bits = out.reshape(-1).view(np.int64)
     n_cols = out.shape[1]
-    low = np.int64(0x7FFFFFFFFFFFFFFF)
-    high = -low
+    flagged = np.int64(0)
     while True:
         block = claim_block(counter)
         if block >= n_blocks:
@@ -357,12 +355,10 @@ def moving_terms_kernel(thread, bounds, static, regions_static, out, regions_out
                 j0, j1 = runs[q, 0], runs[q, 1]
                 _surface_span(row[j0:j1], region_row[j0:j1] if want_regions else region_row,
                               want_regions, x[j0:], dyv, k)
-            for j in range(i * n_cols, (i + 1) * n_cols):
-                v = bits[j]
-                low = v if v < low else low
-                high = v if v > high else high
-    extremes[thread, 0] = low
-    extremes[thread, 1] = high
+            for j in range(n_cols):  # the row's check, while it is in cache
+                v = row[j]
+                flagged += not ((v > 0.0) & (v < _INF))
+    bad[thread] = flagged
 
 
 @numba.njit(**_JIT)
