@@ -118,6 +118,21 @@ def on_interrupt(signum, frame):
     raise Interrupted(signal.Signals(signum).name)
 
 
+def raise_if_interrupted() -> None:
+    """
+    Raise again the interrupt the command has received (:func:`on_interrupt`), if any: the
+    exception the signal raised may have been swallowed where it arrived (by a library that
+    catches every exception there), and the work would then go on until the cleanup's time
+    limit (:data:`GRACE`) ends the process, in the middle of a write. The work's loops (frame
+    by frame, measurement by measurement) call this between their steps; it does nothing
+    outside the ``radiosim`` command's work or before a signal.
+    """
+    if command_state.active and command_state.interrupted:
+        if command_state.signal_name == "Ctrl-C":
+            raise KeyboardInterrupt
+        raise Interrupted(command_state.signal_name)
+
+
 def on_unraisable(unraisable):
     """The command's ``sys.unraisablehook``: an interrupt that :func:`on_interrupt` raised where
     it cannot unwind (in Python code that C calls back, such as llvmlite's object cache while

@@ -35,7 +35,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from radiosim.errors import RadiosimError
+from radiosim.errors import RadiosimError, raise_if_interrupted
 from radiosim.frame_reading import frames_inline_or_prefetched, prefetched, stacked
 from radiosim.kernels.engines import ENGINES as _ENGINES
 from radiosim.kernels.engines import get_engine
@@ -587,6 +587,7 @@ def integrate_many(scene: Scene, jobs: list[Job], progress=None,
         return _integrate_compiled(scene, accumulators, frames, region, progress, engine,
                                    observer)
     for done, frame in enumerate(prefetched(scene, frames, region), start=1):
+        raise_if_interrupted()  # a swallowed interrupt: raised again, frame by frame
         k = frame.index
         if observer is not None:
             mine = _within(frame, region, observer.region)
@@ -645,6 +646,7 @@ def _integrate_compiled(scene, accumulators, frames, region, progress, engine, o
     # call each (no per-frame Python); otherwise frame by frame.
     if scene.block_unchecked(frames[0], frames[0] + 1, region) is not None:
         for start, stop in _runs(frames, FRAME_BLOCK):
+            raise_if_interrupted()
             merge(scene.block_unchecked(start, stop, region),
                   scene.sample_unchecked(start, region), start, stop)
             done += stop - start
@@ -652,6 +654,7 @@ def _integrate_compiled(scene, accumulators, frames, region, progress, engine, o
                 progress(done, len(frames))
         return [m.statistics() for m in merged]
     for sample, temperature, n in stacked(frames_inline_or_prefetched(scene, frames, region)):
+        raise_if_interrupted()
         merge(temperature, sample, sample.index, sample.index + n)
         done += n
         if progress is not None:

@@ -51,7 +51,8 @@ import numpy as np
 from radiosim.acquisition import check_measurable, measure_many_statistics, read_out
 from radiosim.camera import Camera
 from radiosim.config import build_from_toml, reject_unknown
-from radiosim.errors import RadiosimError, RadiosimIOError, RadiosimWarning
+from radiosim.errors import (RadiosimError, RadiosimIOError, RadiosimWarning,
+                             raise_if_interrupted)
 from radiosim.files import OutputFolder, atomic_write, check_name, is_staging, safe_name
 from radiosim.measurement import Measurement
 from radiosim.scenes.base import CroppedScene, Scene
@@ -625,6 +626,7 @@ class Study:
         groups = [list(g) for _, g in itertools.groupby(cases, key=lambda c: id(c.scene))]
         done = 0
         for group in groups:
+            raise_if_interrupted()  # one the work swallowed: raised again between groups
             scene = group[0].scene
             group_seeds = seeds[done:done + len(group)]
             triples = [(c.camera, c.integration_time,
@@ -636,6 +638,7 @@ class Study:
             else:
                 outcomes = _measure_group(scene, triples, group_seeds)
             for case, (m, caught) in zip(group, outcomes):
+                raise_if_interrupted()  # and between rows
                 done += 1
                 for text in caught:  # to the caller, as raised: never silenced
                     warnings.warn(text, RadiosimWarning, stacklevel=4)

@@ -176,3 +176,46 @@ def test_an_interrupt_raised_in_a_callback_from_c_is_sent_again_not_reported(cap
     monkeypatch.setattr(sys, "__unraisablehook__", reported.append)
     errors.on_unraisable(type("Unraisable", (), {"exc_value": KeyboardInterrupt()})())
     assert len(reported) == 1
+
+
+@pytest.mark.parametrize("name, raised", [("Ctrl-C", KeyboardInterrupt),
+                                          ("SIGTERM", "Interrupted")])
+def test_an_interrupt_the_work_swallowed_is_raised_again_between_steps(tmp_path, monkeypatch,
+                                                                       name, raised):
+    # The command received a signal, but the exception it raised was swallowed where it
+    # arrived (a library catching everything there): the work would go on until the cleanup's
+    # 15 s limit ended the process in the middle of an EXR write (a .partial file left, seen
+    # once in CI). The study's loop and the integrator's raise it again at their next step:
+    # nothing is measured, nothing is written, no temporary file is left.
+    from radiosim import errors
+    from radiosim.study import Study
+
+    if raised == "Interrupted":
+        raised = errors.Interrupted
+    y, x = np.mgrid[0:40, 0:40]
+    np.save(tmp_path / "frames.npy", np.stack([600.0 + x + y + k for k in range(8)]))
+    (tmp_path / "small.toml").write_text(frames_study([1, 2, 3], 1.0))
+    study = Study.from_toml(tmp_path / "small.toml")
+    monkeypatch.setattr(errors.command_state, "active", True)  # the command's work
+    errors.raise_if_interrupted()  # no signal: nothing
+    monkeypatch.setattr(errors.command_state, "interrupted", True)
+    monkeypatch.setattr(errors.command_state, "signal_name", name)
+    with pytest.raises(raised):
+        study.run(tmp_path / "results")
+    assert not (tmp_path / "results").exists()
+    assert not [p for p in tmp_path.rglob("*") if p.name.endswith(".partial")
+                and not p.is_dir()]
+    assert not list(tmp_path.rglob("*.exr"))
+    # The integrator alone, frame by frame, on either engine.
+    from radiosim.kernels import set_engine
+
+    camera = next(iter(study.plan())).camera  # the study's linear ideal camera
+    for engine in ("compiled", "numpy"):
+        set_engine(engine)
+        try:
+            with pytest.raises(raised):
+                camera.measure(study.scene, 3e-6)
+        finally:
+            set_engine(None)
+    monkeypatch.setattr(errors.command_state, "active", False)  # not the command's work: a
+    camera.measure(study.scene, 3e-6)  # library caller's measurement is not interrupted
