@@ -177,8 +177,12 @@ def _end_children():
 def _give_up(signum):  # pragma: no cover - a cleanup that hangs
     import os
     import signal
+    import sys
 
     what = "Ctrl-C" if signum == signal.SIGINT else signal.Signals(signum).name
+    files = sys.modules.get("radiosim.files")
+    if files is not None:  # the writes under way end absent, as an unwinding would leave them
+        files.remove_open_temporaries()
     os.write(2, f"radiosim: interrupted ({what}); the cleanup did not finish within "
                 f"{GRACE:g} s, ended\n".encode())
     exit_interrupted()

@@ -68,6 +68,35 @@ def native_output_silenced():
 MANIFEST = "radiosim-manifest.json"
 
 
+#: The temporary files of the atomic writes under way in this process (any thread): the
+#: command removes them if its cleanup's time limit ends it before they unwind
+#: (:func:`remove_open_temporaries`).
+_OPEN_TEMPORARIES: set[Path] = set()
+_OPEN_LOCK = threading.Lock()
+
+
+@contextlib.contextmanager
+def _registered(temporary: Path):
+    with _OPEN_LOCK:
+        _OPEN_TEMPORARIES.add(temporary)
+    try:
+        yield
+    finally:
+        with _OPEN_LOCK:
+            _OPEN_TEMPORARIES.discard(temporary)
+
+
+def remove_open_temporaries() -> None:
+    """Remove the temporary files of the atomic writes still under way (best effort): for a
+    process about to end without unwinding (:func:`radiosim.errors.exit_interrupted` after
+    the cleanup's time limit), so that a write is complete or absent even then."""
+    with _OPEN_LOCK:
+        open_now = list(_OPEN_TEMPORARIES)
+    for temporary in open_now:
+        with contextlib.suppress(OSError):
+            temporary.unlink(missing_ok=True)
+
+
 @contextlib.contextmanager
 def atomic_write(path, mode: str = "w", **kwargs):
     """
@@ -91,20 +120,21 @@ def atomic_write(path, mode: str = "w", **kwargs):
     except OSError as exc:
         raise RadiosimIOError(f"cannot write {path}: {exc.strerror or exc}") from None
     temporary = Path(temporary)
-    try:
+    with _registered(temporary):
         try:
-            with os.fdopen(handle, mode, **kwargs) as stream:
-                yield stream
-                stream.flush()
-                os.fsync(stream.fileno())  # on the disk before the name points to it
-            os.chmod(temporary, 0o666 & ~_umask())  # as open() would create it, not mkstemp's
-            os.replace(temporary, path)
-        except OSError as exc:  # a full disk, a quota: the earlier file stays as it was
-            raise _io_error(path, exc) from None
-        _sync_folder(path.parent)
-    except BaseException:
-        temporary.unlink(missing_ok=True)
-        raise
+            try:
+                with os.fdopen(handle, mode, **kwargs) as stream:
+                    yield stream
+                    stream.flush()
+                    os.fsync(stream.fileno())  # on the disk before the name points to it
+                os.chmod(temporary, 0o666 & ~_umask())  # as open() would, not mkstemp's
+                os.replace(temporary, path)
+            except OSError as exc:  # a full disk, a quota: the earlier file stays as it was
+                raise _io_error(path, exc) from None
+            _sync_folder(path.parent)
+        except BaseException:
+            temporary.unlink(missing_ok=True)
+            raise
 
 
 def _check_destination(path: Path) -> None:
@@ -183,16 +213,17 @@ def atomic_path(path):
     path = Path(path)
     _check_destination(path)
     temporary = path.with_name(f".{path.name}.{os.getpid()}.partial")
-    try:
-        yield temporary
-        _sync_file(temporary)
-        os.replace(temporary, path)
-        _sync_folder(path.parent)
-    except BaseException as exc:  # interrupts too: no temporary file is left behind
-        temporary.unlink(missing_ok=True)
-        if not isinstance(exc, Exception) or isinstance(exc, RadiosimError):
-            raise
-        raise _io_error(path, exc) from exc
+    with _registered(temporary):
+        try:
+            yield temporary
+            _sync_file(temporary)
+            os.replace(temporary, path)
+            _sync_folder(path.parent)
+        except BaseException as exc:  # interrupts too: no temporary file is left behind
+            temporary.unlink(missing_ok=True)
+            if not isinstance(exc, Exception) or isinstance(exc, RadiosimError):
+                raise
+            raise _io_error(path, exc) from exc
 
 
 def _umask() -> int:

@@ -445,6 +445,9 @@ def test_an_interrupt_that_surfaces_as_another_error_is_still_an_interrupt(here,
         command_state.signal_name = "SIGTERM"
         raise ImportError("initialization failed")
 
+    monkeypatch.setattr(command_state, "interrupted", False)  # restored after the test
+    monkeypatch.setattr(command_state, "signal_name", "")
+
     monkeypatch.setattr(cli_module, "_presets", cut_short)
     code, out, err = cli(["presets"], capsys)
     assert code == 130, (code, err)

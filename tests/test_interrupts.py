@@ -187,7 +187,9 @@ def test_an_interrupt_the_work_swallowed_is_raised_again_between_steps(tmp_path,
     # 15 s limit ended the process in the middle of an EXR write (a .partial file left, seen
     # once in CI). The study's loop and the integrator's raise it again at their next step:
     # nothing is measured, nothing is written, no temporary file is left.
-    from radiosim import errors
+    from radiosim import errors, integrator
+    from radiosim.kernels import set_engine
+    from radiosim.scenes import UniformBlackbody
     from radiosim.study import Study
 
     if raised == "Interrupted":
@@ -196,26 +198,52 @@ def test_an_interrupt_the_work_swallowed_is_raised_again_between_steps(tmp_path,
     np.save(tmp_path / "frames.npy", np.stack([600.0 + x + y + k for k in range(8)]))
     (tmp_path / "small.toml").write_text(frames_study([1, 2, 3], 1.0))
     study = Study.from_toml(tmp_path / "small.toml")
+    camera = next(iter(study.plan())).camera  # the study's linear ideal camera
     monkeypatch.setattr(errors.command_state, "active", True)  # the command's work
+    monkeypatch.setattr(errors.command_state, "interrupted", False)
     errors.raise_if_interrupted()  # no signal: nothing
     monkeypatch.setattr(errors.command_state, "interrupted", True)
     monkeypatch.setattr(errors.command_state, "signal_name", name)
-    with pytest.raises(raised):
-        study.run(tmp_path / "results")
+    # The study's own steps (the integrator's checks off).
+    with monkeypatch.context() as only_the_study:
+        only_the_study.setattr(integrator, "raise_if_interrupted", lambda: None)
+        with pytest.raises(raised):
+            study.run(tmp_path / "results")
     assert not (tmp_path / "results").exists()
     assert not [p for p in tmp_path.rglob("*") if p.name.endswith(".partial")
                 and not p.is_dir()]
     assert not list(tmp_path.rglob("*.exr"))
-    # The integrator alone, frame by frame, on either engine.
-    from radiosim.kernels import set_engine
-
-    camera = next(iter(study.plan())).camera  # the study's linear ideal camera
-    for engine in ("compiled", "numpy"):
+    # The integrator's loops: blocks of a stored stack and frame by frame (compiled), and
+    # the numpy engine's.
+    uniform = UniformBlackbody(600.0, shape=(40, 40), dt=1e-6, dx=1e-6)
+    for scene, engine in ((study.scene, "compiled"), (uniform, "compiled"),
+                          (study.scene, "numpy")):
         set_engine(engine)
         try:
             with pytest.raises(raised):
-                camera.measure(study.scene, 3e-6)
+                camera.measure(scene, 3e-6)
         finally:
             set_engine(None)
     monkeypatch.setattr(errors.command_state, "active", False)  # not the command's work: a
     camera.measure(study.scene, 3e-6)  # library caller's measurement is not interrupted
+
+
+def test_the_writes_under_way_are_removed_if_the_cleanup_runs_out_of_time(tmp_path):
+    # The cleanup's time limit ends the command without unwinding: the temporary files of
+    # the atomic writes still open are removed first, so a write is complete or absent.
+    script = f"""
+import sys
+from radiosim import errors, files
+with files.atomic_write({str(tmp_path / "a.txt")!r}) as handle:
+    handle.write("half")
+    handle.flush()
+    with files.atomic_path({str(tmp_path / "b.exr")!r}) as temporary:
+        temporary.write_text("half")
+        assert len(files._OPEN_TEMPORARIES) == 2
+        errors._give_up(2)
+"""
+    done = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True,
+                          timeout=120)
+    assert done.returncode == 130, done.stderr
+    assert "the cleanup did not finish within 15 s, ended" in done.stderr
+    assert list(tmp_path.iterdir()) == []

@@ -235,8 +235,8 @@ def test_reflected_field_sees_the_interface_only_near_the_rake_face():
 
 
 def test_compiled_frames_are_checked_in_the_kernel(scene, monkeypatch):
-    # The kernel finds each frame's least and greatest value as it writes it: a clean frame
-    # is not read again by the scene's check; anything else still is.
+    # The kernel checks each frame's values as it writes them: a clean frame is not read
+    # again by the scene's check; anything else still is.
     import radiosim.scenes.base as base
 
     region = (slice(100, 180), slice(300, 420))
