@@ -1,6 +1,7 @@
 """The validation notebooks run top to bottom (reduced settings) and state a conclusion."""
 
 import sys
+import tempfile
 from pathlib import Path
 
 import nbformat
@@ -31,7 +32,12 @@ def test_notebook_runs_and_states_its_conclusion(path, tmp_path):
     assert any(cell.get("outputs") for cell in committed.cells if cell.cell_type == "code")
     # The stated conclusion is the one the conclusion cell computed (no number typed by hand).
     assert stated_conclusion(committed) == conclusion_of(committed)
+    system_tmp = Path(tempfile.gettempdir())
+    before = set(system_tmp.glob("radiosim-*"))
     executed = nbformat.read(execute(path, reduced=True, out=tmp_path), as_version=4)
+    # What the notebook wrote in temporary folders is inside the folder named, not left in
+    # the system's (two of them write their results there).
+    assert not set(system_tmp.glob("radiosim-*")) - before
     errors = [o for cell in executed.cells if cell.cell_type == "code"
               for o in cell.outputs if o.output_type == "error"]
     assert not errors  # the conclusion cell asserts the conclusion's claims on this run too

@@ -54,16 +54,24 @@ def state_conclusion(notebook):
 def execute(path: Path, reduced: bool, out: Path | None = None, timeout: int = 1800) -> Path:
     """Run one notebook top to bottom; write it (with outputs) to ``out`` or in place."""
     notebook = nbformat.read(path, as_version=4)
-    previous = os.environ.get("RADIOSIM_VALIDATION")
-    os.environ["RADIOSIM_VALIDATION"] = "reduced" if reduced else "full"
+    # The kernel's environment: the settings, and with ``out`` its temporary folders (where
+    # the notebooks write their results) inside ``out/tmp``, not left in the system's.
+    environment = {"RADIOSIM_VALIDATION": "reduced" if reduced else "full"}
+    if out is not None:
+        scratch = Path(out) / "tmp"
+        scratch.mkdir(parents=True, exist_ok=True)
+        environment["TMPDIR"] = str(scratch)
+    previous = {name: os.environ.get(name) for name in environment}
+    os.environ.update(environment)
     try:
         NotebookClient(notebook, timeout=timeout, kernel_name="python3",
                        resources={"metadata": {"path": str(HERE)}}).execute()
     finally:
-        if previous is None:
-            os.environ.pop("RADIOSIM_VALIDATION", None)
-        else:
-            os.environ["RADIOSIM_VALIDATION"] = previous
+        for name, value in previous.items():
+            if value is None:
+                os.environ.pop(name, None)
+            else:
+                os.environ[name] = value
     state_conclusion(notebook)
     target = (out / path.name) if out else path
     nbformat.write(notebook, target)
