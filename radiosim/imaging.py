@@ -32,6 +32,7 @@ import math
 
 import numpy as np
 
+from radiosim.errors import raise_if_interrupted
 from radiosim.frame_reading import prefetched
 from radiosim.integrator import (FootprintIntegrator, Job, TensorStatistics, Window,
                                  frame_weights, integrate_many)
@@ -278,6 +279,7 @@ def sample_signals(scene: Scene, window: Window, responses: list[Response],
     frames = range(signals.first, signals.stop)
     for done, frame in enumerate(prefetched(scene, frames, signals.region, checked=False),
                                  start=1):
+        raise_if_interrupted()  # one the work swallowed: raised again, frame by frame
         signals.add(frame.temperature, frame, frame.index)
         if progress is not None:
             progress(done, signals.weights.size)

@@ -224,8 +224,19 @@ def test_an_interrupt_the_work_swallowed_is_raised_again_between_steps(tmp_path,
                 camera.measure(scene, 3e-6)
         finally:
             set_engine(None)
+    # The image stage's pass over the frames (the frame sums an uncertainty budget reuses),
+    # and each Monte Carlo draw (before it samples anything).
+    from radiosim import imaging, uncertainty
+
+    with pytest.raises(raised):
+        imaging.sample_signals(study.scene, camera.window(study.scene, 3e-6),
+                               [camera.response_model])
+    with pytest.raises(raised):
+        uncertainty._draw(None, None, (), None)
     monkeypatch.setattr(errors.command_state, "active", False)  # not the command's work: a
     camera.measure(study.scene, 3e-6)  # library caller's measurement is not interrupted
+    assert imaging.sample_signals(study.scene, camera.window(study.scene, 3e-6),
+                                  [camera.response_model]).shape[0] == 1
 
 
 def test_the_writes_under_way_are_removed_if_the_cleanup_runs_out_of_time(tmp_path):
