@@ -22,7 +22,7 @@ import warnings
 import numpy as np
 
 from radiosim.checks import check_positive, check_rng
-from radiosim.errors import RadiosimError, RadiosimWarning
+from radiosim.errors import RadiosimError, RadiosimWarning, raise_if_interrupted
 
 __all__ = ["connect", "SCHEDULER_TIMEOUT", "recorded_warnings", "recording_run", "seed_sequence",
            "spawn_seeds", "recorded_call", "with_eta", "CLUSTER_START_SECONDS",
@@ -369,6 +369,7 @@ class _Recording:
         self.function = function
 
     def __call__(self, *args):
+        raise_if_interrupted()  # one the work swallowed: raised again, task by task
         with recorded_warnings() as texts:
             value = self.function(*args)
         return value, texts

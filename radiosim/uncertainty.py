@@ -49,7 +49,7 @@ import numpy as np
 from radiosim import budget_reuse
 from radiosim.checks import check_count, check_positive
 from radiosim.config import si_value
-from radiosim.errors import RadiosimError, RadiosimWarning, raise_if_interrupted
+from radiosim.errors import RadiosimError, RadiosimWarning
 from radiosim.moments import HISTOGRAM_BINS, PixelMoments, over_draws
 from radiosim.psf import GaussianBlur, ScatterHalo
 # connect, SCHEDULER_TIMEOUT and recorded_warnings are also importable from here, as before.
@@ -131,7 +131,8 @@ class Uniform(Distribution):
 
     def __post_init__(self):
         if not (math.isfinite(self.low) and math.isfinite(self.high) and self.high > self.low):
-            raise RadiosimError(f"Uniform needs finite low < high: {self.low!r}, {self.high!r}")
+            raise RadiosimError(f"Uniform needs finite low < high, got {self.low!r}, "
+                                f"{self.high!r}")
 
     def sample(self, rng):
         return float(rng.uniform(self.low, self.high))
@@ -514,7 +515,6 @@ class _Model:
 def _draw(model: _Model, seed: np.random.SeedSequence, vary, fixed_noise) -> np.ndarray:
     """One Monte Carlo draw: inputs in ``vary`` sampled from the draw's seed (the others at
     their means), noise from the seed unless ``fixed_noise`` is given."""
-    raise_if_interrupted()  # one the work swallowed: raised again, draw by draw
     input_seed, noise_seed = seed.spawn(2)
     rng = np.random.default_rng(input_seed)
     values = {}

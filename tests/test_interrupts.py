@@ -225,14 +225,18 @@ def test_an_interrupt_the_work_swallowed_is_raised_again_between_steps(tmp_path,
         finally:
             set_engine(None)
     # The image stage's pass over the frames (the frame sums an uncertainty budget reuses),
-    # and each Monte Carlo draw (before it samples anything).
-    from radiosim import imaging, uncertainty
+    # and each task of an engine's run (a Monte Carlo draw: before it samples anything).
+    from radiosim import imaging, scheduling
 
     with pytest.raises(raised):
         imaging.sample_signals(study.scene, camera.window(study.scene, 3e-6),
                                [camera.response_model])
-    with pytest.raises(raised):
-        uncertainty._draw(None, None, (), None)
+    run, close = scheduling.connect("synchronous")
+    try:
+        with pytest.raises(raised):
+            scheduling.recording_run(run, {})(pytest.fail, [("a task ran",)])
+    finally:
+        close()
     monkeypatch.setattr(errors.command_state, "active", False)  # not the command's work: a
     camera.measure(study.scene, 3e-6)  # library caller's measurement is not interrupted
     assert imaging.sample_signals(study.scene, camera.window(study.scene, 3e-6),
