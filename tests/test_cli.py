@@ -250,7 +250,7 @@ def test_warmup_compiles_every_path_and_says_so_in_one_line(capsys, monkeypatch)
 
 
 def test_workers_on_a_study_too_small_to_gain_run_in_this_process(tmp_path, capsys):
-    # Three measurements of 4 frames of 24 × 24 samples: a cluster's start (about 10 s) could
+    # Three measurements of 4 frames of 24 × 24 samples: a cluster's start (about 3 s) could
     # never pay; the command says why in one line and measures here (no cluster started).
     import logging
 

@@ -1,0 +1,100 @@
+"""
+Benchmark: the paper's study in this process and on a local Dask cluster, against the estimate
+``radiosim run --workers N`` decides by (:func:`radiosim.scheduling.worth_a_cluster`).
+
+The constants behind the estimate are measured here, from one run:
+
+- ``SECONDS_PER_SAMPLE``: the study's measurements in this process, warm (kernels compiled and
+  loaded, the scene's geometry built: as the second study a session runs), divided by the
+  sample-frames they read (``Study._seconds_per_measurement`` × measurements /
+  ``SECONDS_PER_SAMPLE``);
+- ``CLUSTER_START_SECONDS``: a study of two one-frame measurements (the size-of-source sweep's
+  smallest pixel, both cameras) on a local cluster of ``--workers`` processes
+  (``cluster="always"``: started, the scene shipped, each worker importing radiosim, loading
+  the kernels and building the scene's geometry for its first measurement, closed), minus
+  the same study in this process;
+- ``CLUSTER_TASK_FACTOR``: the paper's study on the cluster, minus that start, times the
+  workers sharing it, over the study in this process (each task makes the frames of its own
+  window on one thread, where this process measures the cases of a scene in one pass over
+  their frames on every core).
+
+It prints both runs, the estimate of each and the choice the estimate makes. The numba cache is
+the user's (a warm run); nothing is written to disk but the cache. Run on demand, on a quiet host
+(the host's speed probe is printed beside):
+
+    python benchmarks/bench_cluster.py [--workers 2]
+"""
+
+from __future__ import annotations
+
+import argparse
+import dataclasses
+import os
+import time
+
+from _host import speed_probe
+
+
+def main(argv=None):
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("--workers", type=int, default=2)
+    args = parser.parse_args(argv)
+    probe_before = speed_probe()
+
+    from radiosim import scheduling
+    from radiosim.study import Study
+
+    study = Study.preset("msec2009")
+    plan = list(study.plan())
+    small = Study.preset("msec2009")  # two one-frame measurements: the cluster's fixed cost
+    sweep = next(s for s in small.sweeps if s.name == "size-of-source")
+    small.sweeps = [dataclasses.replace(sweep, pixel_samples=sweep.pixel_samples[:1])]
+    small.hooks = {}
+    timed = {}
+    for what, which, workers in (("warm-up", study, None), ("alone", study, None),
+                                 ("small alone", small, None),
+                                 ("small cluster", small, args.workers),
+                                 ("cluster", study, args.workers)):
+        began = time.perf_counter()
+        which.run(None, progress=None, workers=workers, cluster="always")
+        timed[what] = time.perf_counter() - began
+    alone, cluster = timed["alone"], timed["cluster"]
+
+    n = len(plan)
+    each = study._seconds_per_measurement(plan)  # with the current SECONDS_PER_SAMPLE
+    samples = each * n / scheduling.SECONDS_PER_SAMPLE
+    per_sample = alone / samples
+    cores = scheduling._cores()
+    share = max(1, min(args.workers, cores, n))
+    start = timed["small cluster"] - timed["small alone"]
+    factor = (cluster - start) * share / alone
+    estimate_alone = each * n
+    estimate_cluster = (scheduling.cluster_overhead(args.workers, cores)
+                        + estimate_alone * scheduling.CLUSTER_TASK_FACTOR / share)
+    gain, reason = scheduling.worth_a_cluster(n, each, args.workers, cores)
+    probe_after = speed_probe()
+
+    print(f"the paper's study ({n} measurements, {samples:.3g} sample-frames), "
+          f"{os.cpu_count()} cores, load average "
+          f"{', '.join(f'{x:.1f}' for x in os.getloadavg())}")
+    print(f"host speed probe, sum(range(10**7)): {probe_before:.3f} s before, "
+          f"{probe_after:.3f} s after (about 0.17 s on a quiet host)")
+    width = 44
+    print(f"{'':<{width}} {'measured':>9} {'estimate':>9}")
+    print(f"{'in this process, warm [s]':<{width}} {alone:9.2f} {estimate_alone:9.2f}")
+    print(f"{f'local cluster of {args.workers} workers [s]':<{width}} {cluster:9.2f} "
+          f"{estimate_cluster:9.2f}")
+    print(f"{'seconds per sample-frame [s]':<{width}} {per_sample:9.2e} "
+          f"{scheduling.SECONDS_PER_SAMPLE:9.2e}")
+    print(f"{'cluster start, shipping, close [s]':<{width}} {start:9.2f} "
+          f"{scheduling.cluster_overhead(args.workers, cores):9.2f}")
+    print(f"{'work on the cluster / in this process':<{width}} {factor:9.2f} "
+          f"{scheduling.CLUSTER_TASK_FACTOR:9.2f}")
+    print(f"two one-frame measurements: {timed['small alone']:.2f} s in this process, "
+          f"{timed['small cluster']:.2f} s on the cluster")
+    print(f"cluster / this process, measured: {cluster / alone:.2f}")
+    print(f"the estimate's choice: {'cluster' if gain else 'this process'} ({reason})")
+
+
+if __name__ == "__main__":
+    main()
