@@ -11,7 +11,9 @@ ratios next to the issue's targets.
   chip's; the sub-band kernel of a PSF, which the study does not take, is not in it);
 - the warm run: the same command again, end to end, and its parts timed inside one process as
   the CLI runs them: import of ``radiosim.cli`` and the study's load (scene built), the
-  measurements (``study.run``) and the ``figures`` hook.
+  measurements (``study.run``) and the ``figures`` hook;
+- the README's other timed commands (``sse``, ``report``, ``uncertainty`` on their presets),
+  once each after ``radiosim warmup`` (left out with ``--no-commands``).
 
 Everything is written in a temporary folder, removed at the end; numba's cache for the runs is
 in it too (the user's cache is neither read nor written; matplotlib's font cache is read
@@ -24,7 +26,7 @@ scipy and matplotlib, also compiled their Python sources, 5-6 s on 2 cores that 
 installed copy pays, and counted them as kernel compile.) The machine's load shows in the
 numbers: run it on a quiet host for the README's times. Run on demand:
 
-    python benchmarks/bench_cli.py [--repeat 5]
+    python benchmarks/bench_cli.py [--repeat 5] [--no-commands]
 """
 
 from __future__ import annotations
@@ -62,6 +64,12 @@ print(json.dumps({"import": t1 - t0, "measurements": t2 - t1, "figures": t3 - t2
 """
 
 
+#: The README's other commands with a time beside them, each timed once, warm (after
+#: ``radiosim warmup`` in the benchmark's numba cache), into a new folder.
+README_COMMANDS = ((["sse", "nist-ir-psf"], "sse.csv"), (["report", "nist-ir-fpa"], "sheet"),
+                   (["uncertainty", "chip-budget"], "budget"))
+
+
 def _cpu():
     """CPU time [s], user and system, of this process's finished children."""
     usage = resource.getrusage(resource.RUSAGE_CHILDREN)
@@ -91,6 +99,8 @@ def main(argv=None):
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--repeat", type=int, default=5,
                         help="fresh processes per start-up measurement; the best is kept")
+    parser.add_argument("--no-commands", action="store_true",
+                        help="leave out the README's other commands (about 70 s)")
     args = parser.parse_args(argv)
     probe_before = speed_probe()
 
@@ -132,6 +142,12 @@ def main(argv=None):
         rows.append(("  measurements (study.run)", parts["measurements"], None, "", None))
         rows.append(("  figures (the figures hook)", parts["figures"], None, "<= 1.5 s",
                      parts["figures"] <= 1.5))
+        if not args.no_commands:
+            t, _ = _seconds(radiosim + ["warmup", "-q"], env)
+            rows.append(("radiosim warmup (after the runs)", t, None, "", None))
+            for command, out in README_COMMANDS:
+                t, _ = _seconds(radiosim + command + ["-q", "--out", str(tmp / out)], env)
+                rows.append((f"radiosim {' '.join(command)}, warm", t, None, "", None))
     finally:
         shutil.rmtree(tmp, ignore_errors=True)
 
