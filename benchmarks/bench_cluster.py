@@ -12,15 +12,16 @@ The constants behind the estimate are measured here, from one run:
   smallest pixel, both cameras) on a local cluster of ``--workers`` processes
   (``cluster="always"``: started, the scene shipped, each worker importing radiosim, loading
   the kernels and building the scene's geometry for its first measurement, closed), minus
-  the same study in this process;
+  the same study in this process (run a second time: its scene built); with more workers
+  than cores this is ``cluster_overhead``, the constant times workers / cores;
 - ``CLUSTER_TASK_FACTOR``: the paper's study on the cluster, minus that start, times the
   workers sharing it, over the study in this process (each task makes the frames of its own
   window on one thread, where this process measures the cases of a scene in one pass over
   their frames on every core).
 
 It prints both runs, the estimate of each and the choice the estimate makes. The numba cache is
-the user's (a warm run); nothing is written to disk but the cache. Run on demand, on a quiet host
-(the host's speed probe is printed beside):
+the user's (a warm run); nothing is written to disk but the cache and Dask's scratch folder. Run
+on demand, on a quiet host (the host's speed probe is printed beside):
 
     python benchmarks/bench_cluster.py [--workers 2]
 """
@@ -52,6 +53,7 @@ def main(argv=None):
     small.hooks = {}
     timed = {}
     for what, which, workers in (("warm-up", study, None), ("alone", study, None),
+                                 ("small warm-up", small, None),  # its own scene built
                                  ("small alone", small, None),
                                  ("small cluster", small, args.workers),
                                  ("cluster", study, args.workers)):
@@ -59,6 +61,11 @@ def main(argv=None):
         which.run(None, progress=None, workers=workers, cluster="always")
         timed[what] = time.perf_counter() - began
     alone, cluster = timed["alone"], timed["cluster"]
+    began = time.perf_counter()
+    run, close = scheduling.connect(None, args.workers)
+    started = time.perf_counter()
+    close()
+    timed["cluster start"], timed["cluster close"] = started - began, time.perf_counter() - started
 
     n = len(plan)
     each = study._seconds_per_measurement(plan)  # with the current SECONDS_PER_SAMPLE
@@ -91,7 +98,8 @@ def main(argv=None):
     print(f"{'work on the cluster / in this process':<{width}} {factor:9.2f} "
           f"{scheduling.CLUSTER_TASK_FACTOR:9.2f}")
     print(f"two one-frame measurements: {timed['small alone']:.2f} s in this process, "
-          f"{timed['small cluster']:.2f} s on the cluster")
+          f"{timed['small cluster']:.2f} s on the cluster; an empty cluster: started in "
+          f"{timed['cluster start']:.2f} s, closed in {timed['cluster close']:.2f} s")
     print(f"cluster / this process, measured: {cluster / alone:.2f}")
     print(f"the estimate's choice: {'cluster' if gain else 'this process'} ({reason})")
 

@@ -107,31 +107,31 @@ def _probe(address: str, timeout: float) -> None:
 
 #: Seconds a local cluster costs before and after its work, measured on 2 cores by
 #: ``benchmarks/bench_cluster.py`` (warm numba cache, quiet host, 2026-11-26): a study of two
-#: one-frame measurements took 3.3 s on a ``LocalCluster`` of 2 single-threaded worker
-#: processes against 0.7 s in this process: starting the cluster and its client (0.8 s), each
+#: one-frame measurements took 3.27 s on a ``LocalCluster`` of 2 single-threaded worker
+#: processes against 0.05 s in this process: starting the cluster and its client (0.5 s), each
 #: worker importing radiosim to unpickle the scene, loading the compiled kernels and building
 #: the scene's geometry for its first measurement, and closing it (0.1 s). A loaded host
 #: doubles it.
-CLUSTER_START_SECONDS = 2.6
+CLUSTER_START_SECONDS = 3.2
 
 #: Work of a study's measurements on a local cluster, times the workers sharing it, over the
-#: same measurements in this process (``benchmarks/bench_cluster.py``, the paper's study: 23.7 s
-#: on 2 workers against 3.2 s here, 2.6 s of it the start). A task makes the frames of its own
+#: same measurements in this process (``benchmarks/bench_cluster.py``, the paper's study: 23.3 s
+#: on 2 workers against 3.3 s here, 3.2 s of it the start). A task makes the frames of its own
 #: window on its worker's share of the cores (one thread each of 2 workers on 2 cores), where
 #: this process measures all the cases of a scene in one pass over their frames, its kernels
 #: on every core (``radiosim.camera.measure_many_statistics``): the 44 measurements of the
 #: paper's study share the chip's frames, which the tasks make 44 times. So on 2 cores a local
-#: cluster never gains on a study (13 / 2 workers > 1); where many cores share the work it may,
+#: cluster never gains on a study (12 / 2 workers > 1); where many cores share the work it may,
 #: though there this process's kernels have more threads too: the factor is measured on 2
 #: cores only, and ``benchmarks/bench_cluster.py`` measures it on the machine at hand.
-CLUSTER_TASK_FACTOR = 13.0
+CLUSTER_TASK_FACTOR = 12.0
 
 #: Seconds [s] a measurement spends per sample it reads and frame of its window in this
 #: process, warm, on 2 cores: the paper's study (44 measurements reading 4.97e9 sample-frames
-#: in all, the field sweeps' whole chip and the pixel sweep's footprints) took 3.2 s
+#: in all, the field sweeps' whole chip and the pixel sweep's footprints) took 3.3 s
 #: (``benchmarks/bench_cluster.py``, quiet host; 4.3 s in a slower minute). The estimate
 #: :meth:`radiosim.study.Study.run` gives :func:`local_workers`.
-SECONDS_PER_SAMPLE = 6.4e-10
+SECONDS_PER_SAMPLE = 6.6e-10
 
 
 def _cores() -> int:
@@ -180,16 +180,16 @@ def worth_a_cluster(n_measurements: int, seconds_per_measurement: float, workers
     -------
     (bool, str)
         The choice and the reason, e.g. ``(False, "2 workers: a local cluster would take
-        about 23 s against 3.2 s in this process (44 measurements of about 0.073 s on 2 cores;
-        starting it costs 2.6 s); measuring in this process")``.
+        about 23 s against 3.3 s in this process (44 measurements of about 0.075 s on 2 cores;
+        starting it costs 3.2 s); measuring in this process")``.
 
     Examples
     --------
-    >>> worth_a_cluster(44, 0.073, 2, cores=2)[0]
+    >>> worth_a_cluster(44, 0.075, 2, cores=2)[0]
     False
-    >>> worth_a_cluster(400, 2.0, 2, cores=2)[0]  # 800 s alone, 5,200 s on the cluster
+    >>> worth_a_cluster(400, 2.0, 2, cores=2)[0]  # 800 s alone, 4,800 s on the cluster
     False
-    >>> worth_a_cluster(400, 2.0, 32, cores=32)[0]  # 800 s alone, 330 s on the cluster
+    >>> worth_a_cluster(400, 2.0, 32, cores=32)[0]  # 800 s alone, 300 s on the cluster
     True
     """
     if isinstance(workers, bool) or int(workers) != workers or workers < 1:

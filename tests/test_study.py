@@ -172,8 +172,8 @@ def test_the_plan_is_named_records():
 
 
 def test_a_local_cluster_only_where_it_pays(caplog):
-    # The paper's study: 44 measurements of about 0.073 s each (3.2 s) against a cluster's
-    # 2.6 s start plus 13× the work shared by 2 processes (23 s): it runs in this process,
+    # The paper's study: 44 measurements of about 0.075 s each (3.3 s) against a cluster's
+    # 3.2 s start plus 12× the work shared by 2 processes (23 s): it runs in this process,
     # saying why; a plan a hundred times the work would too on 2 cores, and would take a
     # cluster of 32 workers on 32 cores.
     from radiosim.scheduling import SECONDS_PER_SAMPLE, worth_a_cluster
