@@ -175,14 +175,17 @@ class StudyResult:
     exr_directory: Path | None = None
     history: Path | None = None
     columns: list[str] = field(default_factory=lambda: list(RESULT_COLUMNS))
+    study: str | None = None  # the study's name, as its rows give it
 
-    def to_xarray(self, name: str = "study", history: str | None = None,
+    def to_xarray(self, name: str | None = None, history: str | None = None,
                   institution: str | None = None):
         """The rows as one CF-1.8 :class:`xarray.Dataset`: one record per measurement along
         ``measurement``, the sweep parameters as coordinates along it
-        (:func:`radiosim.io.results_to_xarray`); ``history``: the command that made them."""
+        (:func:`radiosim.io.results_to_xarray`); ``name``: the study's (default: the one
+        that ran, else ``"study"``); ``history``: the command that made them."""
         from radiosim.io.netcdf import results_to_xarray
 
+        name = name if name is not None else self.study or "study"
         return results_to_xarray(self.rows, name, columns=self.columns, history=history,
                                  institution=institution)
 
@@ -490,7 +493,7 @@ class Study:
                 raise RadiosimIOError(f"cannot create {exc.filename or out}: "
                                       f"{exc.strerror or exc}") from None
             exr_dir = out / "exr" if write_exr else None
-        result = StudyResult(rows=[], exr_directory=exr_dir, columns=columns)
+        result = StudyResult(rows=[], exr_directory=exr_dir, columns=columns, study=self.name)
         if out is not None and figures:
             self._prepare_figures()
         history = {}

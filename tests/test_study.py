@@ -81,6 +81,16 @@ def test_window_alignments(tmp_path):
     assert all(r["alignment"] == "scene start" for r in rows)  # said as it happened
 
 
+def test_a_study_result_labels_its_dataset_with_the_study_that_ran(tmp_path):
+    # A result run from Python names its study in the dataset, as the rows do (the CLI's
+    # results.nc passes the name; a caller of to_xarray() need not).
+    result = _uniform_frames_study(tmp_path, integration_time_us=[2]).run(write_exr=False)
+    assert {r["study"] for r in result.rows} == {"frames"}
+    ds = result.to_xarray()
+    assert ds.attrs["study"] == "frames" and "frames" in ds.attrs["title"]
+    assert result.to_xarray("renamed").attrs["study"] == "renamed"
+
+
 def test_window_alignments_around_an_event(tmp_path):
     # Frame k holds 300 + k kelvin; the event is frame 10 (its mid-time 10.5 µs).
     stack = tmp_path / "s.npy"
