@@ -36,7 +36,8 @@ from radiosim.ratio import channel_cameras, combine
 from radiosim.scenes.base import Scene
 from radiosim.units import readable_time
 
-__all__ = ["readout_shape", "frame_period", "check_frame_period", "check_measurable", "frame_dtype",
+__all__ = ["readout_shape", "frame_period", "check_frame_period", "check_readout_fits",
+           "check_measurable", "frame_dtype",
            "is_rolling", "instrument_signal", "photoelectrons", "tensor_statistics",
            "rolling_statistics", "read_out", "measure_many", "measure_many_statistics",
            "ChannelStatistics", "channel_cases", "record", "superframe"]
@@ -84,6 +85,29 @@ def check_frame_period(camera, integration_time: float, what: str | None = None)
             + f" exceeds the frame period of {camera.name} ({period * 1e6:g} µs at "
             f"{camera.frame_rate:g} Hz); expected at most "
             f"{(period - (needed - integration_time)) * 1e6:g} µs")
+
+
+def check_readout_fits(camera):
+    """
+    Refuse (:class:`RadiosimError`) a ``camera`` whose array's readout leaves no integration
+    time within its frame period: integrate-then-read (``itr``) needs readout < period,
+    integrate-while-read (``iwr``) readout ≤ period. A camera without a frame rate takes any.
+    """
+    if camera.frame_rate is None:
+        return
+    fpa, (rows, cols) = camera.fpa, readout_shape(camera)
+    readout = fpa.readout_time((rows, cols))  # [s]
+    period = 1.0 / camera.frame_rate  # [s]
+    if readout < period or (fpa.readout == "iwr" and readout <= period * (1 + 1e-12)):
+        return
+    raise RadiosimError(
+        f"camera {camera.name!r}: reading its {rows} × {cols} pixels takes "
+        f"{readout * 1e6:g} µs ({rows} rows × row_time_us = {fpa.row_time * 1e6:g}, "
+        f"{rows * cols} pixels × pixel_time_us = {fpa.pixel_time * 1e6:g}, readout_overhead_us "
+        f"= {fpa.readout_overhead * 1e6:g}), which leaves no integration time in a frame at "
+        f"frame_rate_hz = {camera.frame_rate:g} ({period * 1e6:g} µs); expected a readout "
+        f"{'at most' if fpa.readout == 'iwr' else 'under'} {period * 1e6:g} µs (fewer rows in "
+        f"[fpa] shape, shorter row or pixel times, or a lower frame rate)")
 
 
 def check_measurable(camera, integration_time: float):

@@ -35,9 +35,9 @@ from pathlib import Path
 
 import numpy as np
 
-from radiosim.acquisition import (check_frame_period, check_measurable, instrument_signal,
-                                  measure_many, measure_many_statistics, read_out,
-                                  tensor_statistics)
+from radiosim.acquisition import (check_frame_period, check_measurable, check_readout_fits,
+                                  instrument_signal, measure_many, measure_many_statistics,
+                                  read_out, tensor_statistics)
 from radiosim.calibration import Calibration, NonUniformityCorrection
 from radiosim.checks import check_fraction, check_positive, check_time
 from radiosim.config import build_checked, build_from_toml, dumps_toml, edge_field
@@ -200,6 +200,7 @@ class Camera:
                 self.ratio_noise_limit, "ratio_noise_limit", "K"))
         if self.channels is not None:
             object.__setattr__(self, "channels", check_channels(self.channels, self.response))
+        check_readout_fits(self)
 
     # -- construction -------------------------------------------------------------------------
 

@@ -36,8 +36,8 @@ from radiosim import __version__  # noqa: E402
 from radiosim.console import Progress as _Progress, show_warning as _show_warning
 from radiosim.units import (AMBIENT_TEMPERATURE, join_negatives as _join_negatives,
                             parse_length, parse_temperature, parse_time, parse_time_or_zero,
-                            typed as _typed, whole_number as _count, to_celsius,
-                            to_kelvin)
+                            readable_time, typed as _typed, whole_number as _count,
+                            to_celsius, to_kelvin)
 
 if TYPE_CHECKING:
     from radiosim.camera import Camera
@@ -322,12 +322,15 @@ def _from_file(path, what: str, load):
         raise type(exc)(f"{path}: {message}") from None
 
 
-def _check_frame_period(camera: Camera, integration_time: float):
-    """The rule :meth:`Camera.window` applies to every measurement, checked before the work:
-    the integration (with its readout) must fit in the camera's frame period."""
+def _check_frame_period(camera: Camera, args, default: float | None = None):
+    """:meth:`Camera.window`'s rule, before the work: the integration with its readout fits in
+    a frame; an ``--integration-time`` not given is set to ``default`` [s] first."""
     from radiosim.acquisition import check_frame_period
 
-    check_frame_period(camera, integration_time, f"--integration-time {_typed(integration_time)}")
+    said = "" if args.integration_time is not None else " (the default)"
+    t_int = args.integration_time = default if said else args.integration_time  # [s]
+    given = readable_time(t_int) if said else _typed(t_int)
+    check_frame_period(camera, t_int, f"--integration-time {given}{said}")
 
 
 #: Dask protocols a scheduler address may use.
@@ -365,7 +368,7 @@ def _sse(args) -> int:
     from radiosim.reporting import sse_csv, sse_lines
 
     camera = _camera(args.camera, command="sse")
-    _check_frame_period(camera, args.integration_time)
+    _check_frame_period(camera, args, default=10e-6)
     _check_out_file(args, ".csv", "the SSE curve is a CSV table")
     pitch = camera.fpa.pixel_pitch
     diameters = np.array(args.diameters) if args.diameters else sse_diameters(pitch)
@@ -440,7 +443,7 @@ def _calibrate(args) -> int:
     from radiosim.reporting import calibration_lines
 
     camera = _camera(args.camera, command="calibrate")
-    _check_frame_period(camera, args.integration_time)
+    _check_frame_period(camera, args)
     path = Path(args.table)
     if not path.is_file():
         raise RadiosimError(f"{path} does not exist (expected a CSV of temperature_K or "
@@ -472,7 +475,7 @@ def _report(args) -> int:
     from radiosim.reporting import DATASHEET_FIGURES, datasheet_lines, write_datasheet
 
     camera = _camera(args.camera, command="report")
-    _check_frame_period(camera, args.integration_time)
+    _check_frame_period(camera, args, default=240e-6)
     t_int = args.integration_time
     plan = datasheet_plan(camera, t_int)  # the levels, checked against the camera
     if args.frames < 2:
@@ -624,8 +627,7 @@ def build_parser() -> argparse.ArgumentParser:
                      help="background temperature, e.g. 20C (default 20C)")
     sse.add_argument("--diameters", type=parse_length, nargs="+",
                      help="disc diameters, e.g. 12um 60um 600um (default 2 to 200 pixels)")
-    sse.add_argument("--integration-time", type=parse_time, default=10e-6, metavar="T",
-                     help="integration time (default 10us)")
+    sse.add_argument("--integration-time", type=parse_time, metavar="T", help="(default 10us)")
     _add_out_file(sse, "the curve (.csv)")
     _add_quiet(sse)
     sse.set_defaults(func=_sse)
@@ -656,8 +658,8 @@ def build_parser() -> argparse.ArgumentParser:
                             "error, NETD curve and measurable range; datasheet.csv and figures "
                             "in --out.")
     report.add_argument("camera", help="preset name or camera TOML")
-    report.add_argument("--integration-time", type=parse_time, default=240e-6, metavar="T",
-                        help="integration time of the datasheet (default 240us)")
+    report.add_argument("--integration-time", type=parse_time, metavar="T",
+                        help="the datasheet's (default 240us)")
     report.add_argument("--frames", type=_count(2, what="a number of read-outs (temporal "
                         "variances need two)"), default=16,
                         help="read-outs per flat field (default 16)")

@@ -187,6 +187,23 @@ def test_sse_integration_past_the_frame_period(here, capsys, t):
             t, "frame period", "1666.67 µs")
 
 
+@pytest.mark.parametrize("command, default", [("sse", "10 µs"), ("report", "240 µs")])
+def test_a_default_integration_past_the_frame_period_is_said_to_be_the_default(
+        here, capsys, command, default):
+    # 1000 Hz; 90 rows × 10 µs + 95 µs = 995 µs of readout: 5 µs of integration at most, which
+    # both defaults exceed; with 91 rows (1005 µs) no integration fits: the camera is refused.
+    def camera(rows):
+        (here / "c.toml").write_text(
+            'name = "c"\nframe_rate_hz = 1000.0\n[fpa]\npixel_pitch_um = 3.0\n'
+            f'row_time_us = 10.0\nreadout_overhead_us = 95.0\nshape = [{rows}, 160]\n')
+
+    camera(90)
+    refused([command, "c.toml"], capsys, here, "--integration-time", f"{default} (the default)",
+            "1000 µs", "at most 5 µs")
+    camera(91)
+    refused([command, "c.toml"], capsys, here, "c.toml", "1005 µs", "under 1000 µs")
+
+
 def test_calibrate_integration_past_the_frame_period(here, capsys):
     (here / "table.csv").write_text("temperature_K,counts\n300,1000\n400,2000\n")
     refused(["calibrate", "table.csv", "--camera", "nist-ir", "--integration-time", "1s"],

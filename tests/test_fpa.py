@@ -657,6 +657,30 @@ def test_integration_whose_readout_exceeds_the_frame_period_is_refused():
     camera_with(base=camera, fpa=dict(readout="iwr")).measure(scene, 400e-6, 0.0, rng=0)
 
 
+def test_a_camera_whose_readout_fills_its_frame_is_refused_when_built(tmp_path):
+    # 1000 Hz: 1000 µs per frame. 256 rows × 10 µs + 100 µs = 2660 µs of readout leaves no
+    # integration time: refused at construction (from Python and from a camera file), naming
+    # the keys, not at the first measurement with a negative limit.
+    shape = dict(shape=(256, 320), row_time=10e-6, readout_overhead=100e-6)
+    with pytest.raises(RadiosimError, match=r"2660 µs .* frame_rate_hz = 1000 \(1000 µs\)"):
+        camera_with(fpa=dict(readout="itr", **shape), frame_rate=1000.0)
+    (tmp_path / "c.toml").write_text(
+        'name = "c"\nframe_rate_hz = 1000.0\n[fpa]\nshape = [256, 320]\npixel_pitch_um = 3.0\n'
+        'row_time_us = 10.0\nreadout_overhead_us = 100.0\n')
+    with pytest.raises(RadiosimError, match=r"c\.toml.*row_time_us = 10.*under 1000 µs"):
+        Camera.from_toml(tmp_path / "c.toml")
+    # The edges: integrate-then-read needs the readout under the period (then a short
+    # integration fits); integrate-while-read takes a readout of the whole period.
+    edge = dict(shape=(90, 160), row_time=10e-6, readout_overhead=100e-6)  # 1000 µs exactly
+    with pytest.raises(RadiosimError, match="under 1000 µs"):
+        camera_with(fpa=dict(readout="itr", **edge), frame_rate=1000.0)
+    camera_with(fpa=dict(readout="iwr", **edge), frame_rate=1000.0)  # fits
+    under = camera_with(fpa=dict(readout="itr", shape=(89, 160), row_time=10e-6,
+                                 readout_overhead=100e-6), frame_rate=1000.0)  # 990 µs
+    assert frame_period(under, 10e-6) == pytest.approx(1e-3, rel=1e-12)
+    camera_with(fpa=dict(readout="itr", **shape), frame_rate=None)  # no frame rate: any
+
+
 # -- 7. every new effect off: the old chain bit for bit -----------------------------------------
 
 
