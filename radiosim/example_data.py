@@ -186,7 +186,7 @@ def write_example_data(folder, rng=0) -> list[Path]:
         raise RadiosimError(f"{folder} is not empty; the example data goes into a new or "
                             "empty folder")
     rng = np.random.default_rng(rng)
-    out = OutputFolder(folder)
+    out = OutputFolder(folder, option="the example data's folder")
     try:
         staging = out.staging
         _write_frames(staging)

@@ -298,10 +298,10 @@ def check_output_folder(path, overwrite: bool = False, option: str = "--out") ->
         return []
     manifest = path / MANIFEST
     if not overwrite:
+        flag = "--overwrite" if option.startswith("--") else "overwrite=True"
         raise RadiosimError(
-            f"{option} {path} is not empty; choose a new or empty folder, or pass "
-            "--overwrite (overwrite=True) to replace the files of radiosim's previous run there "
-            f"(those listed in {MANIFEST})")
+            f"{option} {path} is not empty; choose a new or empty folder, or pass {flag} to "
+            f"replace the files of radiosim's previous run there (those listed in {MANIFEST})")
     if not manifest.is_file():
         raise RadiosimError(
             f"{option} {path} is not empty and radiosim did not write it (it holds no "
@@ -459,6 +459,9 @@ class OutputFolder:
         manifest); other files are never touched, and a run that would write over one refuses.
     inputs
         Files the run reads: refused if the run would replace or delete one of them.
+    option
+        How errors name the folder: a command's option (``--out``, then ``--overwrite`` is
+        suggested), or words for a Python caller (then ``overwrite=True``).
 
     Use :attr:`staging` as the run's folder, :meth:`commit` when it completed, and
     :meth:`abandon` when it failed. While the run lasts, the staging folder holds
@@ -466,10 +469,10 @@ class OutputFolder:
     another run is writing it; a marker whose process is gone is recognised as stale.
     """
 
-    def __init__(self, path, overwrite: bool = False, inputs=()):
+    def __init__(self, path, overwrite: bool = False, inputs=(), option: str = "--out"):
         self.path = Path(path)
         self.overwrite = overwrite
-        self.previous: list[str] = check_output_folder(self.path, overwrite)
+        self.previous: list[str] = check_output_folder(self.path, overwrite, option)
         self.check_inputs(inputs)
         parent = self.path.parent
         self.staging = parent / f"{self.path.name}.partial"

@@ -476,7 +476,8 @@ class Study:
         columns = self.columns()
         folder = None
         if out is not None and not is_staging(out):
-            folder = OutputFolder(out, overwrite=overwrite, inputs=self.inputs())
+            folder = OutputFolder(out, overwrite=overwrite, inputs=self.inputs(),
+                                  option="the output folder")
             target, out = Path(out), folder.staging
         out = None if out is None else Path(out)
         exr_dir = None

@@ -712,3 +712,24 @@ def test_a_study_lists_its_inputs(tmp_path):
     inputs = {p.resolve() for p in study.inputs()}
     assert (tmp_path / "frames.npy").resolve() in inputs
     assert (tmp_path / "cam.toml").resolve() in inputs
+
+
+def test_a_refused_folder_is_named_in_the_callers_words(tmp_path, capsys):
+    # The command names its option and suggests --overwrite; Python's Study.run suggests
+    # overwrite=True; example-data (no --out option) names its folder argument.
+    out = tmp_path / "out"
+    out.mkdir()
+    (out / "data.csv").write_text("the user's data")
+    study = tmp_path / "s.toml"
+    import tomlkit
+
+    study.write_text(tomlkit.dumps(frames_study(tmp_path)))
+    code, _, err = cli(["run", str(study), "--out", str(out), "-q"], capsys)
+    assert code == 2 and f"--out {out} is not empty" in err and "pass --overwrite " in err
+    assert "overwrite=True" not in err
+    with pytest.raises(RadiosimError) as info:
+        Study.from_dict(frames_study(tmp_path)).run(out)
+    assert "overwrite=True" in str(info.value) and "--" not in str(info.value)
+    code, _, err = cli(["example-data", str(out / "data.csv")], capsys)
+    assert code == 2 and "--out" not in err and "example data's folder" in err
+    assert tree(out) == {"data.csv": b"the user's data"}
