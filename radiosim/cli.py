@@ -33,7 +33,8 @@ from radiosim.errors import (Interrupted, RadiosimError, RadiosimIOError, Radios
                              exit_interrupted as _exit_now, on_interrupt as _interrupt,
                              on_unraisable as _on_unraisable)
 from radiosim import __version__  # noqa: E402
-from radiosim.console import Progress as _Progress, show_warning as _show_warning
+from radiosim.console import (Progress as _Progress, outlive_the_reader as _outlive_the_reader,
+                              show_warning as _show_warning)
 from radiosim.units import (AMBIENT_TEMPERATURE, join_negatives as _join_negatives,
                             parse_length, parse_temperature, parse_time, parse_time_or_zero,
                             readable_time, typed as _typed, whole_number as _count,
@@ -47,7 +48,6 @@ __all__ = ["main", "parse_time", "parse_length", "parse_temperature", "EXIT_INPU
 
 #: Exit codes: a mistake in the input or the options, a failure while running, an interrupt.
 EXIT_INPUT, EXIT_FAILURE, EXIT_INTERRUPTED = 2, 1, 130
-
 
 #: The most Monte Carlo draws a budget may ask for (radiosim.uncertainty.MAX_DRAWS, kept equal
 #: by a test; not imported here so that --help loads nothing heavy): GUM Supplement 1 (7.2.2)
@@ -300,10 +300,8 @@ def _camera(name: str, pixel_pitch: float | None = None, command: str | None = N
         if pixel_pitch is None:
             raise RadiosimError("the linear-ideal camera needs --pixel-pitch (e.g. 6um)")
         return Camera.linear_ideal(pixel_pitch)
-    if name.endswith(".toml"):
-        camera = _from_file(name, "camera file", Camera.from_toml)
-    else:
-        camera = Camera.preset(name)
+    camera = (_from_file(name, "camera file", Camera.from_toml) if name.endswith(".toml")
+              else Camera.preset(name))
     return camera if pixel_pitch is None else camera.with_pixel_pitch(pixel_pitch)
 
 
@@ -682,7 +680,7 @@ def build_parser() -> argparse.ArgumentParser:
     example.add_argument("folder", help="a new or empty folder (. for the current one)")
     example.set_defaults(func=_example_data)
     scene = sub.add_parser("scene", help="the built-in segmented-chip scene")
-    scene_sub = scene.add_subparsers(dest="scene_command", required=True)
+    scene_sub = scene.add_subparsers(dest="scene_command", required=True, metavar="preview")
     preview = scene_sub.add_parser("preview", help="write a PNG of the scene with the tool, "
                                    "shear plane and Columns I-III (like the paper's Figure 4)")
     preview.add_argument("--time", type=parse_time, default=None,
@@ -718,6 +716,8 @@ def _command(argv) -> int:
     words = sys.argv[1:] if argv is None else [str(a) for a in argv]
     args = parser.parse_args(_join_negatives(parser, words))
     args.command_line = shlex.join(["radiosim", *words])  # a results file's history
+    if command:
+        _outlive_the_reader()  # `radiosim run | head -1` runs to the end, quietly
     logging.basicConfig(level=logging.INFO if args.verbose else logging.WARNING,
                         format="%(levelname)s %(name)s: %(message)s")
     # The work's handlers: Ctrl-C and SIGTERM unwind (every ``finally`` removes its temporary

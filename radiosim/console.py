@@ -2,17 +2,22 @@
 The command's console: progress on stderr and warnings as one line.
 
 The library never prints (it logs and warns); the ``radiosim`` command (:mod:`radiosim.cli`)
-owns the console, through these two helpers. Nothing heavy is imported here: tqdm loads only
+owns the console, through these helpers. Nothing heavy is imported here: tqdm loads only
 when a bar is drawn on a terminal.
+
+A reader that leaves (``radiosim run | head -1``: a closed pipe) does not end the work: the
+command's output goes to the null device from then on (:func:`outlive_the_reader`), and the
+run completes, its files written and its exit status its own.
 """
 
 from __future__ import annotations
 
+import os
 import sys
 
 from radiosim.errors import RadiosimWarning
 
-__all__ = ["Progress", "show_warning"]
+__all__ = ["Progress", "show_warning", "outlive_the_reader"]
 
 
 class Progress:
@@ -53,3 +58,54 @@ def show_warning(message, category, filename, lineno, file=None, line=None):
     """Warnings as one line on stderr, without the source line."""
     name = "warning" if issubclass(category, RadiosimWarning) else category.__name__
     print(f"radiosim: {name}: {message}", file=sys.stderr)
+
+
+class _ReaderMayLeave:
+    """``stream`` (a text stream on a file descriptor) whose writes, once its reader has gone
+    (``BrokenPipeError``), go to the null device: the descriptor itself is pointed there, so
+    the buffered rest, the interpreter's last flush and child processes sharing it write
+    nowhere instead of failing."""
+
+    def __init__(self, stream):
+        self._stream = stream
+
+    def write(self, text):
+        try:
+            return self._stream.write(text)
+        except BrokenPipeError:
+            self._to_null()
+            return len(text)
+
+    def flush(self):
+        try:
+            self._stream.flush()
+        except BrokenPipeError:
+            self._to_null()
+
+    def _to_null(self):
+        null = os.open(os.devnull, os.O_WRONLY)
+        try:
+            os.dup2(null, self._stream.fileno())
+        finally:
+            os.close(null)
+        try:
+            self._stream.flush()  # what the buffer still holds, to the null device
+        except (OSError, ValueError):
+            pass
+
+    def __getattr__(self, name):
+        return getattr(self._stream, name)
+
+
+def outlive_the_reader() -> None:
+    """Let the command's stdout and stderr outlive their reader (see the module docstring):
+    called by the ``radiosim`` command itself, once, before its work."""
+    for name in ("stdout", "stderr"):
+        stream = getattr(sys, name)
+        if isinstance(stream, _ReaderMayLeave):
+            continue
+        try:
+            stream.fileno()
+        except (AttributeError, OSError, ValueError):  # not on a descriptor: left as it is
+            continue
+        setattr(sys, name, _ReaderMayLeave(stream))

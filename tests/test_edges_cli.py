@@ -470,3 +470,8 @@ def test_an_interrupt_that_surfaces_as_another_error_is_still_an_interrupt(here,
     assert code == 130, (code, err)
     assert err.strip() == "radiosim: interrupted (SIGTERM); temporary files removed", err
     assert "internal error" not in err
+
+
+def test_a_missing_scene_subcommand_is_named_as_the_user_types_it(here, capsys):
+    line = refused(["scene"], capsys, here, "required", "preview", "radiosim scene --help")
+    assert "scene_command" not in line

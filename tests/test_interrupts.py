@@ -262,3 +262,27 @@ with files.atomic_write({str(tmp_path / "a.txt")!r}) as handle:
     assert done.returncode == 130, done.stderr
     assert "the cleanup did not finish within 15 s, ended" in done.stderr
     assert list(tmp_path.iterdir()) == []
+
+
+@pytest.mark.parametrize("closed", ["stdout", "stdout and stderr"])
+def test_a_reader_that_leaves_does_not_end_the_run(tmp_path, closed):
+    # `radiosim run | head -1` (and `2>&1 | head`): the reader closes the pipe before the
+    # command's first line; the run still completes, its files committed, exit 0, no error.
+    np.save(tmp_path / "frames.npy", np.full((6, 24, 24), 650.0))
+    (tmp_path / "s.toml").write_text(frames_study([1, 2, 3], 4.0))
+    read, write = os.pipe()
+    os.close(read)  # the reader has gone before the command starts
+    try:
+        done = subprocess.run(
+            [sys.executable, "-m", "radiosim.cli", "run", "s.toml", "--out", "out",
+             "--no-figures"], stdout=write, cwd=tmp_path, timeout=300,
+            stderr=write if closed == "stdout and stderr" else subprocess.PIPE)
+    finally:
+        os.close(write)
+    assert done.returncode == 0, done.stderr
+    if done.stderr is not None:  # the progress lines, and nothing else
+        lines = done.stderr.decode().splitlines()
+        assert lines and all(line.startswith("[") for line in lines), done.stderr
+    with open(tmp_path / "out" / "results.csv", newline="") as table:
+        assert len(list(csv.DictReader(table))) == 3
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["frames.npy", "out", "s.toml"]
