@@ -299,3 +299,11 @@ def test_old_files_read_or_name_the_difference(tmp_path, measurement, study_run)
         read_netcdf(tmp_path / "cube.nc")
     assert read_results(tmp_path / "cube.nc") == [
         {"sweep": "t", "camera": "lin", "integration_time_us": 1.0, "peak_C": 600.0}]
+
+
+def test_write_netcdf_refuses_swapped_or_wrong_arguments_in_one_line(tmp_path, measurement):
+    with pytest.raises(RadiosimError, match=r"got a Measurement \(the path comes first\)"):
+        write_netcdf(measurement, tmp_path / "m.nc")
+    with pytest.raises(RadiosimError, match=r"Measurement or an xarray.Dataset .* got a dict"):
+        write_netcdf(tmp_path / "m.nc", {"a": 1})
+    assert list(tmp_path.iterdir()) == []

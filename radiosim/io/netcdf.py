@@ -36,6 +36,7 @@ table's rows (an empty numeric cell and ``nan`` both read as NaN).
 from __future__ import annotations
 
 import math
+import os
 import tomllib
 from pathlib import Path
 
@@ -144,6 +145,16 @@ def write_netcdf(path, measurement_or_dataset, history: str | None = None) -> Pa
     pathlib.Path
         The path written.
     """
+    import xarray as xr
+
+    if not isinstance(path, (str, os.PathLike)):
+        swapped = " (the path comes first)" if isinstance(measurement_or_dataset,
+                                                          (str, os.PathLike)) else ""
+        raise RadiosimError(f"write_netcdf: path must be a file path (str or os.PathLike), "
+                            f"got a {type(path).__name__}{swapped}")
+    if not isinstance(measurement_or_dataset, (Measurement, xr.Dataset)):
+        raise RadiosimError(f"write_netcdf: expected a Measurement or an xarray.Dataset to "
+                            f"write to {path}, got a {type(measurement_or_dataset).__name__}")
     path = Path(path)
     dataset = (to_xarray(measurement_or_dataset, history)
                if isinstance(measurement_or_dataset, Measurement) else measurement_or_dataset)
