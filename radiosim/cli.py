@@ -34,7 +34,7 @@ from radiosim.errors import (Interrupted, RadiosimError, RadiosimIOError, Radios
                              on_unraisable as _on_unraisable)
 from radiosim import __version__  # noqa: E402
 from radiosim.console import (Progress as _Progress, outlive_the_reader as _outlive_the_reader,
-                              show_warning as _show_warning)
+                              show_warning as _show_warning, shell_expanded as _unexpanded)
 from radiosim.units import (AMBIENT_TEMPERATURE, join_negatives as _join_negatives,
                             parse_length, parse_temperature, parse_time, parse_time_or_zero,
                             readable_time, typed as _typed, whole_number as _count,
@@ -696,6 +696,7 @@ class _Parser(argparse.ArgumentParser):
     """argparse with one-line errors and the documented exit code."""
 
     def error(self, message):
+        message = _unexpanded(message)  # files the shell expanded from a pattern: said so
         self.exit(EXIT_INPUT, f"radiosim: error: {message} (see {self.prog} --help)\n")
 
 

@@ -17,7 +17,7 @@ import sys
 
 from radiosim.errors import RadiosimWarning
 
-__all__ = ["Progress", "show_warning", "outlive_the_reader"]
+__all__ = ["Progress", "show_warning", "shell_expanded", "outlive_the_reader"]
 
 
 class Progress:
@@ -58,6 +58,19 @@ def show_warning(message, category, filename, lineno, file=None, line=None):
     """Warnings as one line on stderr, without the source line."""
     name = "warning" if issubclass(category, RadiosimWarning) else category.__name__
     print(f"radiosim: {name}: {message}", file=sys.stderr)
+
+
+def shell_expanded(message: str) -> str:
+    """argparse's ``message``, or, where its unrecognised arguments are all existing files
+    (``radiosim measure run/frame_*.exr`` unquoted: the shell expanded the pattern), one
+    short line saying so instead of listing them."""
+    if not message.startswith("unrecognized arguments: "):
+        return message
+    extra = message.split(": ", 1)[1].split()
+    if len(extra) < 2 or not all(os.path.isfile(word) for word in extra):
+        return message
+    return (f"unrecognized arguments: {len(extra)} more files ({extra[0]} …): a pattern the "
+            "shell expanded? quote it, e.g. 'run/frame_*.exr'")
 
 
 class _ReaderMayLeave:

@@ -475,3 +475,16 @@ def test_an_interrupt_that_surfaces_as_another_error_is_still_an_interrupt(here,
 def test_a_missing_scene_subcommand_is_named_as_the_user_types_it(here, capsys):
     line = refused(["scene"], capsys, here, "required", "preview", "radiosim scene --help")
     assert "scene_command" not in line
+
+
+def test_a_pattern_the_shell_expanded_is_said_to_be_one(here, capsys):
+    # `radiosim measure run/frame_*.exr` unquoted: the shell passes every file; one short line
+    # says so instead of listing them. Words that are not files are listed as argparse does.
+    for i in range(4):
+        (here / f"frame_{i}.exr").write_bytes(b"")
+    line = refused(["measure", *[f"frame_{i}.exr" for i in range(4)], "--camera", "nist-ir",
+                    "--integration-time", "10us"], capsys, here, "3 more files",
+                   "frame_1.exr …", "quote it")
+    assert "frame_3.exr" not in line
+    refused(["measure", "frame_0.exr", "extra", "words", "--camera", "nist-ir",
+             "--integration-time", "10us"], capsys, here, "unrecognized arguments: extra words")
