@@ -239,14 +239,24 @@ def test_warmup_compiles_every_path_and_says_so_in_one_line(capsys, monkeypatch)
     start = compiling_process.start
     monkeypatch.setattr(compiling_process, "start",
                         lambda *a, **k: asked.append(k.get("with_bands", False)) or start(*a, **k))
+    from radiosim.scenes.segmented_chip.kernel import moving_terms_kernel
+
+    pending = (compile_pending(("float32", "float64"), ("uint8", "intp"))
+               or not compiling._fresh_signatures(band_kernel)
+               or not compiling._fresh_signatures(moving_terms_kernel))
     assert main(["warmup", "-q"]) == 0
     assert asked == [False]
     out = capsys.readouterr().out.splitlines()
-    assert len(out) == 1 and out[0].startswith("compiled radiosim's kernels in "), out
+    said = "compiled radiosim's kernels in " if pending else "radiosim's kernels were compiled"
+    assert len(out) == 1 and out[0].startswith(said), out
     assert "cached in" in out[0]
     # Nothing is left to compile, for any frame or index-map type, nor the sub-band kernel.
     assert not compile_pending(("float32", "float64"), ("uint8", "intp"))
     assert compiling._fresh_signatures(band_kernel)
+    # A second warmup compiles nothing and says so, rather than "compiled in 1 s".
+    assert main(["warmup", "-q"]) == 0
+    out = capsys.readouterr().out.splitlines()
+    assert len(out) == 1 and out[0].startswith("radiosim's kernels were compiled already"), out
 
 
 def test_workers_on_a_study_too_small_to_gain_run_in_this_process(tmp_path, capsys):
