@@ -151,7 +151,8 @@ def write_budget(folder, result, name: str, camera, integration_time: float) -> 
     ax1, ax2 = fig.subplots(1, 2)
     rows, cols = np.shape(result.std)
     pitch = camera.fpa.pixel_pitch * 1e6  # [µm] in object space: the map's scale
-    image = ax1.imshow(result.std, cmap="viridis", extent=(0, cols * pitch, rows * pitch, 0))
+    # Row 0 at the top, y up from the bottom row: the scene's axes (and its figures').
+    image = ax1.imshow(result.std, cmap="viridis", extent=(0, cols * pitch, 0, rows * pitch))
     fig.colorbar(image, ax=ax1, label="standard uncertainty [K]")
     ax1.set_title(f"{name}: u(T_app), {result.draws} draws")
     ax1.set(xlabel="x [µm, object space]", ylabel="y [µm]")

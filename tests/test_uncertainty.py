@@ -175,11 +175,17 @@ def test_a_study_on_two_workers_equals_the_same_study_run_synchronously(tmp_path
     assert {r["sweep"] for r in local} == {"t", "r"}
 
 
-def test_the_uncertainty_command_writes_its_budget(tmp_path, capsys):
+def test_the_uncertainty_command_writes_its_budget(tmp_path, capsys, monkeypatch):
     import OpenEXR
 
+    from radiosim import reporting
     from radiosim.cli import main
     from radiosim.io.exr import UNCERTAINTY_CHANNELS
+
+    maps = []  # the map's y axis: y up from the bottom, as the scene's (and its figures')
+    save = reporting.save_figure
+    monkeypatch.setattr(reporting, "save_figure",
+                        lambda fig, path: maps.append(fig.axes[0].get_ylim()) or save(fig, path))
 
     (tmp_path / "u.toml").write_text("""name = "u"
 [scene]
@@ -203,6 +209,7 @@ psf_sigma = {distribution = "uniform", low = 0.0, high = 4.0}
     assert main(["uncertainty", str(tmp_path / "u.toml"), "--out", str(out), "-q"]) == 0
     names = sorted(p.name for p in out.iterdir())
     assert names == ["budget.csv", "budget.png", "radiosim-manifest.json", "uncertainty.exr"]
+    assert len(maps) == 1 and maps[0][0] == 0 < maps[0][1], maps  # bottom 0, top the height
     lines = (out / "budget.csv").read_text().splitlines()
     assert lines[0].startswith("quantity,input,distribution")
     assert len(lines) == 1 + 2 * 3  # peak and mean × (two inputs and the noise)
