@@ -130,6 +130,11 @@ def read_calibration_table(path) -> CalibrationTable:
     if duplicate:
         raise RadiosimError(f"{path}: column {duplicate[0]} appears {header.count(duplicate[0])} "
                             "times in the header; give each column once")
+    if "counts" not in header and not any(h.startswith("temperature") for h in header):
+        found = ", ".join(header)  # not a calibration table at all (a TOML file, say)
+        found = found if len(found) <= 60 else found[:60] + "…"
+        raise RadiosimError(f"{path}: needs columns temperature_K (or temperature_C) and "
+                            f"counts; its first line is {found!r}")
     rows, line_of = [], []
     for (number, _), values in zip(data_lines[1:], parsed[1:]):
         if len(values) != len(header):

@@ -287,6 +287,15 @@ def test_calibration_table_with_a_byte_order_mark(here, capsys):
             capsys, here, "table.csv", "counts", "many", "expected a number")
 
 
+def test_a_file_that_is_no_calibration_table_is_said_to_be_one(here, capsys):
+    # A study TOML given as the table: its first line is no header of a calibration table,
+    # said before any row is read (not "line 2 has 2 values for 1 columns").
+    (here / "s.toml").write_text('name = "s"\n[scene]\ntype = "frames", x = 1\n')
+    refused(["calibrate", "s.toml", "--camera", "nist-ir", "--integration-time", "10us"],
+            capsys, here, "s.toml", "needs columns temperature_K", "counts",
+            "first line is 'name = \"s\"'")
+
+
 def test_study_file_with_a_byte_order_mark(here, capsys):
     (here / "study.toml").write_text(frames_study([2], 3.0), encoding="utf-8-sig")
     code, out, err = cli(["run", "study.toml", "--out", "out", "--no-exr", "--no-figures",
