@@ -625,7 +625,8 @@ def build_parser() -> argparse.ArgumentParser:
                      help="background temperature, e.g. 20C (default 20C)")
     sse.add_argument("--diameters", type=parse_length, nargs="+",
                      help="disc diameters, e.g. 12um 60um 600um (default 2 to 200 pixels)")
-    sse.add_argument("--integration-time", type=parse_time, metavar="T", help="(default 10us)")
+    sse.add_argument("--integration-time", type=parse_time, metavar="T",
+                     help="integration time (default 10us)")
     _add_out_file(sse, "the curve (.csv)")
     _add_quiet(sse)
     sse.set_defaults(func=_sse)
@@ -657,7 +658,7 @@ def build_parser() -> argparse.ArgumentParser:
                             "in --out.")
     report.add_argument("camera", help="preset name or camera TOML")
     report.add_argument("--integration-time", type=parse_time, metavar="T",
-                        help="the datasheet's (default 240us)")
+                        help="integration time of the datasheet (default 240us)")
     report.add_argument("--frames", type=_count(2, what="a number of read-outs (temporal "
                         "variances need two)"), default=16,
                         help="read-outs per flat field (default 16)")

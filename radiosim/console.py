@@ -70,7 +70,7 @@ def shell_expanded(message: str) -> str:
     if len(extra) < 2 or not all(os.path.isfile(word) for word in extra):
         return message
     return (f"unrecognized arguments: {len(extra)} more files ({extra[0]} …): a pattern the "
-            "shell expanded? quote it, e.g. 'run/frame_*.exr'")
+            "shell expanded? quote it (radiosim measure 'run/frame_*.exr' reads a pattern)")
 
 
 class _ReaderMayLeave:

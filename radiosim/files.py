@@ -274,6 +274,12 @@ def _read_marker(staging: Path) -> tuple[int | None, str]:
         return None, ""
 
 
+def _overwrite_word(option: str) -> str:
+    """How the caller who named the folder ``option`` asks to overwrite: the command's
+    ``--overwrite``, or Python's ``overwrite=True``."""
+    return "--overwrite" if option.startswith("--") else "overwrite=True"
+
+
 def check_output_folder(path, overwrite: bool = False, option: str = "--out") -> list[str]:
     """
     The policy for a run's output folder, shared by the commands and :meth:`Study.run
@@ -297,30 +303,30 @@ def check_output_folder(path, overwrite: bool = False, option: str = "--out") ->
     if not (path.is_dir() and any(path.iterdir())):
         return []
     manifest = path / MANIFEST
+    flag = _overwrite_word(option)
     if not overwrite:
-        flag = "--overwrite" if option.startswith("--") else "overwrite=True"
         raise RadiosimError(
             f"{option} {path} is not empty; choose a new or empty folder, or pass {flag} to "
             f"replace the files of radiosim's previous run there (those listed in {MANIFEST})")
     if not manifest.is_file():
         raise RadiosimError(
             f"{option} {path} is not empty and radiosim did not write it (it holds no "
-            f"{MANIFEST}); --overwrite replaces only radiosim's own files: choose a new "
+            f"{MANIFEST}); {flag} replaces only radiosim's own files: choose a new "
             "or empty folder")
     try:
         previous = [str(f) for f in json.loads(manifest.read_text())["files"]]
     except (OSError, ValueError, KeyError, TypeError):
-        raise RadiosimError(f"{manifest} is not a radiosim manifest; --overwrite "
+        raise RadiosimError(f"{manifest} is not a radiosim manifest; {flag} "
                             "will not touch that folder") from None
     root = path.resolve()
     for name in previous:  # only files inside the folder, never beyond it
         target = (path / name).resolve()
         if Path(name).is_absolute() or root not in target.parents:
             raise RadiosimError(f"{manifest} lists {name!r}, outside {path}; "
-                                "--overwrite will not touch that folder")
+                                f"{flag} will not touch that folder")
         if target.exists() and not target.is_file():
             raise RadiosimError(f"{manifest} lists {name!r}, which is a folder, "
-                                "not a file radiosim wrote; --overwrite will not "
+                                f"not a file radiosim wrote; {flag} will not "
                                 "touch that folder")
     return previous
 
@@ -470,7 +476,7 @@ class OutputFolder:
     """
 
     def __init__(self, path, overwrite: bool = False, inputs=(), option: str = "--out"):
-        self.path = Path(path)
+        self.path, self.option = Path(path), option
         self.overwrite = overwrite
         self.previous: list[str] = check_output_folder(self.path, overwrite, option)
         self.check_inputs(inputs)
@@ -508,9 +514,14 @@ class OutputFolder:
         at_risk = {(self.path / name).resolve() for name in self.previous}
         for item in inputs:
             if Path(item).resolve() in at_risk:
-                raise RadiosimError(f"--out {self.path}: the run reads {item}, a file of "
-                                    "radiosim's previous run there that --overwrite would "
-                                    "replace; copy it elsewhere or choose another --out")
+                raise RadiosimError(f"{self.option} {self.path}: the run reads {item}, a file "
+                                    f"of radiosim's previous run there that "
+                                    f"{_overwrite_word(self.option)} would replace; copy it "
+                                    f"elsewhere or choose another {self._another()}")
+
+    def _another(self) -> str:
+        """What to choose instead, in the caller's words: ``--out`` or a folder."""
+        return self.option if self.option.startswith("--") else "folder"
 
     def _refuse_existing_staging(self):
         if not (self.staging.exists() or self.staging.is_symlink()):
@@ -519,7 +530,7 @@ class OutputFolder:
         if pid is not None and host in ("", socket.gethostname()) and _process_alive(pid):
             raise RadiosimError(f"another run (pid {pid}) is writing {self.path} (its partial "
                                 f"results are in {self.staging}); wait for it to finish or "
-                                "choose another --out")
+                                f"choose another {self._another()}")
         if pid is not None and host not in ("", socket.gethostname()):
             raise RadiosimError(f"another run (pid {pid} on {host}) is writing {self.path} "
                                 f"or was interrupted ({self.staging}); if it is not running, "

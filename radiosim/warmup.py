@@ -162,10 +162,10 @@ def warmup_command(args) -> int:
             shutil.rmtree(child[1], ignore_errors=True)
         raise
     from radiosim.kernels.bands import band_kernel
-    from radiosim.scenes.segmented_chip.kernel import moving_terms_kernel
+    from radiosim.scenes.segmented_chip.kernel import band_profile, moving_terms_kernel
 
-    pending = compile_pending(FRAME_DTYPES, ("uint8", "intp"),
-                              also=(band_kernel, moving_terms_kernel))  # else all loaded
+    pending = compile_pending(FRAME_DTYPES, ("uint8", "intp"),  # else all is loaded
+                              also=(band_kernel, moving_terms_kernel, band_profile))
     started = []
     if child is not None:  # else this process compiles everything itself
         register(*child)

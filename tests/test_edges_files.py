@@ -727,9 +727,12 @@ def test_a_refused_folder_is_named_in_the_callers_words(tmp_path, capsys):
     code, _, err = cli(["run", str(study), "--out", str(out), "-q"], capsys)
     assert code == 2 and f"--out {out} is not empty" in err and "pass --overwrite " in err
     assert "overwrite=True" not in err
-    with pytest.raises(RadiosimError) as info:
-        Study.from_dict(frames_study(tmp_path)).run(out)
-    assert "overwrite=True" in str(info.value) and "--" not in str(info.value)
+    for overwrite in (False, True):  # not empty; with overwrite: not radiosim's folder
+        with pytest.raises(RadiosimError) as info:
+            Study.from_dict(frames_study(tmp_path)).run(out, overwrite=overwrite)
+        assert "overwrite=True" in str(info.value) and "--" not in str(info.value)
+    code, _, err = cli(["run", str(study), "--out", str(out), "--overwrite", "-q"], capsys)
+    assert code == 2 and "--overwrite replaces only radiosim's own files" in err
     code, _, err = cli(["example-data", str(out / "data.csv")], capsys)
     assert code == 2 and "--out" not in err and "example data's folder" in err
     assert tree(out) == {"data.csv": b"the user's data"}
