@@ -19,12 +19,16 @@ compiled kernels alone (without the chain around them) are measured by bench_ker
 demand:
 
     python benchmarks/bench_integration.py [--frames 450] [--workdir DIR]
+
+The stack (2.9 GB for 450 frames) is written in a temporary folder removed at the end, or in
+``--workdir``, where it is kept and read again by the next run given the same folder.
 """
 
 from __future__ import annotations
 
 import argparse
 import resource
+import shutil
 import tempfile
 import time
 import tracemalloc
@@ -92,9 +96,18 @@ def main():
     parser.add_argument("--frames", type=int, default=450)
     parser.add_argument("--workdir", default=None, help="where to write the stack (temp dir)")
     args = parser.parse_args()
+    if args.workdir:  # kept: the stack is reused by the next run given the same folder
+        Path(args.workdir).mkdir(parents=True, exist_ok=True)
+        return run(args, Path(args.workdir))
+    workdir = Path(tempfile.mkdtemp(prefix="radiosim-bench-"))
+    try:  # a 2.9 GB stack: never left behind in the temporary folder
+        return run(args, workdir)
+    finally:
+        shutil.rmtree(workdir, ignore_errors=True)
+
+
+def run(args, workdir: Path):
     n = args.frames
-    workdir = Path(args.workdir or tempfile.mkdtemp(prefix="radiosim-bench-"))
-    workdir.mkdir(parents=True, exist_ok=True)
     path = workdir / f"stack_{n}.npy"
     t0 = time.perf_counter()
     stack = np.load(path, mmap_mode="r") if path.exists() else make_stack(path, n)

@@ -26,8 +26,10 @@ descheduled stalls the whole frame for a time slice). The kernels run with numba
 from __future__ import annotations
 
 import argparse
+import atexit
 import json
 import os
+import shutil
 import subprocess
 import sys
 import tempfile
@@ -134,6 +136,8 @@ def main():
     n = args.frames
     workdir = Path(args.workdir or tempfile.mkdtemp(prefix="radiosim-bench-kernels-"))
     workdir.mkdir(parents=True, exist_ok=True)
+    if not args.workdir:  # the stack is not left in the temporary folder (kept in --workdir)
+        atexit.register(shutil.rmtree, workdir, True)
     path = workdir / f"stack_{n}.npy"
     stack = np.load(path, mmap_mode="r") if path.exists() else make_stack(path, n)
     for k in range(n):  # page the file in once (and map it), as later passes will find it
