@@ -70,7 +70,7 @@ CHAIN = (
     "imaging", "electronics", "calibration", "measurement", "ratio", "presets", "acquisition",
     "camera", "characterization", "calibration_table", "scheduling", "moments", "budget_reuse",
     "uncertainty", "io", "study_spec", "study", "plotting", "drawing", "reporting", "paper",
-    "example_data", "console", "warmup", "cli",
+    "example_data", "console", "warmup", "cli_checks", "cli",
 )
 
 __all__ = [
