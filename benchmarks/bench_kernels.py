@@ -59,7 +59,7 @@ region = frame[rows.span, cols.span]
 t0 = time.perf_counter(); reference = k.pixel_mean(region, rows, cols)
 t1 = time.perf_counter(); k.accumulate(region, rows, cols, 1.0, reference, *out[:3])
 t2 = time.perf_counter()
-table = k.RadianceKernelTable(BandRadianceTable(temperature_range=(150.0, 3000.0), per_octave=64))
+table = k.SignalTable(BandRadianceTable(temperature_range=(150.0, 3000.0), per_octave=64))
 t3 = time.perf_counter(); k.accumulate(region, rows, cols, 1.0, reference, *out, response=table)
 t4 = time.perf_counter()
 print(json.dumps({"import": imported, "pixel_mean": t1 - t0, "accumulate": t2 - t1,
@@ -181,7 +181,7 @@ def main():
             frame_times.append(time.perf_counter() - start)
 
     table, exact = responsivity_table()
-    planck = kernels.RadianceKernelTable(table, exact)
+    planck = kernels.SignalTable(table, exact)
     integer = footprints(9.0, 1.0)
     fractional = footprints(7.3, 0.8)
     # Compile (or load) everything before timing.

@@ -26,9 +26,7 @@ from radiosim._version import __version__
 
 # Nothing heavy is imported here: the names below load their module on first use (PEP 562), so
 # `import radiosim` (and the command's --help) costs little and changes nothing in the process:
-# numpy's print options and os.environ are left as they were. The compiled kernels' OpenMP
-# settings are applied when a kernel first launches
-# (radiosim.kernels.launch.apply_thread_settings).
+# numpy's print options and os.environ are left as they were.
 _LAZY = {
     "Camera": "radiosim.camera",
     "FocalPlaneArray": "radiosim.camera",
@@ -65,11 +63,11 @@ def __dir__():
 #: (tests/test_architecture.py checks this with ``ast``).
 CHAIN = (
     "_version", "errors", "units", "checks", "config", "files", "spectral", "radiometry",
-    "compiling_process", "kernels", "scenes", "response", "fpa", "frame_reading", "integrator",
+    "kernels", "scenes", "response", "fpa", "frame_reading", "integrator",
     "psf", "optics",
     "imaging", "electronics", "calibration", "measurement", "ratio", "presets", "acquisition",
     "camera", "characterization", "calibration_table", "scheduling", "moments", "budget_reuse",
-    "uncertainty", "io", "study_spec", "study", "plotting", "drawing", "reporting", "paper",
+    "uncertainty", "io", "study_spec", "study", "plotting", "reporting", "paper",
     "example_data", "console", "warmup", "cli_checks", "cli",
 )
 

@@ -61,25 +61,12 @@ MAX_DRAWS = 1_000_000
 
 
 def _run(args) -> int:
-    from radiosim import drawing
-
+    """``radiosim run``."""
     _check_scheduler(args.scheduler)
-    if not args.no_figures:  # they load matplotlib meanwhile, on the other core
-        drawing.start_drawers(drawing.DRAWERS)
-    try:
-        return _run_study(args, drawing)
-    finally:
-        drawing.stop_drawers()  # those the figures did not take
-
-
-def _run_study(args, drawing) -> int:
-    """:func:`_run`'s work."""
     from radiosim.files import OutputFolder
 
     study = _study(args.study)
     draw = None if args.no_figures else study.hook("figures")
-    if draw is None:
-        drawing.stop_drawers()
     study.scene  # build (and check) the scene before anything is written
     out = OutputFolder(Path(args.out or f"radiosim-{study.name}"), overwrite=args.overwrite,
                        inputs=study.inputs())
@@ -93,8 +80,6 @@ def _run_study(args, drawing) -> int:
             print(f"  {study.description}")
         progress = _Progress("measurement", args.quiet)
         _compiling().announce_compile(args, chip=True)
-        if args.scheduler is None and args.workers is None:
-            _compiling().compile_for_run(study.scene)
         result = study.run(out.staging, rng=args.seed, write_exr=not args.no_exr,
                            progress=None if args.quiet else progress,
                            scheduler=args.scheduler, workers=args.workers,
@@ -153,7 +138,6 @@ def _measure(args) -> int:
     # the work stays the one line on stderr).
     progress = _Progress("frame", args.quiet, delay=2.0, terminal_only=True)
     _compiling().announce_compile(args, frame_dtype(scene))
-    _compiling().compile_helpers_aside(scene)
     try:
         m = camera.measure(scene, args.integration_time, args.start, args.seed,
                            progress=lambda done, total: progress(done, total, "frames"))
@@ -371,11 +355,6 @@ def _compiling():
     return warmup
 
 
-#: ``radiosim warmup``'s time in its help [s] (radiosim.warmup.WARMUP_SECONDS, kept equal by a
-#: test; not imported here so that --help loads nothing heavy).
-_WARMUP_SECONDS = 14
-
-
 def _presets(args) -> int:
     from radiosim.reporting import catalogue_lines
 
@@ -527,8 +506,8 @@ def build_parser() -> argparse.ArgumentParser:
     _add_out_folder(report, "radiosim-report-CAMERA", "report in --out")
     _add_quiet(report)
     report.set_defaults(func=_report)
-    warm = sub.add_parser("warmup", help="compile radiosim's kernels ahead of time (once, "
-                          f"about {_WARMUP_SECONDS} s)", description="Compile every kernel "
+    warm = sub.add_parser("warmup", help="compile radiosim's kernels ahead of time (once)",
+                          description="Compile every kernel "
                           "path (float32 and float64 frames, memory maps, linear and Planck "
                           "responses, emissivity maps, the chip's moving terms) into numba's "
                           "on-disk cache, so that no later run waits for a compilation.")

@@ -160,9 +160,6 @@ def _end_children():
     them."""
     import sys
 
-    background = sys.modules.get("radiosim.kernels.background")
-    if background is not None:  # processes compiling kernels (radiosim.kernels.compiling)
-        background.stop_all(at_once=True)
     if "multiprocessing" not in sys.modules:
         return
     import multiprocessing

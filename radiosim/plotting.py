@@ -119,8 +119,7 @@ def preload():
     """
     :func:`load_matplotlib` on a background (daemon) thread, once per process, so that a figure
     drawn later does not wait for it; returns the thread. Any error is left for the figure that
-    needs the module to raise. (``radiosim run`` draws the paper's figures in processes of their
-    own where the machine has two cores, :mod:`radiosim.drawing`: they load matplotlib there.)
+    needs the module to raise.
     """
     import threading
 

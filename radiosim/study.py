@@ -471,8 +471,6 @@ class Study:
         if scheduler is None and workers is not None and cluster == "auto":
             workers = local_workers(workers, len(plan), self._seconds_per_measurement(plan))
         summary, pick_pixel = self.hook("summary"), self.hook("pixel")
-        if scheduler is None and workers is None:
-            self._prepare_kernels()
         columns = self.columns()
         folder = None
         if out is not None and not is_staging(out):
@@ -533,25 +531,6 @@ class Study:
                         with contextlib.suppress(OSError):
                             path.rmdir()
         return result
-
-    def _prepare_kernels(self):
-        """Load the kernels this process's measurements will launch (the scene's own and the
-        integrator's for its frames' dtype) from numba's cache on a background thread, while
-        the plan is checked and the scene's static fields are built
-        (:func:`radiosim.kernels.compiling.load_in_background`: nothing is compiled there)."""
-        from radiosim.acquisition import frame_dtype
-        from radiosim.kernels import background, compiled_selected
-        from radiosim.kernels.compiling import load_in_background
-        from radiosim.kernels.rows import ACCUMULATE_KERNELS
-
-        if compiled_selected():
-            scene = self.scene
-            integrator = ACCUMULATE_KERNELS.get(np.dtype(frame_dtype(scene)).name)
-            # Not the scene's own while a process compiles them (radiosim run, cold): its index
-            # may name one whose data is not written yet, which this thread would compile too.
-            # The scene's first frame waits for that process, then loads them.
-            own = () if background.any_running("with_chip") else scene.compiled_kernels()
-            load_in_background([*own, integrator])
 
     def _prepare_figures(self):
         """Call the figures hook's ``prepare``, if it has one."""

@@ -17,7 +17,7 @@ from radiosim.kernels import layout, packing, radiance
 from radiosim.kernels import (
     STATUS_BELOW_TABLE,
     STATUS_OK,
-    RadianceKernelTable,
+    SignalTable,
     accumulate,
     accumulate_reference,
     pixel_mean,
@@ -65,7 +65,7 @@ def scene_frames(dtype, n=len(WEIGHTS), seed=0, low=300.0, high=T_SCALE):
 def tables():
     """Radiance tables: the blackbody one, and one of a spectral emissivity."""
     curve = spectral_distribution([3e-6, 4.5e-6, 6e-6], [0.3, 0.8, 0.5], "test curve")
-    return RadianceKernelTable.build(emissivity=[1.0, 0.6, curve], temperature_range=RANGE,
+    return SignalTable.build(emissivity=[1.0, 0.6, curve], temperature_range=RANGE,
                                      per_octave=PER_OCTAVE)
 
 
@@ -74,12 +74,12 @@ def responses(tables, shape, seed=1):
     rng = np.random.default_rng(seed)
     grey_map = rng.uniform(0.2, 1.0, shape)
     index = rng.integers(0, 3, shape).astype(np.uint8)
-    blackbody = RadianceKernelTable(tables.tables[0], tables.exact[0])
+    blackbody = SignalTable(tables.tables[0], tables.exact[0])
     return {
         "none": None,
         "grey scalar": blackbody.with_maps(grey=0.85),
         "grey map": blackbody.with_maps(grey=grey_map),
-        "spectral": RadianceKernelTable(tables.tables[2], tables.exact[2]),
+        "spectral": SignalTable(tables.tables[2], tables.exact[2]),
         "tables + index": tables.with_maps(index=index),
         "tables + index, grey 0.7": tables.with_maps(index=index, grey=0.7),
         "tables + index + grey map": tables.with_maps(index=index, grey=grey_map),
@@ -362,9 +362,9 @@ def test_table_packing(tables):
     rows, cols = footprints(9.0, 1.0, 0.0)
     frames = scene_frames(np.float64)
     with pytest.raises(RadiosimError, match="2 radiance table entries need an index map"):
-        integrate(frames, rows, cols, RadianceKernelTable([table, table]), pixel_mean,
+        integrate(frames, rows, cols, SignalTable([table, table]), pixel_mean,
                   accumulate)
-    packed = RadianceKernelTable(table)  # no exact radiance: cold samples raise
+    packed = SignalTable(table)  # no exact radiance: cold samples raise
     frames[:, 0, 0] = 150.0
     with pytest.raises(RadiosimError, match="no exact radiance"):
         integrate(frames, rows, cols, packed, pixel_mean, accumulate)
@@ -409,17 +409,9 @@ def test_importing_compiles_nothing():
     assert COMPILED_AT_IMPORT == 0
 
 
-@pytest.mark.parametrize("environment, expected", [
-    ({}, ("3000", None)),
-    ({"OMP_WAIT_POLICY": "PASSIVE"}, (None, "PASSIVE")),
-    ({"GOMP_SPINCOUNT": "10"}, ("10", None)),
-])
-def test_openmp_threads_spin_briefly_between_frames(environment, expected):
-    # Importing radiosim (and its kernels) leaves os.environ as it was; the first kernel launch
-    # bounds OpenMP's spin-wait between parallel regions (a frame's gap), unless the user chose
-    # a policy: (GOMP_SPINCOUNT, OMP_WAIT_POLICY) seen by the kernels.
-    env = {k: v for k, v in os.environ.items()
-           if k not in ("OMP_WAIT_POLICY", "GOMP_SPINCOUNT")}
+def test_importing_and_launching_leave_the_environment_as_it_was():
+    # Neither importing radiosim (and its kernels) nor a kernel launch changes os.environ
+    # (no thread-layer settings are made on the user's behalf).
     code = (
         "import os; before = dict(os.environ); import radiosim, radiosim.kernels\n"
         "imported = dict(os.environ)\n"
@@ -427,35 +419,10 @@ def test_openmp_threads_spin_briefly_between_frames(environment, expected):
         "from radiosim.integrator import axis_footprints\n"
         "f = axis_footprints(3, 1.0, 3.0, 1.0, 10**6)\n"
         "radiosim.kernels.pixel_mean(np.full((3, 3), 300.0), f, f)\n"
-        "print(imported == before, os.environ.get('GOMP_SPINCOUNT'), "
-        "os.environ.get('OMP_WAIT_POLICY'))")
-    out = subprocess.run([sys.executable, "-c", code], env={**env, **environment},
-                         capture_output=True, text=True, check=True)
-    unchanged, *seen = out.stdout.split()
-    assert unchanged == "True"
-    assert tuple(None if v == "None" else v for v in seen) == expected
-
-
-def test_thread_settings_precede_numba_threading_layer():
-    # libgomp reads GOMP_SPINCOUNT once, when numba loads its threading layer; asking numba for
-    # its thread count loads it, so radiosim asks through thread_count (the chip scene's row
-    # blocks did not, and a run whose first kernel was the chip's kept OpenMP's long spin).
-    env = {k: v for k, v in os.environ.items()
-           if k not in ("OMP_WAIT_POLICY", "GOMP_SPINCOUNT")}
-    code = (
-        "import os\n"
-        "from numba.np.ufunc import parallel\n"
-        "seen, original = [], parallel._launch_threads\n"
-        "def launch():\n"
-        "    seen.append(os.environ.get('GOMP_SPINCOUNT'))\n"
-        "    original()\n"
-        "parallel._launch_threads = launch\n"
-        "import radiosim.kernels\n"
-        "threads = radiosim.kernels.thread_count()\n"
-        "print(seen[0], parallel._is_initialized, threads >= 1)")
-    out = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True,
+        "print(imported == before, dict(os.environ) == before)")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
                          check=True)
-    assert out.stdout.split() == ["3000", "True", "True"]
+    assert out.stdout.split() == ["True", "True"]
 
 
 def test_cubic_rows_match_numpy_horner():
@@ -680,33 +647,3 @@ def test_cache_files_of_other_sources_are_removed_once_a_process_writes_there(tm
     os.utime(tmp_path / stale[0], (1e9, 1e9))
     locator.ensure_cache_path()  # the same folder again: left as it is
     assert (tmp_path / stale[0]).exists()
-
-
-def test_claimed_blocks_are_each_taken_once_by_threads_that_share_a_counter():
-    # claim_block returns counter[0] and adds 1 atomically: threads taking blocks from one
-    # counter (the chip's moving terms) take every block exactly once, whatever their pace.
-    import numba
-
-    from radiosim.kernels import run_blocks
-    from radiosim.kernels.intrinsics import claim_block
-
-    @numba.njit(nogil=True)
-    def take(thread, counter, n, taken_by):
-        count = 0
-        while True:
-            block = claim_block(counter)
-            if block >= n:
-                return count
-            taken_by[block] += thread + 1
-            count += 1
-
-    counter = np.zeros(1, dtype=np.int64)
-    taken_by = np.zeros(5, dtype=np.int64)
-    assert take(0, counter, 5, taken_by) == 5
-    assert counter[0] == 6 and taken_by.tolist() == [1] * 5  # 0 … 4, then 5: none left
-    n = 400_000
-    for _ in range(6):  # (a claim that is not atomic fails in most launches, not all)
-        counter, taken_by = np.zeros(1, dtype=np.int64), np.zeros(n, dtype=np.int64)
-        counts = run_blocks(take, 2, counter, n, taken_by)
-        assert sum(counts) == n and counter[0] == n + 2
-        assert np.all((taken_by == 1) | (taken_by == 2))  # each block by one thread, once

@@ -26,21 +26,16 @@ import numba
 import numpy as np
 
 from radiosim.errors import RadiosimError
-from radiosim.kernels import background
 from radiosim.kernels.bundles import Emissivity
 from radiosim.kernels.codes import (SIGNAL_INDEX, STATUS_ABOVE_TABLE, STATUS_BAD_INDEX,
                                     STATUS_BAD_SAMPLE, STATUS_BELOW_TABLE, STATUS_OK)
 from radiosim.kernels.intrinsics import INF, INNER, JIT, _cubic8_grey, _cubic8_map
 from radiosim.kernels.layout import frame_bundle, read_only, rows_of
 from radiosim.kernels.packing import _ones, _uint8_index
-from radiosim.kernels.radiance import _cubic1, _cubic_rows, _locate
+from radiosim.kernels.radiance import _cubic1, _locate, cubic
 from radiosim.kernels.table import SignalTable
 from radiosim.kernels.threads import run_blocks
 
-#: The radiance pass's cubics over a row (:func:`~radiosim.kernels.radiance.cubic`), a copy of
-#: this kernel's own, not cached on its own: the integrator's (``AHEAD``) is, and a second
-#: signature in its cache index could be given another's data file by two processes at once.
-_cubic_row = numba.njit(**INNER)(_cubic_rows)
 
 __all__ = ["StackedTables", "stack", "accumulate_bands", "band_kernel"]
 
@@ -217,7 +212,7 @@ def band_kernel(block, n_blocks, frames, weight, tables, emissivity, out, status
             for b in range(n_bands):
                 table = coef[np.uint64(4 * b):]
                 if indexed:  # each sample's entry: its own grey factor
-                    _cubic_row(table, interval, position, value, n_cols)
+                    cubic(table, interval, position, value, n_cols)
                     for j in range(n_cols):
                         g = grey_map[m_off + j] if use_map else emissivity.grey
                         acc[b * n_cols + j] += w * (value[j] * (entry_grey[entry[j], b] * g))
@@ -258,7 +253,7 @@ def _emissivity(table: SignalTable, shape) -> Emissivity:
 
 
 def accumulate_bands(block, weights, tables: list[SignalTable], out: np.ndarray, *,
-                     frame_index: int = 0, _wait_for_processes: bool = True) -> int:
+                     frame_index: int = 0) -> int:
     """
     out[b] += Σ_f weights[f] · S_b(T_f) per sample, for every sub-band's table ``tables[b]``
     (with the block's emissivity maps) and the frames of ``block`` (2-D, or 3-D: consecutive
@@ -270,12 +265,6 @@ def accumulate_bands(block, weights, tables: list[SignalTable], out: np.ndarray,
     and those rows (−1 and every row when the tables cannot be stacked, :func:`stack`). The
     caller redoes them with :func:`radiosim.kernels.reference.accumulate_bands_reference`
     (exact quadrature below the tables, the references' errors otherwise).
-
-    The launch waits for the processes compiling kernels in the background, then loads what
-    they cached; ``_wait_for_processes=False`` (``radiosim warmup``, compiling this kernel
-    here while they compile the integrator's, which shares no cache file with it) waits only
-    for the threads loading kernels into this process, unless one of those processes
-    compiles this kernel too.
     """
     from radiosim.kernels.launch import thread_count
 
@@ -298,10 +287,6 @@ def accumulate_bands(block, weights, tables: list[SignalTable], out: np.ndarray,
         block = block.astype(np.float64)
     status = np.zeros(block.shape[1], dtype=np.int64)
     n_blocks = max(1, min(thread_count(), block.shape[1]))
-    if _wait_for_processes or background.any_running("with_bands"):
-        background.wait_for_background()  # kernels compiled by another process: then loaded
-    else:
-        background.wait_for_loaders()  # numba's typing is not thread-safe during a load
     run_blocks(band_kernel, n_blocks, n_blocks,
                frame_bundle(block), weights, stacked,
                signs, out, status)

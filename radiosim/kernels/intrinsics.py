@@ -2,12 +2,10 @@
 LLVM intrinsics and inline arithmetic of the compiled kernels: a fused multiply-add
 (``llvm.fma``), a vectorisable exp (:data:`fast_exp`), the eight-sample cubic evaluations
 (rows of four coefficients loaded whole and transposed into vectors by shuffles, Horner by
-vector fused multiply-adds) that the radiance pass uses (:mod:`radiosim.kernels.radiance`), and
-an atomic counter from which threads take blocks of work (:func:`claim_block`).
+vector fused multiply-adds) that the radiance pass uses (:mod:`radiosim.kernels.radiance`).
 
 ``JIT`` holds the options of the package's entry points (the integrator's kernel, one for both
-frame dtypes), ``INNER`` those of the helpers they call, ``AHEAD`` those of the helpers another
-process compiles ahead of the entry point (cached on their own).
+frame dtypes), ``INNER`` those of the helpers they call.
 """
 
 from __future__ import annotations
@@ -20,22 +18,15 @@ from llvmlite import ir as llvm_ir
 from numba.core import types
 from numba.extending import intrinsic
 
-__all__ = ["JIT", "INNER", "AHEAD", "INF", "FRAME_DTYPES", "fast_exp", "claim_block"]
+__all__ = ["JIT", "INNER", "INF", "FRAME_DTYPES", "fast_exp"]
 
 #: The options of a compiled entry point (a kernel launched from Python): kept in numba's
 #: on-disk cache; a CPython wrapper, no C one (nothing calls the kernels from C).
 JIT = dict(cache=True, fastmath=False, nogil=True, error_model="numpy", no_cfunc_wrapper=True)
 #: A helper called only from compiled code: no CPython or C wrapper is generated for it (each
 #: wrapper unboxes every argument: about a sixth of the compile time of the kernels), and not
-#: cached on its own (its callers' cache holds it; numba's cache index of one function is not
-#: safe to write from two processes at once, see :mod:`radiosim.kernels.compiling`).
+#: cached on its own (its callers' cache holds it).
 INNER = dict(JIT, cache=False, no_cpython_wrapper=True, no_cfunc_wrapper=True)
-#: A helper the integrator's entry point reaches last while it compiles: cached on its own, so
-#: that another process can compile it ahead, meanwhile, and the entry point's compile loads it
-#: (:func:`radiosim.kernels.compiling.compile_helpers_ahead`; numba keeps a cached function's
-#: code for linking too, so the entry point is the same either way). Two processes writing its
-#: cache index at once can lose one's entry: the helper is then compiled again (time only).
-AHEAD = dict(INNER, cache=True)
 #: The frame dtypes the kernels read in place.
 FRAME_DTYPES = ("float32", "float64")
 INF = np.inf
@@ -97,24 +88,6 @@ fast_exp = _exp
 def _data(context, builder, array_type, array):
     """Data pointer of a numba array argument of an intrinsic."""
     return context.make_array(array_type)(context, builder, array).data
-
-
-@intrinsic
-def claim_block(typingctx, counter):
-    """The value of ``counter[0]`` (int64), incremented by one atomically (LLVM's atomicrmw
-    add): threads that share the counter each take the next block of work as they finish the
-    last, so none waits on another's share (the chip scene's moving terms)."""
-    if not (isinstance(counter, types.Array) and counter.dtype == types.int64
-            and counter.mutable):
-        return None
-    signature = types.int64(counter)
-
-    def codegen(context, builder, sig, args):
-        one = llvm_ir.Constant(llvm_ir.IntType(64), 1)
-        return builder.atomic_rmw("add", _data(context, builder, sig.args[0], args[0]), one,
-                                  "monotonic")
-
-    return signature, codegen
 
 
 def _mask(*lanes):

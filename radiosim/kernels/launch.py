@@ -1,55 +1,20 @@
 """
 Launching the compiled kernel: the public entry points :func:`pixel_mean`, :func:`accumulate`
 and :func:`accumulate_merged` (argument checks, the table's arrays, per-thread buffers, blocks
-of pixel rows, several frames per call), the handling of a flagged frame (raise with the
-sample's message, or redo the rows below the table in numpy), and the process-wide settings of
-the parallel layer (:func:`apply_thread_settings`, :func:`thread_count`, :func:`parallel_launch`).
-
-Thread settings
----------------
-Since the kernels run their blocks on radiosim's own threads (:func:`run_blocks`), none of them
-is a numba parallel region any more; numba's threading layer is still what radiosim asks for
-the number of threads (:func:`thread_count`, so that ``numba.set_num_threads`` limits
-radiosim too), and the setting below still bounds its spin for any parallel code the process
-runs. What follows is how that setting is made, and why it was needed when the kernels were
-parallel regions.
-
-Parallel kernels run one short parallel region per call, many calls per second. numba runs
-them on its *threading layer*, chosen once per process when it first loads (numba's order: TBB
-if its library is installed, else OpenMP, else its own ``workqueue``; ``NUMBA_THREADING_LAYER``
-chooses). With OpenMP (GNU libgomp, the usual layer on Linux) idle threads spin about 300 000
-turns (milliseconds) after each region before they sleep; on a 2-core machine they then take
-the core of the thread that prepares the next frame. radiosim bounds the spin to
-``GOMP_SPINCOUNT=3000`` (about 0.05 ms: it covers the gap between two frames' regions).
-
-libgomp reads ``GOMP_SPINCOUNT`` and ``OMP_WAIT_POLICY`` once, when it is loaded, and numba
-loads it (its ``omppool`` layer) at the first of: a parallel kernel's compilation or load
-from the cache, its first call, or ``numba.get_num_threads()`` / ``numba.set_num_threads()``.
-``import radiosim`` (and ``import radiosim.kernels``) leaves ``os.environ`` unchanged, so the
-setting is made by :func:`apply_thread_settings`, which every radiosim path that can load the
-layer calls first: the launch functions here, :func:`thread_count` (radiosim's only way of
-asking numba for its thread count) and :func:`parallel_launch`. An
-explicit ``GOMP_SPINCOUNT`` or ``OMP_WAIT_POLICY`` in the environment wins (it is left as it
-is). If the layer was loaded before radiosim's first launch (by the user's own numba code, or
-another library that loaded libgomp), the setting cannot take effect any more; this is logged
-(``logging.INFO``), and ``GOMP_SPINCOUNT=3000`` set before Python starts gives the same result.
-With the TBB or workqueue layers the setting does nothing (they do not spin this way);
-workqueue launches are serialised (:func:`parallel_launch`, kept for parallel kernels: none of
-radiosim's is one now).
+of pixel rows, several frames per call) and the handling of a flagged frame (raise with the
+sample's message, or redo the rows below the table in numpy). The pixel rows run in fixed
+blocks on radiosim's threads (:func:`~radiosim.kernels.threads.run_blocks`), as many as numba's
+thread count (:func:`thread_count`, so that ``numba.set_num_threads`` limits radiosim too).
 """
 
 from __future__ import annotations
 
-import contextlib
-import logging
-import os
 import threading
 
 import numba
 import numpy as np
 
 from radiosim.errors import RadiosimError
-from radiosim.kernels import background
 from radiosim.kernels.bundles import Accumulators, Merging, RowPieces, ThreadBuffers
 from radiosim.kernels.codes import (STATUS_ABOVE_TABLE, STATUS_BAD_INDEX, STATUS_BAD_SAMPLE,
                                     STATUS_BELOW_TABLE, STATUS_OK)
@@ -64,82 +29,12 @@ from radiosim.kernels.sweeps import MAX_ROWS
 from radiosim.kernels.table import SignalTable
 from radiosim.kernels.threads import run_blocks
 
-__all__ = ["apply_thread_settings", "thread_count", "parallel_launch", "pixel_mean",
-           "accumulate", "Members", "accumulate_merged"]
-
-_LOG = logging.getLogger(__name__)
-
-_SETTINGS = threading.Lock()
-_SETTINGS_APPLIED = False
-
-
-def apply_thread_settings() -> None:
-    """
-    Bound OpenMP's spin-wait between parallel regions (``GOMP_SPINCOUNT=3000`` unless the
-    environment sets ``GOMP_SPINCOUNT`` or ``OMP_WAIT_POLICY``), once per process, before
-    numba's threading layer loads (see the module's notes; idempotent, cheap after the first
-    call). Every radiosim path that may load the layer calls it first.
-
-    A parallel kernel runs one short parallel region per call. OpenMP's default waiting
-    spins idle threads for about 300 000 turns (milliseconds) between regions; on a 2-core
-    machine they then compete with the thread that prepares the next frame, and a region can
-    stall for milliseconds (measured: 8 ms per launch). Sleeping at once
-    (OMP_WAIT_POLICY=PASSIVE) costs a wake-up per region instead (measured: 0.05 ms per launch,
-    10 % of a paper-sized frame). A short spin (GOMP_SPINCOUNT=3000, about 0.05 ms here) covers
-    the gap between two frames' regions and then sleeps: 0.005 ms per launch.
-    """
-    global _SETTINGS_APPLIED
-    if _SETTINGS_APPLIED:
-        return
-    with _SETTINGS:
-        if not _SETTINGS_APPLIED:
-            if "OMP_WAIT_POLICY" not in os.environ and "GOMP_SPINCOUNT" not in os.environ:
-                if _layer_loaded():
-                    _LOG.info("numba's threading layer was loaded before radiosim's first "
-                              "kernel launch: GOMP_SPINCOUNT=3000 cannot take effect (set it "
-                              "in the environment before Python starts)")
-                os.environ["GOMP_SPINCOUNT"] = "3000"
-            _SETTINGS_APPLIED = True
-
-
-def _layer_loaded() -> bool:
-    """Whether numba's threading layer is loaded already (numba's private flag; False if it
-    moved)."""
-    try:
-        from numba.np.ufunc import parallel
-        return bool(parallel._is_initialized)
-    except (ImportError, AttributeError):
-        return False
-
+__all__ = ["thread_count", "pixel_mean", "accumulate", "Members", "accumulate_merged"]
 
 def thread_count() -> int:
-    """numba's current number of threads, after :func:`apply_thread_settings` (asking numba
-    loads its threading layer). radiosim asks through this function only."""
-    apply_thread_settings()
+    """numba's current number of threads (``numba.get_num_threads()``): radiosim asks through
+    this function only."""
     return numba.get_num_threads()
-
-
-_LAUNCH = threading.Lock()
-
-
-@contextlib.contextmanager
-def parallel_launch():
-    """
-    Around every launch of a numba parallel kernel (none of radiosim's kernels is one now:
-    they run on :func:`run_blocks`). numba's OpenMP and TBB threading layers take launches from
-    several threads at once; its fallback layer, workqueue (e.g. on a machine without OpenMP),
-    aborts the process if two launches overlap, so there they are serialised.
-    """
-    apply_thread_settings()
-    try:
-        serialise = numba.threading_layer() == "workqueue"
-    except ValueError:  # no parallel kernel has run yet: the first launch picks the layer
-        serialise = True
-    if serialise:
-        with _LAUNCH:
-            yield
-    else:
-        yield
 
 
 _DUMMY_SIGNAL = np.zeros((1, 1))
@@ -211,7 +106,6 @@ def pixel_mean(frame, rows, cols, *, frame_index: int = 0,
     numpy.ndarray
         (pixel rows, pixel columns), float64.
     """
-    apply_thread_settings()  # before numba's parallel layer loads
     rows, cols = kernel_axis(rows, "row"), kernel_axis(cols, "column")
     shape = (rows.n_pixels, cols.n_pixels)
     mean, sq, tmax = np.zeros(shape), np.zeros(shape), np.full(shape, -np.inf)
@@ -281,7 +175,6 @@ def accumulate(frame, rows, cols, time_weight: float, reference: np.ndarray, dev
         in full-scene coordinates, value, count), above its table, or has an index that is no
         entry. The accumulators are then partly updated: discard them.
     """
-    apply_thread_settings()  # before numba's parallel layer loads
     rows, cols, frame2d = checked_arguments(frame, rows, cols, reference, dev, sq, tmax, signal_acc,
                                    response)
     if not reference.flags.writeable:  # the kernel takes one array type (it writes it only
@@ -319,7 +212,6 @@ def accumulate_merged(frame, rows, cols, reference: np.ndarray, members: Members
     row per frame: they are merged one after the other, exactly as frame by frame, in one call
     (no per-frame Python or thread start-up).
     """
-    apply_thread_settings()  # before numba's parallel layer loads
     rows, cols, block, weight, signal_weight, counts = merged_arguments(
         frame, rows, cols, members, weight, signal_weight, moments)
     keep = bool(moments and keep_moments and response is not None)
@@ -389,10 +281,6 @@ def _launch(block, rows: KernelAxis, cols: KernelAxis, time_weight, reference, d
                        signs.index_map.dtype)
     members = merged if merged is not None else _NO_MEMBERS
     row_pieces = RowPieces(rows.source, rows.weight, rows.bounds)
-    if background.any_running("aside", unset=True):  # a process that may compile the
-        background.wait_for_background()  # integrator: load it after it has cached it
-    else:  # (not for one compiling only the integrator's last helpers and the chip's kernels)
-        background.wait_for_loaders()
     start = np.zeros(n_blocks, dtype=np.int64)
     pending = np.full(n_blocks, -1, dtype=np.int64)  # a frame whose status awaits handling
     handled = STATUS_OK

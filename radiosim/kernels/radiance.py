@@ -13,7 +13,7 @@ import numpy as np
 
 from radiosim.kernels.codes import (SIGNAL_MAP, SIGNAL_SCALAR, STATUS_ABOVE_TABLE,
                                     STATUS_BAD_INDEX, STATUS_BELOW_TABLE)
-from radiosim.kernels.intrinsics import (AHEAD, INNER, JIT, _cubic8, _cubic8_grey, _cubic8_map,
+from radiosim.kernels.intrinsics import (INNER, JIT, _cubic8, _cubic8_grey, _cubic8_map,
                                          _cubic8_pair, _fma)
 from radiosim.kernels.sweeps import CHUNK
 
@@ -33,7 +33,7 @@ def _cubic_rows(coef, interval, position, out, n):
 
 #: :func:`_cubic_rows` as the kernels call it (no Python wrapper to compile), and as Python
 #: calls it (the tests).
-cubic = numba.njit(**AHEAD)(_cubic_rows)
+cubic = numba.njit(**INNER)(_cubic_rows)
 cubic_from_python = numba.njit(**dict(JIT, cache=False))(_cubic_rows)
 
 
@@ -57,7 +57,7 @@ def _cubic1(coef, i, r):
     return _fma(_fma(_fma(coef[i], r, coef[i + 1]), r, coef[i + 2]), r, coef[i + 3])
 
 
-@numba.njit(**AHEAD)
+@numba.njit(**INNER)
 def _signal_one(src32, src, narrow, xo, g, go, w, use_map, grey, coef, key0, shift, node_mask,
                 last, interval, u, a3, lo, hi):
     """a3[q] += w · S(src[xo + q]) (``src32``, float32, when ``narrow``: the samples widened)
@@ -148,7 +148,7 @@ def _signal_two(src32, src, narrow, xo, yo, wx, wy, coef, key0, shift, node_mask
                            _cubic1(coef, interval[k], u[k]) * wx)
 
 
-@numba.njit(**AHEAD)
+@numba.njit(**INNER)
 def _signal_row(x32, x, narrow, g, e, used, w, mode, grey, use_map, tables, interval, u, value,
                 factor, a3):
     """a3 += w · S(T) along one row of pieces ``x`` (``x32``, float32, when ``narrow``; grey

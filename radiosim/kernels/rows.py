@@ -14,7 +14,7 @@ import numpy as np
 
 from radiosim.kernels.codes import (SIGNAL_INDEX, SIGNAL_MAP, SIGNAL_NONE, SIGNAL_SCALAR,
                                     STATUS_BELOW_TABLE)
-from radiosim.kernels.intrinsics import AHEAD, FRAME_DTYPES, INF, INNER, JIT
+from radiosim.kernels.intrinsics import FRAME_DTYPES, INF, INNER, JIT
 from radiosim.kernels.radiance import _signal_row, _signal_rows
 from radiosim.kernels.sweeps import CHUNK, MAX_ROWS, _gather, _lin
 
@@ -35,7 +35,7 @@ def _setup_row(reference, i, slot_runs, with_signal, ce, a3):
             a3[k] = 0.0
 
 
-@numba.njit(**AHEAD)
+@numba.njit(**INNER)
 def _pixel_done(j, v1, v2, v3, m, n, t_low, t_high, s1, s2, s3, sm):
     """Store pixel j's sums and maximum (m, n: its extremes) and return its status bits: 1 a
     bad sample (NaN in Σ w (T − c), +inf, ≤ 0 K), 2 one below ``t_low``, 4 one above
@@ -45,7 +45,7 @@ def _pixel_done(j, v1, v2, v3, m, n, t_low, t_high, s1, s2, s3, sm):
     return bad | (np.int64(n < t_low) << 1) | (np.int64(m > t_high) << 2)
 
 
-@numba.njit(**AHEAD)
+@numba.njit(**INNER)
 def _pixel_sums(a1, a2, a3, am, an, slot_weight, slot_of_piece, col_bounds, identity,
                 with_signal, t_low, t_high, s1, s2, s3, sm):
     """Per pixel j: s1, s2, s3 = Σ w a1, Σ w a2, Σ w a3 and sm = max am over the slots of its
@@ -78,7 +78,7 @@ def _pixel_sums(a1, a2, a3, am, an, slot_weight, slot_of_piece, col_bounds, iden
     return status
 
 
-@numba.njit(**AHEAD)
+@numba.njit(**INNER)
 def _pixel_sums_regular(a1, a2, a3, am, an, slot_weight, slot_of_piece, col_bounds, identity,
                         with_signal, t_low, t_high, s1, s2, s3, sm):
     """:func:`_pixel_sums` for a layout whose pixels' interior pieces (all but the first and
@@ -150,7 +150,7 @@ def _row_sums(a1, a2, a3, am, an, cols, with_signal, t_low, t_high, s1, s2, s3, 
                        with_signal, t_low, t_high, s1, s2, s3, sm)
 
 
-@numba.njit(**AHEAD)
+@numba.njit(**INNER)
 def _commit_row(i, n_pixels, acc, members, f, with_signal, s1, s2, s3, sm, status):
     """Commit pixel row ``i``'s sums (s1, s2, s3 and the maximum sm of its ``n_pixels``
     pixels, :func:`_row_sums`) unless the row has a status (``status``: its bits). Returns the

@@ -22,7 +22,7 @@ from radiosim.errors import RadiosimError
 from radiosim.kernels.codes import SIGNAL_INDEX, SIGNAL_MAP, SIGNAL_SCALAR
 from radiosim.radiometry import BandRadianceTable, band_radiance
 
-__all__ = ["SignalTable", "RadianceKernelTable"]
+__all__ = ["SignalTable"]
 
 _UNCHANGED = object()
 
@@ -237,6 +237,3 @@ class SignalTable:
             out[here] = radiance * factor
         return out
 
-
-#: The former name of :class:`SignalTable`.
-RadianceKernelTable = SignalTable

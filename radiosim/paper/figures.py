@@ -12,7 +12,6 @@ from pathlib import Path
 
 import numpy as np
 
-from radiosim.drawing import draw_aside, idle_drawers, matplotlib_configured
 from radiosim.paper.columns import COLUMN_NAMES, column_index, has_columns
 from radiosim.plotting import (collector_held, few_ticks, figure, fixed_axes, load_results,
                                plot_versus, preload, save_figure, select, title_block, wrap_text)
@@ -20,7 +19,7 @@ from radiosim.units import CELSIUS_OFFSET
 
 __all__ = ["preview_scene", "plot_peak", "plot_column_i", "plot_column_profiles",
            "plot_long_integration", "plot_maps", "make_figures", "draw_figures", "prepare",
-           "ERROR_BARS", "FIGURE_SECONDS"]
+           "ERROR_BARS"]
 
 #: What the error bars of Figures 5 and 7 are.
 ERROR_BARS = ("bars: ±1σ, the standard deviation of the scene temperature over the pixel's "
@@ -305,27 +304,6 @@ def _read(folder, name, cache=None):
     return measurement
 
 
-#: The paper's figures in the order they are written, and the seconds [s] each takes to build
-#: and save (bench_figures.py, best round, Figures 6 and 9-11 sharing the EXR files they
-#: read): how they are shared among drawing processes (in a new process each share takes
-#: about twice as long: measured, the two shares are within 0.1-0.2 s of each other).
-FIGURE_SECONDS = {"fig05_peak.png": 0.17, "fig07_column_I.png": 0.18,
-                  "fig06_profiles.png": 0.18, "fig08_long_integration.png": 0.13,
-                  "fig09-11_maps.png": 0.36}
-
-
-class _Columns:
-    """What Figure 6 reads of a scene with reference columns, small to send to a drawing
-    process: its shape, sample size [m], event time [s] and the columns' x [m]."""
-
-    def __init__(self, scene):
-        self.shape, self.dx, self.event_time = tuple(scene.shape), scene.dx, scene.event_time
-        self._x = {name: scene.column_x(name) for name in COLUMN_NAMES}
-
-    def column_x(self, name):
-        return self._x[name]
-
-
 def _cases(rows, camera):
     """The cases of Figures 9-11: the 9-sample size-of-source case and the 10, 45 and 90 µs
     integration times of ``camera``, those with an EXR file."""
@@ -378,29 +356,13 @@ def draw_figures(folder, names, scene=None, camera="linear", event=None) -> list
         return [save_figure(builders[name](), folder / "figures" / name) for name in names]
 
 
-def _shares(names, count) -> list[list[str]]:
-    """``names`` in at most ``count`` shares of about equal drawing time
-    (:data:`FIGURE_SECONDS`, longest first into the least loaded), each in the written order."""
-    shares = [[] for _ in range(max(1, min(count, len(names))))]
-    load = [0.0] * len(shares)
-    for name in sorted(names, key=lambda n: -FIGURE_SECONDS.get(n, 0.2)):
-        i = load.index(min(load))
-        shares[i].append(name)
-        load[i] += FIGURE_SECONDS.get(name, 0.2)
-    return [sorted(share, key=names.index) for share in shares if share]
-
-
 def make_figures(folder, scene=None, camera="linear") -> list[Path]:
     """
     Write the paper's figures for a study's results folder into ``folder/figures`` (the
     ``figures`` hook of the ``msec2009`` study).
 
-    Returns the PNG paths written, in the order of :data:`FIGURE_SECONDS`: figures whose sweeps
-    the study lacks, or whose EXR files were not written (profiles, maps), are skipped.
-    Where drawing processes are ready (``radiosim run`` starts them,
-    :func:`radiosim.drawing.start_drawers`) and this process has not set matplotlib up
-    (:func:`radiosim.drawing.matplotlib_configured`), the figures are shared among them; else,
-    or where one fails, they are drawn here. The files are the same either way.
+    Returns the PNG paths written, in the order they are drawn: figures whose sweeps the study
+    lacks, or whose EXR files were not written (profiles, maps), are skipped.
     """
     folder = Path(folder)
     rows, _ = load_results(folder)
@@ -408,32 +370,16 @@ def make_figures(folder, scene=None, camera="linear") -> list[Path]:
     if not names:
         return []
     (folder / "figures").mkdir(exist_ok=True)
-    columns = event = None
-    if "fig06_profiles.png" in names:
-        columns = _Columns(scene)  # a recipe's scene would build its geometry again there
-        if hasattr(scene, "temperature"):
-            event = scene.temperature(scene.event_time)
-    if matplotlib_configured() or not idle_drawers():
-        return draw_figures(folder, names, columns, camera, event)
-    jobs = [(draw_figures, (folder, share) + ((columns, camera, event)
-                                              if "fig06_profiles.png" in share else
-                                              (None, camera, None)))
-            for share in _shares(names, idle_drawers())]
-    try:
-        written = [path.name for paths in draw_aside(jobs) for path in paths]
-    finally:  # what a drawing process killed mid-write left (its figure was drawn here)
-        for name in names:
-            for partial in (folder / "figures").glob(f".{name}.*.partial"):
-                partial.unlink(missing_ok=True)
-    return [folder / "figures" / name for name in sorted(written, key=names.index)]
+    event = None
+    if "fig06_profiles.png" in names and hasattr(scene, "temperature"):
+        event = scene.temperature(scene.event_time)
+    return draw_figures(folder, names, scene, camera, event)
 
 
 def prepare() -> None:
-    """Before a study measures (its figures hook's ``prepare``): unless drawing processes are
-    ready to draw the figures (``radiosim run`` starts them, :mod:`radiosim.drawing`), load
-    matplotlib here on a background thread meanwhile (:func:`radiosim.plotting.preload`)."""
-    if not idle_drawers():
-        preload()
+    """Before a study measures (its figures hook's ``prepare``): load matplotlib on a
+    background thread meanwhile (:func:`radiosim.plotting.preload`)."""
+    preload()
 
 
 #: A study calls its figures hook's ``prepare`` when it starts measuring.

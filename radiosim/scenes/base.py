@@ -153,12 +153,6 @@ class Scene(ABC):
     path_temperature: float | None = None
     surroundings_temperature: float = AMBIENT_TEMPERATURE
 
-    def compiled_kernels(self) -> tuple:
-        """The compiled (numba) functions that making this scene's frames launches, so that a
-        measurement can load them from numba's cache ahead of time
-        (:func:`radiosim.kernels.compiling.load_in_background`); none by default."""
-        return ()
-
     def set_environment(self, reflected_temperature=None, path_transmission: float = 1.0,
                         path_temperature: float | None = None,
                         surroundings_temperature: float = AMBIENT_TEMPERATURE):

@@ -15,7 +15,7 @@ import math
 
 import numpy as np
 
-from radiosim.kernels import background, run_blocks, thread_count
+from radiosim.kernels import run_blocks, thread_count
 from radiosim.scenes.base import Region
 from radiosim.scenes.segmented_chip.geometry import Geometry, RegionData, rake_fade_of
 from radiosim.scenes.segmented_chip.kernel import (PAD, KernelConstants, RunLayout,
@@ -26,9 +26,6 @@ from radiosim.scenes.segmented_chip.reference import band_terms, forming_base, f
 
 __all__ = ["KernelLayout", "evaluate_compiled"]
 
-#: Blocks of rows per thread: each thread takes the next as it finishes one, so the threads'
-#: shares even out whatever the system gives each (8, 16 and 32 measured alike).
-_BLOCKS = 8
 #: Work (the units of :attr:`KernelLayout.work`, about one per copied sample) a frame needs
 #: per thread: a small region's frame (a pixel's crop) is made on the calling
 #: thread alone, the hand-over to another thread costing more than its share of the work.
@@ -143,15 +140,14 @@ class KernelLayout:
 
     def blocks(self, forming: bool) -> tuple[int, np.ndarray]:
         """The number of threads (numba's, at most one per row and per _WORK_PER_THREAD of
-        work) and the row bounds of blocks of about equal work, _BLOCKS per thread (with one
-        thread, one block)."""
+        work) and the row bounds of one block of about equal work per thread."""
         work = self.work[forming]
         rows = work.size - 1
         shares = min(rows, int(work[-1] // _WORK_PER_THREAD))  # numba is asked only if > 1
         threads = max(1, min(thread_count(), shares)) if shares > 1 else 1
         bounds = self._bounds.get((threads, forming))
         if bounds is None:
-            count = max(1, min(threads * _BLOCKS, rows)) if threads > 1 else 1
+            count = threads
             inner = np.searchsorted(work, work[-1] * np.arange(1, count) / count)
             bounds = np.concatenate([[0], inner, [rows]]).astype(np.int64)
             self._bounds[threads, forming] = bounds = np.maximum.accumulate(bounds)
@@ -193,17 +189,10 @@ def evaluate_compiled(p: ChipParameters, r: RegionData, layout: KernelLayout, t:
     regions = np.empty(r.shape, dtype=np.uint8) if want_regions else _NO_REGIONS
     threads, blocks = layout.blocks(forming)
     bad = np.empty(threads, dtype=np.int64)  # per thread: values not finite and > 0 K
-    if background.any_running("with_chip"):  # kernels compiled by another process: load
-        background.wait_for_background()  # them after it has cached them
-    else:
-        background.wait_for_loaders()  # kernels being loaded on another thread: use them after
     profile = band_profile(grid, terms, nodes, frame.sin_tb)
-    counter = np.zeros(1, dtype=np.int64)  # the next block a thread takes
     run_blocks(moving_terms_kernel, threads, blocks, r.static, r.regions, temperature,
                regions, want_regions, forming, r.y, frame, profile, r.cos_field, r.sin_field,
-               layout.run_layout, bad, counter)
+               layout.run_layout, bad)
     # Every value finite and > 0 K (see moving_terms_kernel): the frame's check is done.
     clean = not any(bad.tolist())  # (a list: no numpy call per frame)
-    # Every block taken: each thread's last claim found none left.
-    clean = clean and int(counter[0]) == blocks.size - 1 + threads
     return temperature, (regions if want_regions else None), clean

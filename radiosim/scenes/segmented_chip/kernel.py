@@ -5,8 +5,8 @@ A frame is the static field plus the moving terms on four index sets of the regi
 (:class:`~.geometry.RegionData`): the travelling modulation (``periodic``), the released bands
 (``chip``), the forming band (``forming``) and the free surface (``surface``), each stored as
 runs of columns per row (:class:`~.compiled.KernelLayout`). :func:`moving_terms_kernel` writes
-the frame in one pass over the region's rows (blocks of rows, each thread taking the next as it
-finishes one: :func:`~radiosim.kernels.intrinsics.claim_block`): each row is copied from the
+the frame in one pass over the region's rows (one block of rows of about equal work per
+thread): each row is copied from the
 static field and, while it is in cache, each term is applied to its runs in the reference's
 order (modulation, released bands, forming band, surface), so every sample sees the reference's
 (:mod:`.reference`) operations in the reference's order. The coordinates n, ζ, ξ of a sample are
@@ -34,7 +34,6 @@ import numba
 import numpy as np
 
 from radiosim.kernels import fast_exp
-from radiosim.kernels.intrinsics import claim_block
 
 __all__ = ["KernelConstants", "RunLayout", "SET_PERIODIC", "SET_CHIP", "SET_FORMING", "SET_SURFACE",
            "PAD", "moving_terms_kernel", "kernel_coordinates"]
@@ -277,14 +276,11 @@ def band_profile(grid, terms, nodes, sin_b):
 
 @numba.njit(**_JIT)
 def moving_terms_kernel(thread, bounds, static, regions_static, out, regions_out, want_regions,
-                        forming, y, k, profile, cos_field, sin_field, layout, bad, counter):
+                        forming, y, k, profile, cos_field, sin_field, layout, bad):
     """Thread ``thread``'s share (the threads each on its own thread:
-    :func:`radiosim.kernels.run_blocks`) of the frame over the region: rows bounds[block] …
-    bounds[block + 1] − 1 in each block it takes, the next from ``counter`` (int64, 0 at the
-    launch: :func:`~radiosim.kernels.intrinsics.claim_block`) each time it finishes one, so
-    that a thread the system holds back leaves its blocks to the others instead of making
-    them wait; together they write ``out`` (and, with ``want_regions``, ``regions_out``) in
-    full, each row once, whichever thread writes it. ``layout`` (:class:`RunLayout`) holds
+    :func:`radiosim.kernels.run_blocks`) of the frame over the region: rows bounds[thread] …
+    bounds[thread + 1] − 1; together the threads write ``out`` (and, with ``want_regions``,
+    ``regions_out``) in full, each row once. ``layout`` (:class:`RunLayout`) holds
     the runs, the fades and the columns' x coordinates and PAD more (any finite values);
     ``k`` the scalars (:class:`KernelConstants`); ``profile`` the released bands' profile on
     the ζ grid (:func:`band_profile`). Each row: the static row, then the moving terms on
@@ -309,10 +305,7 @@ def moving_terms_kernel(thread, bounds, static, regions_static, out, regions_out
     scratch = np.empty((3, out.shape[1] + PAD))
     n_cols = out.shape[1]
     flagged = np.int64(0)
-    while True:
-        block = claim_block(counter)
-        if block >= n_blocks:
-            break
+    for block in range(thread, n_blocks, bad.size):  # bad: one entry per thread
         for i in range(bounds[block], bounds[block + 1]):
             # Row i of the frame: the static row, then the moving terms on the row's runs.
             row = out[i]

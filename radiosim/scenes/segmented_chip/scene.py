@@ -27,7 +27,6 @@ from radiosim.errors import RadiosimError
 from radiosim.scenes.base import Region, Scene, SceneFrame, check_emissivity, check_grid
 from radiosim.scenes.segmented_chip.compiled import KernelLayout, evaluate_compiled
 from radiosim.scenes.segmented_chip.engine import use_compiled
-from radiosim.scenes.segmented_chip.kernel import band_profile, moving_terms_kernel
 from radiosim.scenes.segmented_chip.geometry import COLUMNS, REGIONS, Geometry, RegionData
 from radiosim.scenes.segmented_chip.parameters import ChipParameters
 from radiosim.scenes.segmented_chip.reference import evaluate_reference, forming_base, phase
@@ -170,11 +169,6 @@ class SegmentedChip(Scene):
         if not want_regions:
             return temperature
         return temperature, regions
-
-    def compiled_kernels(self) -> tuple:
-        """The moving terms' kernel and its band profile, when the compiled engine makes the
-        frames (:meth:`~radiosim.scenes.base.Scene.compiled_kernels`)."""
-        return (moving_terms_kernel, band_profile) if use_compiled() else ()
 
     def _full(self) -> Region:
         return (slice(0, self.shape[0]), slice(0, self.shape[1]))
