@@ -20,9 +20,10 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
+from conftest import blank_and_sigma, counts_table, one_line_message, photo, true_camera
 from radiosim import Camera, FrameStack, UniformBlackbody
 from radiosim.calibration import Calibration
-from radiosim.characterization import fit_calibration, flat_fields
+from radiosim.characterization import fit_calibration, flat_fields, measurable_range
 from radiosim.electronics import Electronics, Exposure
 from radiosim.errors import RadiosimError, RadiosimWarning
 from radiosim.radiometry import band_radiance
@@ -537,3 +538,243 @@ def test_fit_calibration_measures_the_optics_emission_from_several_instrument_te
     assert fitted.optics.emissivity == pytest.approx(0.06, abs=0.01)
     with pytest.raises(RadiosimError, match="two different instrument temperatures"):
         fit_calibration(camera, t, counts, 200e-6, instrument_temperatures=np.full(18, 300.0))
+
+
+# -- the detection limit: blank + k·σ_blank (EMVA 1288), written out -------------------------------
+
+
+def _exposure(counts):
+    counts = np.asarray(counts, dtype=float)
+    none = np.zeros(counts.shape, dtype=bool)
+    return Exposure(electrons=counts, counts=counts, saturated=none, adc_floor=none)
+
+
+@pytest.mark.parametrize("t_int", [1e-6, 20e-6, 1e-3])
+def test_detection_limit_is_blank_plus_three_emva_sigmas(nist, t_int):
+    b, sigma = blank_and_sigma(nist, t_int)
+    cal = nist.calibration(t_int)
+    assert cal.blank_counts == pytest.approx(b, abs=1e-9)
+    assert cal.blank_noise_counts == pytest.approx(sigma, rel=1e-12)
+    assert cal.detection_limit_counts == pytest.approx(b + 3 * sigma, abs=1e-9)
+
+
+@pytest.mark.parametrize("excess, flagged", [(2.9, True), (3.1, False)])
+def test_a_pixel_below_three_sigma_is_under_range(nist, excess, flagged):
+    t_int = 20e-6
+    b, sigma = blank_and_sigma(nist, t_int)
+    reading = nist.calibration(t_int).read(_exposure([b + excess * sigma]))
+    assert bool(reading.under_range[0]) == flagged
+    assert np.isnan(reading.apparent_temperature[0]) == flagged
+    assert not reading.saturated[0] and not reading.over_range[0]
+
+
+@pytest.mark.parametrize("excess, flagged", [(3.1, True), (4.9, True), (5.1, False)])
+def test_k5_moves_the_limit(nist, excess, flagged):
+    t_int = 20e-6
+    camera = nist.replace(detection_sigma=5.0)
+    b, sigma = blank_and_sigma(camera, t_int)
+    reading = camera.calibration(t_int).read(_exposure([b + excess * sigma]))
+    assert bool(reading.under_range[0]) == flagged
+
+
+def test_lowest_measurable_temperature_reaches_the_limit(nist):
+    t_int = 20e-6
+    b, sigma = blank_and_sigma(nist, t_int)
+    el = nist.electronics
+    lows = []
+    for k in (3.0, 5.0):
+        low = measurable_range(nist.replace(detection_sigma=k), t_int)[0]
+        # Its mean counts, written out, are the limit (radiance table 1e-7 of ≈ 3 DN).
+        counts = el.gain * (photo(nist, low, t_int) + el.dark_current * t_int) + el.offset
+        assert counts == pytest.approx(b + k * sigma, abs=1e-5)
+        lows.append(low)
+    assert lows[1] > lows[0]
+
+
+@pytest.mark.parametrize("temperature", [140.0, 293.15])
+@pytest.mark.parametrize("t_int", [1e-6, 2e-6])
+def test_a_cold_scene_at_short_integration_reads_under_range(nist, temperature, t_int):
+    # Before issue 20 a third of these pixels read 330–387 K unflagged (SNR = 1 floor).
+    scene = UniformBlackbody(temperature, shape=(120, 160), dx=nist.fpa.pixel_pitch, dt=t_int)
+    m = nist.measure(scene, t_int, 0.0, rng=np.random.default_rng(20))
+    reported = float(np.mean(np.isfinite(m.apparent_temperature)))
+    # The bound: a pixel is reported when its code reaches ⌈L⌉, i.e. when the analogue count
+    # (Gaussian, mean b + K·photo, σ_a² = K²(σ²_read + μ_e), no quantisation) exceeds ⌈L⌉ − ½.
+    el = nist.electronics
+    b, sigma = blank_and_sigma(nist, t_int)
+    mean_e = photo(nist, temperature, t_int) + el.dark_current * t_int
+    mean = el.gain * mean_e + el.offset
+    sigma_a = el.gain * math.sqrt(el.read_noise**2 + mean_e)
+    code = math.ceil(b + 3 * sigma)
+    p = 0.5 * math.erfc((code - 0.5 - mean) / (sigma_a * math.sqrt(2)))
+    assert p < 0.005  # the 3σ rule: a few pixels per thousand at most
+    n = m.apparent_temperature.size
+    assert reported < 0.01
+    assert abs(reported - p) <= 5 * math.sqrt(p * (1 - p) / n) + 1 / n
+
+
+def test_flags_are_exclusive_and_flagged_pixels_are_nan(nist):
+    frame = np.full((240, 320), 450.0)
+    frame[:, :80] = 150.0  # cold: under range
+    frame[:, 240:] = 2500.0  # saturates at 320 µs
+    scene = FrameStack(np.repeat(frame[None], 3, axis=0), dt=1e-3, dx=3e-6)
+    with pytest.warns(RadiosimWarning, match="saturated"):
+        m = nist.measure(scene, 320e-6, 0.0, rng=3)
+    flags = m.saturated.astype(int) + m.under_range + m.over_range
+    assert flags.max() == 1 and m.saturated.any() and m.under_range.any()
+    np.testing.assert_array_equal(np.isnan(m.apparent_temperature), flags == 1)
+
+
+def test_noise_free_quantised_electronics_keep_the_quantisation_in_the_limit(nist):
+    camera = nist.replace(electronics=replace(nist.electronics, read_noise=0.0,
+                                              shot_noise=False))
+    cal = camera.calibration(20e-6)
+    el = camera.electronics
+    assert cal.detection_limit_counts == pytest.approx(
+        el.gain * el.dark_current * 20e-6 + el.offset + 3 * math.sqrt(1 / 12), abs=1e-9)
+
+
+def test_the_ideal_linear_camera_detects_any_signal():
+    cal = Camera.linear_ideal(6e-6).calibration(1e-6)
+    assert cal.detection_limit_counts == -math.inf
+
+
+# -- combinations that cannot give a reading -------------------------------------------------------
+
+
+def test_a_range_wholly_below_the_detection_limit_is_refused(nist):
+    camera = nist.replace(response="linear", name="lin-real")
+    # Written out: 3000 K gives K·(R·T·t) = 0.0014 × 1500 e⁻ ≈ 2.1 DN over the blank at 0.5 µs,
+    # under 3σ ≈ 2.66 DN.
+    b, sigma = blank_and_sigma(camera, 0.5e-6)
+    el = camera.electronics
+    assert el.gain * camera.linear_responsivity * 3000.0 * 0.5e-6 < 3 * sigma
+    scene = UniformBlackbody(2000.0, shape=(120, 160), dx=6e-6, dt=0.5e-6)
+    with pytest.raises(RadiosimError) as info:
+        camera.measure(scene, 0.5e-6, 0.0, rng=0)
+    message = one_line_message(info)
+    assert "lin-real" in message and "0.5 µs" in message and "detection limit" in message
+    assert f"{b + 3 * sigma:.6g}" in message
+
+
+def test_a_range_wholly_saturated_is_refused(nist):
+    camera = nist.replace(calibration_range=(2500.0, 3000.0))
+    # Written out: 2500 K at 1.6 ms gives far more than the 1.1e7 e⁻ well.
+    assert photo(camera, 2500.0, 1.6e-3) > camera.electronics.full_well
+    scene = UniformBlackbody(2800.0, shape=(120, 160), dx=6e-6, dt=1.6e-3)
+    with pytest.raises(RadiosimError, match="saturates") as info:
+        camera.measure(scene, 1.6e-3, 0.0, rng=0)
+    message = one_line_message(info)
+    assert "nist-ir" in message and "1.6 ms" in message and "2500 K" in message
+
+
+def test_the_coarse_resolution_warning_stays_a_warning(nist):
+    camera = nist.replace(response="linear")
+    scene = UniformBlackbody(1013.55, shape=(120, 160), dx=6e-6, dt=10e-6)
+    with pytest.warns(RadiosimWarning, match="spans only"):
+        m = camera.measure(scene, 10e-6, 0.0, rng=0)
+    assert m.shape == (120, 160)
+
+
+# -- fitting a calibration table, written out ------------------------------------------------------
+
+
+def test_a_fitted_camera_reproduces_its_own_table(nist):
+    true = true_camera(nist)
+    t_int = 10e-6
+    temperatures = np.array([350.0, 450.0, 550.0, 650.0, 800.0])
+    counts = counts_table(true, temperatures, t_int)
+    assert counts.max() < true.electronics.max_count  # inside the converter (written out)
+    start = true.replace(electronics=replace(true.electronics, gain=0.0011, offset=900.0))
+    fitted, residuals = fit_calibration(start, temperatures, counts, t_int)
+    assert fitted.electronics.gain == pytest.approx(true.electronics.gain, rel=1e-6)
+    assert fitted.electronics.offset == pytest.approx(1000.0, abs=1e-3)
+    np.testing.assert_allclose(residuals, 0.0, atol=1e-3)
+    for t, c in zip(temperatures, counts):
+        scene = UniformBlackbody(t, shape=(2, 2), dx=true.fpa.pixel_pitch, dt=t_int)
+        m = fitted.measure(scene, t_int, 0.0, rng=0)
+        assert np.all(np.abs(m.counts - c) <= 0.5 + 1e-3)  # the 1 DN quantisation
+        # The reading is the temperature whose written-out counts are the rounded code:
+        # within half a DN of the table's counts (the quantisation).
+        back = counts_table(true, m.apparent_temperature.ravel(), t_int)
+        assert np.all(np.abs(back - c) <= 0.5 + 1e-3)
+
+
+def test_points_beyond_the_full_well_are_refused_and_named(nist):
+    true = true_camera(nist).replace(
+        electronics=replace(true_camera(nist).electronics, adc_bits=18))
+    t_int = 100e-6
+    temperatures = np.array([400.0, 500.0, 600.0, 900.0, 1200.0])
+    counts = counts_table(true, temperatures, t_int)  # unclipped: the last two overfill the well
+    over = [t for t in temperatures if photo(true, t, t_int) > true.electronics.full_well]
+    assert over == [900.0, 1200.0]
+    with pytest.raises(RadiosimError, match="full well") as info:
+        fit_calibration(true, temperatures, counts, t_int)
+    message = one_line_message(info)
+    assert "900 K" in message and "1200 K" in message and "1.1e+07 e⁻" in message
+    assert f"{counts[3]:g} DN" in message and "400 K" not in message
+
+
+def test_points_at_the_top_code_or_zero_are_refused(nist):
+    true = true_camera(nist)
+    t_int = 10e-6
+    temperatures = np.array([350.0, 450.0, 550.0, 650.0, 800.0])
+    counts = counts_table(true, temperatures, t_int)
+    counts[-1] = 16383.0
+    with pytest.raises(RadiosimError, match="top code 16383") as info:
+        fit_calibration(true, temperatures, counts, t_int)
+    assert "800 K (16383 DN)" in one_line_message(info)
+    counts = counts_table(true, temperatures, t_int)
+    counts[0] = 0.0
+    with pytest.raises(RadiosimError, match="code 0"):
+        fit_calibration(true, temperatures, counts, t_int)
+
+
+def test_unusable_points_are_excluded_on_request_with_a_warning(nist):
+    true = true_camera(nist)
+    t_int = 10e-6
+    temperatures = np.array([350.0, 450.0, 550.0, 650.0, 800.0, 3000.0])
+    counts = np.append(counts_table(true, temperatures[:-1], t_int), 16383.0)
+    with pytest.warns(RadiosimWarning, match="3000 K"):
+        fitted, residuals = fit_calibration(true, temperatures, counts, t_int,
+                                                 exclude_unusable=True)
+    assert np.isnan(residuals[-1]) and np.all(np.abs(residuals[:-1]) < 1e-3)
+    assert fitted.electronics.gain == pytest.approx(true.electronics.gain, rel=1e-6)
+
+
+def test_the_well_is_widened_on_request(nist):
+    true = true_camera(nist).replace(
+        electronics=replace(true_camera(nist).electronics, adc_bits=18))
+    t_int = 100e-6
+    temperatures = np.array([400.0, 500.0, 600.0, 900.0])
+    counts = counts_table(true, temperatures, t_int)
+    fitted, _ = fit_calibration(true, temperatures, counts, t_int, fit_full_well=True)
+    assert fitted.electronics.full_well >= photo(true, 900.0, t_int)
+
+
+@pytest.mark.parametrize("frames", [0, -3, 1.5, True])
+def test_frames_must_be_a_whole_number(nist, frames):
+    true = true_camera(nist)
+    temperatures = np.array([350.0, 450.0, 550.0])
+    with pytest.raises(RadiosimError, match="frames") as info:
+        fit_calibration(true, temperatures, counts_table(true, temperatures, 1e-5), 1e-5, frames)
+    one_line_message(info)
+
+
+def test_counts_that_fall_with_temperature_are_refused(nist):
+    true = true_camera(nist)
+    temperatures = np.array([350.0, 450.0, 550.0, 650.0])
+    counts = counts_table(true, temperatures, 1e-5)[[0, 2, 1, 3]]
+    with pytest.raises(RadiosimError, match="fall"):
+        fit_calibration(true, temperatures, counts, 1e-5)
+
+
+def test_no_warning_is_silenced_by_fit(nist):
+    # A table the model cannot fit (counts off by a 2 % scale slope) warns; nothing hides it.
+    true = true_camera(nist)
+    temperatures = np.array([350.0, 450.0, 550.0, 650.0, 800.0])
+    counts = counts_table(true, temperatures, 1e-5) * (1 + 0.02 * np.linspace(0, 1, 5))
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        fit_calibration(true, temperatures, counts, 1e-5)
+    assert any("residuals exceed" in str(w.message) for w in caught)

@@ -1,13 +1,19 @@
 """The camera end to end: presets, calibration round trip, flags, emissivity."""
 
 import dataclasses
+import math
+import warnings
+from pathlib import Path
 
 import numpy as np
 import pytest
 
+from conftest import (api_error, blank_and_sigma, fea_rows, fea_text, gradient_frames,
+                      one_line_message, write_file)
 from radiosim import Camera, Electronics, FrameStack, MovingGaussianBand, UniformBlackbody
 from radiosim.acquisition import is_rolling
 from radiosim.errors import RadiosimError, RadiosimWarning
+from radiosim.io import read_fea_nodes, read_frames
 from radiosim.radiometry import band_radiance
 from radiosim.spectral import read_spectrum
 
@@ -256,3 +262,193 @@ def test_a_cameras_toml_is_written_once_and_a_changed_copy_has_its_own(tmp_path)
     assert other.to_toml() != text
     assert 'name = "renamed"' in other.to_toml() and "assumed_emissivity = 0.5" in other.to_toml()
     assert 'name = "renamed"' not in camera.to_toml()
+
+
+# -- what measure and the camera's settings accept, named in one line ------------------------------
+
+
+def test_camera_replace_with_an_unknown_field_names_the_likely_one():
+    camera = Camera.linear_ideal(3e-6)
+    with pytest.raises(RadiosimError, match=r"nmae.*did you mean name"):
+        camera.replace(nmae="x")
+
+
+def test_camera_replace_with_a_known_field_still_works():
+    camera = Camera.linear_ideal(3e-6).replace(name="mine")
+    assert camera.name == "mine"
+
+
+@pytest.mark.parametrize("rng", ["abc", 1.5, -1, [1, 2], True,
+                                 np.random.RandomState(0)])
+def test_measure_with_an_rng_of_the_wrong_type_is_one_error(rng):
+    scene = FrameStack(np.full((4, 6, 6), 500.0), dt=1e-6, dx=1e-6)
+    with pytest.raises(RadiosimError, match="rng must be a seed"):
+        Camera.linear_ideal(3e-6).measure(scene, 2e-6, rng=rng)
+
+
+@pytest.mark.parametrize("scene", [np.full((3, 12, 12), 600.0), [[600.0]], None])
+def test_measure_refuses_what_is_not_a_scene(scene):
+    camera = Camera.linear_ideal(3e-6)
+    with pytest.raises(RadiosimError, match="Scene") as info:
+        camera.measure(scene, 1e-6)
+    if isinstance(scene, (np.ndarray, list)):
+        assert "FrameStack(frames, dt=" in one_line_message(info)
+
+
+@pytest.mark.parametrize("t_int, t_start, name", [
+    ("1us", None, "integration_time"), (True, None, "integration_time"),
+    (math.nan, None, "integration_time"), (-1e-6, None, "integration_time"),
+    (1e-6, "0", "t_start"), (1e-6, math.nan, "t_start"), (1e-6, -1e-6, "t_start"),
+])
+def test_measure_refuses_bad_times_in_one_line(t_int, t_start, name):
+    camera = Camera.linear_ideal(3e-6)
+    scene = UniformBlackbody(600.0, shape=(6, 6), dx=1e-6, dt=1e-6)
+    with pytest.raises(RadiosimError, match=name) as info:
+        camera.measure(scene, t_int, t_start)
+    one_line_message(info)
+
+
+def _scene():
+    return FrameStack(np.full((5, 12, 12), 500.0), dt=1e-6, dx=1e-6)
+
+
+@pytest.mark.usefixtures("in_tmp")
+@pytest.mark.parametrize("rng", [
+    pytest.param(-1),
+    pytest.param(1.5),
+    pytest.param("abc"),
+])
+def test_api_bad_seed(rng):
+    with pytest.raises(RadiosimError) as info:
+        Camera.linear_ideal(3e-6).measure(_scene(), 2e-6, rng=rng)
+    api_error(info, repr(rng) if isinstance(rng, str) else rng)
+
+
+@pytest.mark.usefixtures("in_tmp")
+@pytest.mark.parametrize("call, name", [
+    pytest.param(lambda: Camera.linear_ideal(3e-6).measure(_scene(), 1e-6, t_start="1us"),
+                 "'1us'", id="t_start-string"),
+    pytest.param(lambda: FrameStack(np.full((5, 12, 12), 500.0), dt=1e-6, dx=1e-6,
+                                    event_time="a"), "event_time", id="event_time-string"),
+    pytest.param(lambda: read_fea_nodes(_fea_file(), dx=1e-6, fill="20C"), "fill",
+                 id="fea-fill-string"),
+    pytest.param(lambda: read_fea_nodes(_fea_file(), dx=1e-6, dt="1us"), "dt",
+                 id="fea-dt-string"),
+    pytest.param(lambda: Camera.linear_ideal("6"), "'6'", id="pixel_pitch-string"),
+    pytest.param(lambda: Camera.linear_ideal(3e-6).measure(_scene(), "10us"), "'10us'",
+                 id="integration_time-string"),
+    pytest.param(lambda: FrameStack(np.full((5, 12, 12), 500.0), dt="0.2", dx=1e-6), "'0.2'",
+                 id="dt-string"),
+    pytest.param(lambda: read_frames("nope.npy", dt=1e-6, dx=1e-6, units="K"), "nope.npy",
+                 id="missing-npy"),
+    pytest.param(lambda: read_fea_nodes("nope.csv", dx=1e-6), "nope.csv", id="missing-csv"),
+])
+def test_api_bad_argument_is_a_radiosim_error(tmp_path, call, name):
+    with pytest.raises(RadiosimError) as info:
+        call()
+    api_error(info, name)
+
+
+def _fea_file() -> Path:
+    path = Path("nodes.csv")  # in the test's folder (see _in_tmp)
+    path.write_text(fea_text(fea_rows()))
+    return path
+
+
+@pytest.mark.usefixtures("in_tmp")
+@pytest.mark.parametrize("t_start, word", [
+    pytest.param(float("nan"), "NaN", id="nan"),
+    pytest.param(float("inf"), "inf", id="inf"),
+])
+def test_non_finite_t_start_is_named_as_such(t_start, word):
+    with pytest.raises(RadiosimError) as info:
+        Camera.linear_ideal(3e-6).measure(_scene(), 1e-6, t_start=t_start)
+    message = api_error(info)
+    assert word.lower() in message.lower(), message
+    assert "before the" not in message and "first frame" not in message, message
+
+
+@pytest.mark.usefixtures("in_tmp")
+@pytest.mark.parametrize("dx, dt, t_int, word", [
+    (0.667, 0.2e-6, 0.2e-6, "dx"),    # metres where µm were meant
+    (0.667e-6, 0.2, 1e-6, "dt"),      # seconds where µs were meant
+])
+def test_unit_slip_is_named(dx, dt, t_int, word):
+    scene = FrameStack(np.full((3, 30, 30), 500.0), dt=dt, dx=dx)
+    with pytest.raises(RadiosimError) as info:
+        Camera.linear_ideal(6e-6).measure(scene, t_int)
+    message = api_error(info, word)
+    assert "µ" in message and "as" in message  # "was dx given in µm as metres?"
+
+
+@pytest.mark.usefixtures("in_tmp")
+def test_near_zero_integration_time_does_not_saturate():
+    camera = Camera.preset("nist-ir")
+    scene = FrameStack(gradient_frames(), dt=0.1e-6, dx=1e-6)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", RadiosimWarning)  # coarse calibration: expected
+        m = camera.measure(scene, 1e-9, rng=0)
+    assert m.electrons.max() < 1e-3 * camera.electronics.full_well
+    assert not m.saturated.any(), f"{int(m.saturated.sum())} pixels reported saturated"
+
+
+# -- detection_sigma, camera files -----------------------------------------------------------------
+
+
+@pytest.fixture(scope="module")
+def nist_preset():
+    return Camera.preset("nist-ir")
+
+
+@pytest.mark.parametrize("k", [0.0, -1.0, math.nan, math.inf, True, "3"])
+def test_detection_sigma_must_be_positive_and_finite(nist_preset, k):
+    with pytest.raises(RadiosimError, match="detection_sigma") as info:
+        nist_preset.replace(detection_sigma=k)
+    one_line_message(info)
+
+
+def test_detection_sigma_from_a_camera_file(nist_preset, tmp_path):
+    path = tmp_path / "cam.toml"
+    path.write_text(nist_preset.to_toml().replace("detection_sigma = 3.0", "detection_sigma = 4.5"),
+                    encoding="utf-8")
+    camera = Camera.from_toml(path)
+    assert camera.detection_sigma == 4.5
+    b, sigma = blank_and_sigma(camera, 1e-5)
+    assert camera.calibration(1e-5).detection_limit_counts == pytest.approx(b + 4.5 * sigma)
+    path.write_text(nist_preset.to_toml().replace("detection_sigma = 3.0", "detection_sigma = -2"),
+                    encoding="utf-8")
+    with pytest.raises(RadiosimError) as info:
+        Camera.from_toml(path)
+    message = one_line_message(info)
+    assert str(path) in message and "detection_sigma = -2" in message
+
+
+@pytest.mark.parametrize("old, new, key", [
+    ("full_well_e = 1.1e7", "full_well_e = -5", "[electronics] full_well_e = -5"),
+    ("f_number = 2.5", "f_number = -2", "[optics] f_number = -2"),
+    ("fill_factor = 0.85", "fill_factor = 1.5", "[fpa] fill_factor = 1.5"),
+    ("calibration_range_K = [150.0, 3000.0]", "calibration_range_K = [3000.0, 150.0]",
+     "calibration_range_K = [3000.0, 150.0]"),
+    ('quantum_efficiency = "qe_insb_77K"', 'quantum_efficiency = "nope"',
+     '[fpa] quantum_efficiency = "nope"'),
+    ("assumed_emissivity = 1.0", "assumed_emissivity = 2.0", "assumed_emissivity = 2.0"),
+])
+def test_camera_file_errors_name_the_file_and_the_key(tmp_path, old, new, key):
+    from radiosim.presets import PRESET_DIRECTORY
+
+    text = (PRESET_DIRECTORY / "nist-ir.toml").read_text(encoding="utf-8")
+    assert old in text
+    path = write_file(tmp_path, text.replace(old, new), "my.toml")
+    with pytest.raises(RadiosimError) as info:
+        Camera.from_toml(path)
+    message = one_line_message(info)
+    assert message.startswith(f"{path}: {key}: "), message
+
+
+def test_a_camera_file_with_a_byte_order_mark_is_read(tmp_path):
+    from radiosim.presets import PRESET_DIRECTORY
+
+    text = (PRESET_DIRECTORY / "nist-ir.toml").read_text(encoding="utf-8")
+    path = write_file(tmp_path, text, "bom.toml", encoding="utf-8-sig")
+    assert path.read_bytes()[:3] == b"\xef\xbb\xbf"
+    assert Camera.from_toml(path).to_dict() == Camera.preset("nist-ir").to_dict()

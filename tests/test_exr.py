@@ -7,9 +7,10 @@ import numpy as np
 import OpenEXR
 import pytest
 
-from radiosim import Camera, RadiosimWarning
+from conftest import one_line_naming, single_line
+from radiosim import Camera, FrameStack, RadiosimWarning
 from radiosim.acquisition import record
-from radiosim.errors import RadiosimError
+from radiosim.errors import RadiosimError, RadiosimIOError
 from radiosim.io import read_exr, read_exr_sequence, write_exr, write_exr_sequence
 from radiosim.io.exr import CHANNELS
 from radiosim.scenes import SegmentedChip
@@ -94,3 +95,40 @@ def test_a_recording_becomes_numbered_files(tmp_path):
     assert back[2].t_start - back[0].t_start == pytest.approx(2e-5)
     # The band moves between frames: the recordings differ.
     assert not np.array_equal(back[0].tensor_mean, back[2].tensor_mean)
+
+
+# -- edges: a full disk, a folder, a recording with a file removed ---------------------------------
+
+
+def test_a_real_full_disk_during_an_exr_write_leaves_no_file(small_disk):
+    from radiosim.io import write_exr
+
+    scene_camera = Camera.linear_ideal(2e-6)
+    from radiosim.scenes import FrameStack
+
+    values = 600.0 + 100.0 * np.random.default_rng(0).random((3, 200, 200))
+    scene = FrameStack(values, dt=1e-6, dx=1e-6)
+    m = scene_camera.measure(scene, 2e-6, rng=0)
+    (small_disk / "filler").write_bytes(b"\0" * 50_000)
+    with pytest.raises(RadiosimIOError) as info:
+        write_exr(small_disk / "m.exr", m)
+    single_line(str(info.value), small_disk / "m.exr")
+    assert sorted(p.name for p in small_disk.iterdir()) == ["filler"]
+
+
+def test_read_exr_on_a_folder_says_it_is_a_folder(tmp_path):
+    with pytest.raises(RadiosimError, match="is a folder, not an EXR file"):
+        read_exr(tmp_path)
+
+
+def test_a_written_exr_recording_with_a_file_removed_is_refused(tmp_path):
+    from radiosim.io import read_exr_sequence, write_exr_sequence
+
+    scene = FrameStack(np.full((4, 6, 6), 500.0), dt=1e-6, dx=1e-6)
+    m = Camera.linear_ideal(3e-6).measure(scene, 1e-6, t_start=0.0)
+    files = write_exr_sequence(tmp_path / "rec", [m, m, m, m])
+    assert len(read_exr_sequence(tmp_path / "rec")) == 4
+    files[2].unlink()
+    with pytest.raises(RadiosimError) as info:
+        read_exr_sequence(tmp_path / "rec")
+    one_line_naming(info, "frame_0003.exr", "frame number 2 is missing", "frame_0001.exr")

@@ -1,6 +1,8 @@
 """FEA meshes through meshio, resampled on their own cells."""
 
 
+from pathlib import Path
+
 import meshio
 import numpy as np
 import pytest
@@ -8,6 +10,8 @@ from scipy.interpolate import LinearNDInterpolator
 from scipy.spatial import Delaunay
 
 import radiosim as rs
+from conftest import one_line_naming
+from radiosim import Camera
 from radiosim.errors import RadiosimError
 from radiosim.io import read_fea_mesh
 
@@ -131,3 +135,76 @@ def test_a_broken_mesh_file_is_one_line(tmp_path):
     with pytest.raises(RadiosimError, match="cannot read FEA mesh"):
         read_fea_mesh([tmp_path / "bad.vtu", tmp_path / "bad.vtu"], dx=1e-6, times=[0, 1e-6],
                       units={"length": "um", "temperature": "K"})
+
+
+# -- edges: vector fields, NaN nodes and times, unit contradictions, the time origin ---------------
+
+
+def mesh_files(folder, times, values=None, point_data=None, points=None):
+    g = np.arange(0.0, 10.0 + 1e-9, 2.0)
+    x, y = np.meshgrid(g, g)
+    xy = np.column_stack([x.ravel(), y.ravel()]) if points is None else points
+    triangles = Delaunay(np.column_stack([x.ravel(), y.ravel()])).simplices
+    files = []
+    for k, t in enumerate(times):
+        data = point_data(k) if point_data else {
+            "temperature": np.full(len(xy), values(t) if values else 500.0)}
+        path = Path(folder) / f"step_{k}.vtu"
+        meshio.write(path, meshio.Mesh(np.column_stack([xy, np.zeros(len(xy))]),
+                                       [("triangle", triangles)], point_data=data))
+        files.append(path)
+    return files
+
+
+def test_mesh_a_vector_field_as_temperature_is_refused(tmp_path):
+    files = mesh_files(tmp_path, [0.0, 1.0],
+                       point_data=lambda k: {"temperature": np.full((36, 3), 500.0)})
+    with pytest.raises(RadiosimError) as info:
+        read_fea_mesh(files, dx=1e-6, times=[0.0, 1e-6],
+                      units={"length": "um", "temperature": "K"})
+    one_line_naming(info, "'temperature'", "(36, 3)", "3 components")
+
+
+def test_mesh_nan_coordinates_are_refused(tmp_path):
+    g = np.arange(0.0, 10.0 + 1e-9, 2.0)
+    x, y = np.meshgrid(g, g)
+    points = np.column_stack([x.ravel(), y.ravel()])
+    points[7, 0] = np.nan
+    files = mesh_files(tmp_path, [0.0, 1.0], points=points)
+    with pytest.raises(RadiosimError) as info:
+        read_fea_mesh(files, dx=1e-6, times=[0.0, 1e-6],
+                      units={"length": "um", "temperature": "K"})
+    one_line_naming(info, "step 0", "node 7", "nan")
+
+
+def test_mesh_a_nan_time_is_refused(tmp_path):
+    files = mesh_files(tmp_path, [0.0, 1.0])
+    with pytest.raises(RadiosimError) as info:
+        read_fea_mesh(files, dx=1e-6, times=[0.0, float("nan")],
+                      units={"length": "um", "temperature": "K"})
+    one_line_naming(info, "step 1", "nan")
+
+
+def test_mesh_a_unit_that_contradicts_the_fields_name_is_refused(tmp_path):
+    files = mesh_files(tmp_path, [0.0, 1.0],
+                       point_data=lambda k: {"temperature_C": np.full(36, 500.0)})
+    with pytest.raises(RadiosimError) as info:
+        read_fea_mesh(files, dx=1e-6, times=[0.0, 1e-6], field="temperature_C",
+                      units={"length": "um", "temperature": "K"})
+    one_line_naming(info, "temperature=K", "'temperature_C'", "in C")
+
+
+def ramp(t_us):
+    """A field linear in time: 300 K + 100 K/µs · t, the same at every node [K]."""
+    return 300.0 + 100.0 * t_us
+
+
+def test_mesh_keeps_its_origin_and_interpolates_linearly(tmp_path):
+    files = mesh_files(tmp_path, [5.0, 6.0, 7.0], values=ramp)
+    scene = read_fea_mesh(files, dx=1e-6, times=[5e-6, 6e-6, 7e-6],
+                          units={"length": "um", "temperature": "K"}, interpolation="linear",
+                          dt=0.5e-6)
+    assert scene.t0 == pytest.approx(5e-6) and scene.first_frame == 10
+    np.testing.assert_allclose(scene.frame(11), ramp(5.75), rtol=1e-12)
+    m = Camera.linear_ideal(2e-6).measure(scene, 1e-6, t_start=5.5e-6)
+    np.testing.assert_allclose(m.apparent_temperature, ramp(6.0), rtol=1e-12)

@@ -1,14 +1,22 @@
 """Importers: NumPy stacks, EXR sequences, FEA nodal CSV."""
 
+import io
+import os
+import tempfile
 import warnings
+from pathlib import Path
 
 import numpy as np
 import OpenEXR
 import pytest
+from hypothesis import given
+from hypothesis import strategies as st
 
-from radiosim import Camera, RadiosimWarning
-from radiosim.errors import RadiosimError
-from radiosim.io import read_fea_nodes, read_frames
+from conftest import (BOUNDED, api_error, consume, double, one_line_naming, without_paths,
+                      write_exr_frames)
+from radiosim import Camera, FrameStack, RadiosimWarning
+from radiosim.errors import RadiosimError, RadiosimIOError
+from radiosim.io import read_exr, read_fea_nodes, read_frames
 
 
 @pytest.fixture
@@ -347,3 +355,325 @@ def test_read_scene_of_a_missing_file(tmp_path):
     assert not isinstance(info.value, SceneArgumentError)
     with pytest.raises(RadiosimError, match="no frames found"):  # a glob: the reader says
         read_scene(str(tmp_path / "*.exr"))
+
+
+# -- EXR frame sequences: headers checked against each other and against the user ------------------
+
+
+def write_frames(folder, headers, names=None, shape=(8, 8)):
+    """EXR frames (one per header) holding 500 + k [header unit]."""
+    folder = Path(folder)
+    folder.mkdir(parents=True, exist_ok=True)
+    names = names or [f"frame_{k}.exr" for k in range(len(headers))]
+    for k, (name, attributes) in enumerate(zip(names, headers)):
+        header = {"compression": OpenEXR.ZIP_COMPRESSION, "type": OpenEXR.scanlineimage,
+                  **attributes}
+        OpenEXR.File(header, {"temperature": np.full(shape, 500.0 + k, np.float32)}).write(
+            str(folder / name))
+    return folder
+
+
+GOOD = dict(dt_s=double(1e-6), dx_m=double(1e-6), temperature_unit="K")
+
+
+@pytest.mark.parametrize("key, second, first_value, second_value", [
+    ("temperature unit", {"temperature_unit": "C"}, "'K'", "'C'"),
+    ("dt_s", {"dt_s": double(2e-6)}, "1e-06", "2e-06"),
+    ("dx_m", {"dx_m": double(0.5e-6)}, "1e-06", "5e-07"),
+])
+def test_exr_headers_that_disagree_across_frames_are_refused(tmp_path, key, second,
+                                                             first_value, second_value):
+    folder = write_frames(tmp_path / "run", [GOOD, {**GOOD, **second}, GOOD])
+    with pytest.raises(RadiosimError) as info:
+        read_frames(folder)
+    one_line_naming(info, "frame_0.exr", "frame_1.exr", key, first_value, second_value)
+
+
+def test_exr_a_missing_frame_number_is_refused(tmp_path):
+    folder = write_frames(tmp_path / "run", [GOOD] * 3,
+                          ["frame_1.exr", "frame_2.exr", "frame_4.exr"])
+    with pytest.raises(RadiosimError) as info:
+        read_frames(folder)
+    one_line_naming(info, "frame_2.exr", "frame_4.exr", "frame number 3 is missing")
+
+
+def test_exr_a_duplicate_frame_number_is_refused(tmp_path):
+    folder = write_frames(tmp_path / "run", [GOOD] * 3,
+                          ["frame_0.exr", "frame_1.exr", "frame_01.exr"])
+    with pytest.raises(RadiosimError) as info:
+        read_frames(str(folder / "frame_*.exr"))
+    one_line_naming(info, "frame_1.exr", "frame_01.exr", "frame number 1")
+
+
+def test_exr_frames_numbered_in_even_steps_are_read(tmp_path):
+    """Every tenth frame written (0, 10, 20): an even numbering, nothing missing."""
+    folder = write_frames(tmp_path / "run", [GOOD] * 3,
+                          ["frame_0.exr", "frame_10.exr", "frame_20.exr"])
+    scene = read_frames(folder)
+    assert scene.n_frames == 3
+    assert scene.frame(2)[0, 0] == 502.0  # the order is by number: frame_20 is the last
+
+
+@pytest.mark.parametrize("given, key, mine, theirs", [
+    (dict(units="C"), "temperature_unit", "'C'", "'K'"),
+    (dict(dt=2e-6), "dt_s", "2e-06", "1e-06"),
+    (dict(dx=3e-6), "dx_m", "3e-06", "1e-06"),
+])
+def test_exr_a_user_value_that_contradicts_the_headers_is_refused(tmp_path, given, key, mine,
+                                                                  theirs):
+    folder = write_frames(tmp_path / "run", [GOOD] * 2)
+    with pytest.raises(RadiosimError) as info:
+        read_frames(folder, **given)
+    one_line_naming(info, "frame_0.exr", key, mine, theirs)
+
+
+def test_exr_user_values_that_agree_with_the_headers_are_accepted(tmp_path):
+    folder = write_frames(tmp_path / "run", [{**GOOD, "temperature_unit": "celsius"}] * 2)
+    scene = read_frames(folder, units="C", dt=1e-6, dx=1e-6)
+    assert scene.units == "C" and scene.dt == 1e-6
+    assert scene.frame(1)[0, 0] == pytest.approx(501.0 + 273.15)
+
+
+def test_exr_two_unit_attributes_that_disagree_are_refused(tmp_path):
+    folder = write_frames(tmp_path / "run", [{**GOOD, "units": "C"}] * 2)
+    with pytest.raises(RadiosimError) as info:
+        read_frames(folder)
+    one_line_naming(info, "frame_0.exr", "temperature_unit", "units", "'K'", "'C'")
+
+
+def test_exr_a_32_bit_header_value_agrees_with_the_same_given_value(tmp_path):
+    """A plain float attribute is stored in 32 bits (1e-6 becomes 9.99999997e-07): the same
+    value given on the command line agrees with it."""
+    folder = write_frames(tmp_path / "run", [dict(dt_s=1e-6, dx_m=0.5e-6,
+                                                  temperature_unit="K")] * 2)
+    scene = read_frames(folder, dt=1e-6, dx=0.5e-6, units="K")
+    assert scene.dt == 1e-6 and scene.dx == 0.5e-6
+
+
+@pytest.mark.usefixtures("in_tmp")
+@pytest.mark.parametrize("given", [
+    pytest.param({}, id="both-doubles"),
+    pytest.param({"dx": 0.5e-6}, id="dt_s-double"),
+    pytest.param({"dt": 0.2e-6}, id="dx_m-double"),
+])
+def test_exr_frames_with_double_attributes_are_read(tmp_path, given):
+    write_exr_frames(tmp_path / "folder", n=3, dt_s=double(0.2e-6), dx_m=double(0.5e-6),
+                     temperature_unit="C")
+    scene = read_frames(str(tmp_path / "folder" / "frame_*.exr"), **given)
+    assert scene.dt == 0.2e-6 and scene.dx == 0.5e-6
+    assert scene.n_frames == 3 and scene.shape == (12, 12)
+    assert scene.frame(2)[0, 0] == pytest.approx(502.0 + 273.15)
+
+
+@pytest.mark.usefixtures("in_tmp")
+def test_exr_frames_with_float_attributes_are_read(tmp_path):
+    write_exr_frames(tmp_path / "folder", n=3, dt_s=1e-6, dx_m=1e-6, units="K")
+    scene = read_frames(tmp_path / "folder")
+    assert scene.dt == pytest.approx(1e-6) and scene.dx == pytest.approx(1e-6)
+    consume(scene)
+
+
+@pytest.mark.usefixtures("in_tmp")
+@pytest.mark.parametrize("channel", ["temperature", "T", "Y"])
+def test_exr_frames_in_any_temperature_channel_are_read(tmp_path, channel):
+    write_exr_frames(tmp_path / "folder", n=2, channel=channel, dt_s=1e-6, dx_m=1e-6,
+                     temperature_unit="K")
+    assert read_frames(tmp_path / "folder").frame(1)[0, 0] == 501.0
+
+
+@pytest.mark.usefixtures("in_tmp")
+def test_exr_frames_are_ordered_by_the_numbers_in_their_names(tmp_path):
+    write_exr_frames(tmp_path / "folder", n=11, dt_s=1e-6, dx_m=1e-6, temperature_unit="K")
+    scene = read_frames(str(tmp_path / "folder" / "frame_*.exr"))
+    assert [scene.frame(k)[0, 0] for k in (2, 9, 10)] == [502.0, 509.0, 510.0]
+
+
+@pytest.mark.usefixtures("in_tmp")
+@pytest.mark.parametrize("missing, flag", [("dx_m", "--dx"), ("dt_s", "--dt")])
+def test_exr_missing_grid_attribute_names_attribute_file_and_flag(tmp_path, missing, flag):
+    attributes = {"dt_s": 1e-6, "dx_m": 1e-6, "temperature_unit": "K"}
+    del attributes[missing]
+    write_exr_frames(tmp_path / "folder", n=2, **attributes)
+    with pytest.raises(RadiosimError) as info:
+        read_frames(str(tmp_path / "folder" / "frame_*.exr"))
+    api_error(info, missing, "frame_0.exr", flag)
+
+
+# -- NumPy stacks: folders, time units, truncation, dtypes, unit spellings -------------------------
+
+
+def test_read_frames_on_a_folder_named_npy_says_it_is_a_folder(tmp_path):
+    (tmp_path / "x.npy").mkdir()
+    with pytest.raises(RadiosimError, match=r"x\.npy is a folder, not a \.npy file"):
+        read_frames(tmp_path / "x.npy", dt=1e-6, dx=1e-6, units="K")
+
+
+@pytest.mark.parametrize("kind", ["npy", "exr"])
+def test_a_time_unit_for_a_format_without_a_time_axis_is_refused(tmp_path, kind):
+    if kind == "npy":
+        np.save(tmp_path / "s.npy", np.full((3, 4, 4), 500.0))
+        path, kwargs = tmp_path / "s.npy", dict(dt=1e-6, dx=1e-6, units="K")
+    else:
+        path, kwargs = write_frames(tmp_path / "run", [GOOD] * 2), {}
+    with pytest.raises(RadiosimError) as info:
+        read_frames(path, time_unit="us", **kwargs)
+    one_line_naming(info, str(path), "--time-unit us", "--dt")
+
+
+def test_a_npy_shorter_than_its_header_says_is_refused_at_open(tmp_path):
+    np.save(tmp_path / "s.npy", np.full((4, 6, 6), 500.0))
+    whole = (tmp_path / "s.npy").read_bytes()
+    (tmp_path / "s.npy").write_bytes(whole[:-100])
+    with pytest.raises(RadiosimError) as info:
+        read_frames(tmp_path / "s.npy", dt=1e-6, dx=1e-6, units="K")
+    one_line_naming(info, "s.npy", f"{len(whole)} bytes", f"{len(whole) - 100} bytes")
+
+
+def test_a_npy_cut_short_during_a_run_is_one_line_not_sigbus(tmp_path):
+    np.save(tmp_path / "s.npy", np.full((20, 16, 16), 500.0))
+    scene = read_frames(tmp_path / "s.npy", dt=1e-6, dx=1e-6, units="K")
+    scene.frame(0)
+    os.truncate(tmp_path / "s.npy", 16 * 16 * 8 * 4)
+    with pytest.raises(RadiosimIOError) as info:
+        Camera.linear_ideal(4e-6).measure(scene, 15e-6, t_start=0.0)
+    one_line_naming(info, "s.npy", "cut short", f"{16 * 16 * 8 * 4} bytes")
+
+
+@pytest.mark.usefixtures("in_tmp")
+@pytest.mark.parametrize("dtype", ["float32", "int16", "uint16", ">f8"])
+def test_numeric_npy_dtypes_are_read(tmp_path, dtype):
+    np.save(tmp_path / "s.npy", np.full((4, 6, 6), 500, dtype=dtype))
+    assert read_frames(tmp_path / "s.npy", dt=1e-6, dx=1e-6, units="K").frame(3)[0, 0] == 500.0
+
+
+@pytest.mark.usefixtures("in_tmp")
+@pytest.mark.parametrize("unit, kelvin", [("K", 500.0), ("kelvin", 500.0), ("C", 773.15),
+                                          ("celsius", 773.15), ("°C", 773.15)])
+def test_temperature_unit_spellings_are_read(tmp_path, unit, kelvin):
+    np.save(tmp_path / "s.npy", np.full((4, 6, 6), 500.0))
+    frame = read_frames(tmp_path / "s.npy", dt=1e-6, dx=1e-6, units=unit).frame(0)
+    assert frame[0, 0] == pytest.approx(kelvin)
+
+
+@pytest.mark.usefixtures("in_tmp")
+def test_compressed_npz_warns_in_one_line(tmp_path):
+    np.savez_compressed(tmp_path / "c.npz", a=np.full((6, 12, 12), 500.0))
+    with pytest.warns(RadiosimWarning) as record:
+        scene = read_frames(tmp_path / "c.npz", dt=1e-6, dx=1e-6, units="K")
+    ours = [w for w in record if issubclass(w.category, RadiosimWarning)]
+    assert len(ours) == 1
+    message = str(ours[0].message)
+    assert "\n" not in message and "c.npz" in message and "compressed" in message
+    consume(scene)
+
+
+@pytest.mark.usefixtures("in_tmp")
+def test_timedelta_stack_is_refused(tmp_path):
+    values = np.full((3, 6, 6), 500, dtype="timedelta64[s]")
+    with pytest.raises(RadiosimError) as info:
+        consume(FrameStack(values, dt=1e-6, dx=1e-6))
+    api_error(info, "timedelta64")
+    np.save(tmp_path / "s.npy", values)
+    with pytest.raises(RadiosimError) as info:
+        consume(read_frames(tmp_path / "s.npy", dt=1e-6, dx=1e-6, units="K"))
+    api_error(info, "timedelta64")
+
+
+# -- the readers under random input (hypothesis) ---------------------------------------------------
+# A RadiosimError or a correct read, never another exception.
+
+
+def valid_npy_bytes() -> bytes:
+    buffer = io.BytesIO()
+    np.save(buffer, np.full((4, 6, 6), 500.0))
+    return buffer.getvalue()
+
+
+def valid_exr_bytes() -> bytes:
+    with tempfile.TemporaryDirectory() as folder:
+        path = write_exr_frames(folder, n=1, dt_s=1e-6, dx_m=1e-6,
+                                temperature_unit="K") / "frame_0.exr"
+        return path.read_bytes()
+
+
+def _read_npy_or_error(data: bytes):
+    with tempfile.TemporaryDirectory() as folder:
+        path = Path(folder) / "s.npy"
+        path.write_bytes(data)
+        try:
+            consume(read_frames(path, dt=1e-6, dx=1e-6, units="K"))
+        except RadiosimError:
+            pass
+
+
+def _read_exr_or_error(data: bytes):
+    with tempfile.TemporaryDirectory() as folder:
+        path = Path(folder) / "frames" / "frame_0.exr"
+        path.parent.mkdir()
+        path.write_bytes(data)
+        try:
+            consume(read_frames(path.parent))
+        except RadiosimError:
+            pass
+        try:
+            read_exr(path)
+        except RadiosimError:
+            pass
+
+
+@pytest.mark.usefixtures("in_tmp")
+@BOUNDED
+@given(data=st.binary(max_size=512), magic=st.booleans())
+def test_random_bytes_as_npy(data, magic):
+    _read_npy_or_error((b"\x93NUMPY" if magic else b"") + data)
+
+
+@pytest.mark.usefixtures("in_tmp")
+@BOUNDED
+@given(data=st.binary(max_size=512))
+def test_random_bytes_as_exr(data):
+    _read_exr_or_error(data)
+
+
+VALID_NPY = valid_npy_bytes()
+
+
+VALID_EXR = valid_exr_bytes()
+
+
+@pytest.mark.usefixtures("in_tmp")
+@BOUNDED
+@given(cut=st.integers(0, len(VALID_NPY) - 1))
+def test_truncated_npy(cut):
+    _read_npy_or_error(VALID_NPY[:cut])
+
+
+@pytest.mark.usefixtures("in_tmp")
+@BOUNDED
+@given(cut=st.integers(0, len(VALID_EXR) - 1))
+def test_truncated_exr(cut):
+    _read_exr_or_error(VALID_EXR[:cut])
+
+
+WRONG_DTYPES = ["complex64", "complex128", "object", "U5", "S5", "bool", "datetime64[s]"]
+
+
+@pytest.mark.usefixtures("in_tmp")
+@BOUNDED
+@given(dtype=st.sampled_from(WRONG_DTYPES),
+       shape=st.tuples(st.integers(1, 4), st.integers(1, 6), st.integers(1, 6)))
+def test_wrong_dtypes_in_npy_and_framestack(dtype, shape):
+    values = np.ones(shape).astype(dtype) if dtype != "object" else np.full(shape, None)
+    with pytest.raises(RadiosimError) as info:
+        consume(FrameStack(values, dt=1e-6, dx=1e-6))
+    message = without_paths(str(info.value))
+    assert "object" in message.lower() or np.dtype(dtype).name in message \
+        or str(np.dtype(dtype)) in message, message
+    with tempfile.TemporaryDirectory() as folder:
+        path = Path(folder) / "s.npy"
+        np.save(path, values, allow_pickle=True)
+        with pytest.raises(RadiosimError) as info:
+            consume(read_frames(path, dt=1e-6, dx=1e-6, units="K"))
+        message = without_paths(str(info.value))
+        assert "object" in message.lower() or np.dtype(dtype).name in message \
+            or str(np.dtype(dtype)) in message, message

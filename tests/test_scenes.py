@@ -4,7 +4,9 @@ import numpy as np
 import pytest
 from scipy.integrate import quad
 
-from radiosim import FrameStack, MovingGaussianBand, UniformBlackbody
+import radiosim
+from conftest import api_error, one_line_naming
+from radiosim import Camera, FrameStack, MovingGaussianBand, UniformBlackbody
 from radiosim.errors import RadiosimError
 from radiosim.integrator import frame_weights
 
@@ -187,3 +189,110 @@ def test_a_study_scene_table_is_built_by_its_registered_type(tmp_path):
     assert scene.path_transmission == 0.5
     with pytest.raises(RadiosimError, match="is not segmented-chip, frames or fea"):
         scene_from_table({"type": "uniform-blackbody"}, tmp_path)
+
+
+# -- FrameStack and from_xarray: what is refused, named --------------------------------------------
+
+
+def test_an_emissivity_map_outside_0_1_names_the_value_and_where():
+    emissivity = np.full((4, 4), 0.5)
+    emissivity[2, 3] = 1.5
+    with pytest.raises(RadiosimError, match=r"got 1\.5 at row 2, column 3 \(1 value"):
+        FrameStack(np.full((2, 4, 4), 500.0), dt=1e-6, dx=1e-6, emissivity=emissivity)
+
+
+def test_framestack_ragged_lists_name_the_shapes():
+    with pytest.raises(RadiosimError) as info:
+        FrameStack([[[500.0, 500.0], [500.0]]], dt=1e-6, dx=1e-6)
+    one_line_naming(info, "temperature[0][0] has 2 values", "temperature[0][1] has 1 values")
+    with pytest.raises(RadiosimError) as info:
+        FrameStack([[[500.0, 500.0]], [[500.0, 500.0], [500.0, 500.0]]], dt=1e-6, dx=1e-6)
+    one_line_naming(info, "temperature[0] has 1 values", "temperature[1] has 2 values")
+
+
+@pytest.mark.parametrize("emissivity", [True, False, np.bool_(True)])
+def test_framestack_a_bool_emissivity_is_refused(emissivity):
+    with pytest.raises(RadiosimError) as info:
+        FrameStack(np.full((2, 4, 4), 500.0), dt=1e-6, dx=1e-6, emissivity=emissivity)
+    one_line_naming(info, "emissivity", repr(emissivity), "bool")
+
+
+@pytest.mark.usefixtures("in_tmp")
+def test_infinite_temperature_through_linear_camera():
+    scene = radiosim.FrameStack(np.full((3, 12, 12), np.inf), dt=1e-6, dx=1e-6)
+    with pytest.raises(RadiosimError) as info:
+        Camera.linear_ideal(3e-6).measure(scene, 2e-6)
+    api_error(info, "frame 0", "row 0", "column 0", "inf")
+
+
+@pytest.mark.usefixtures("in_tmp")
+@pytest.mark.parametrize("value, word", [(np.inf, "inf"), (-np.inf, "inf"), (np.nan, "NaN"),
+                                         (0.0, "0 K"), (-5.0, "-5 K")])
+def test_bad_temperature_names_frame_row_column(value, word):
+    stack = np.full((4, 12, 12), 500.0)
+    stack[2, 7, 3] = value
+    scene = FrameStack(stack, dt=1e-6, dx=1e-6)
+    with pytest.raises(RadiosimError) as info:
+        Camera.linear_ideal(3e-6).measure(scene, 4e-6)
+    api_error(info, "frame 2", "row 7", "column 3", word)
+
+
+def _cube():
+    """Frames k, rows i, columns j with T = 300 + 100 k + 10 i + j [K]."""
+    k, i, j = np.meshgrid(np.arange(4), np.arange(5), np.arange(6), indexing="ij")
+    return 300.0 + 100.0 * k + 10.0 * i + j
+
+
+@pytest.mark.parametrize("order", [("x", "y", "time"), ("time", "x", "y"), ("y", "time", "x")])
+def test_from_xarray_puts_dimensions_in_order_by_name(order):
+    import xarray as xr
+
+    cube = _cube()
+    axes = [("time", "y", "x").index(d) for d in order]
+    coords = {"time": np.arange(4) * 1e-6, "y": np.arange(5) * 2e-6, "x": np.arange(6) * 2e-6}
+    variable = xr.DataArray(np.transpose(cube, axes), dims=order, coords=coords)
+    scene = FrameStack.from_xarray(variable)
+    assert scene.n_frames == 4 and scene.shape == (5, 6)
+    assert scene.dt == pytest.approx(1e-6) and scene.dx == pytest.approx(2e-6)
+    np.testing.assert_array_equal(scene.frame(3), cube[3])
+
+
+@pytest.mark.parametrize("times", [
+    np.datetime64("2024-01-01T00:00:00") + np.arange(4) * np.timedelta64(200, "ns"),
+    np.datetime64("2024-01-01T00:00:00", "us") + np.arange(4) * np.timedelta64(1, "us"),
+    np.arange(4) * np.timedelta64(5, "ms"),
+])
+def test_from_xarray_reads_datetime_coordinates_in_seconds(times):
+    import xarray as xr
+
+    variable = xr.DataArray(_cube(), dims=("time", "y", "x"),
+                            coords={"time": times, "x": np.arange(6) * 1e-6})
+    expected = (times[1] - times[0]) / np.timedelta64(1, "ns") * 1e-9
+    assert FrameStack.from_xarray(variable).dt == pytest.approx(expected, rel=1e-12)
+
+
+@pytest.mark.parametrize("coords, names", [
+    ({"time": np.arange(4) * 1e-6, "y": np.arange(5) * 2e-6, "x": np.arange(6) * 1e-6},
+     ("'y' spacing 2e-06", "'x' spacing 1e-06")),
+    ({"time": np.arange(4) * 1e-6, "x": np.array([0, 1, 2, 3, 5, 6]) * 1e-6},
+     ("'x'", "not evenly spaced", "2e-06")),
+    ({"time": np.array([0, 1, 3, 4]) * 1e-6, "x": np.arange(6) * 1e-6},
+     ("'time'", "not evenly spaced", "2e-06")),
+])
+def test_from_xarray_refuses_uneven_or_unequal_spacing(coords, names):
+    import xarray as xr
+
+    variable = xr.DataArray(_cube(), dims=("time", "y", "x"), coords=coords, name="T")
+    with pytest.raises(RadiosimError) as info:
+        FrameStack.from_xarray(variable)
+    one_line_naming(info, "'T'", *names)
+
+
+def test_from_xarray_refuses_a_dt_that_contradicts_the_coordinate():
+    import xarray as xr
+
+    variable = xr.DataArray(_cube(), dims=("time", "y", "x"), name="T",
+                            coords={"time": np.arange(4) * 1e-6, "x": np.arange(6) * 1e-6})
+    with pytest.raises(RadiosimError) as info:
+        FrameStack.from_xarray(variable, dt=2e-6)
+    one_line_naming(info, "'T'", "dt=2e-06", "1e-06")

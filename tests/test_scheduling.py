@@ -1,13 +1,18 @@
 """The local-cluster policy (radiosim.scheduling.worth_a_cluster): a cluster only where it pays.
-No cluster is started here: the policy is arithmetic on measured constants."""
+No cluster is started here: the policy is arithmetic on measured constants. And connect's
+refusals: a scheduler that never answers, a malformed address."""
 
 import logging
+import socket
+import threading
+import time
 
 import pytest
 
+from conftest import single_line
 from radiosim.errors import RadiosimError
 from radiosim.scheduling import (CLUSTER_START_SECONDS, CLUSTER_TASK_FACTOR, cluster_overhead,
-                                 local_workers, worth_a_cluster)
+                                 connect, local_workers, worth_a_cluster)
 
 
 def test_the_default_study_runs_in_process_with_two_workers_on_two_cores():
@@ -66,3 +71,42 @@ def test_local_workers_says_why_it_declines_in_one_log_line(caplog):
         assert local_workers(32, 400, 2.0, cores=32) == 32
     declined = [r for r in caplog.records if r.levelno == logging.WARNING]
     assert len(declined) == 1 and "measuring in this process" in declined[0].getMessage()
+
+
+# -- connect: a scheduler that never answers, a malformed address ----------------------------------
+
+
+def test_a_scheduler_that_never_answers_times_out_in_one_line():
+    server = socket.socket()
+    server.bind(("127.0.0.1", 0))
+    server.listen(4)
+    accepted = []
+
+    def accept():
+        while True:
+            try:
+                accepted.append(server.accept()[0])
+            except OSError:
+                return
+
+    threading.Thread(target=accept, daemon=True).start()
+    address = f"tcp://127.0.0.1:{server.getsockname()[1]}"
+    start = time.monotonic()
+    try:
+        with pytest.raises(RadiosimError) as info:
+            connect(address, timeout=2)
+    finally:
+        server.close()
+        for conn in accepted:
+            conn.close()
+    assert time.monotonic() - start < 8
+    single_line(str(info.value), address, "did not answer")
+
+
+@pytest.mark.parametrize("address", ["tcp://localhost:notaport", "tcp://:::1", "tcp://",
+                                     "tcp://host:99999", "foo://host:1"])
+def test_a_malformed_scheduler_address_is_named(address):
+    with pytest.raises(RadiosimError) as info:
+        connect(address)
+    single_line(str(info.value), repr(address), "tcp://HOST:PORT")
+    assert "internal error" not in str(info.value)

@@ -296,3 +296,12 @@ def test_only_the_kernels_own_frames_skip_the_check():
                 scene.frame(2, region)
         finally:
             set_engine(None)
+
+
+@pytest.mark.usefixtures("in_tmp")
+def test_region_emissivity_map_is_refused_naming_the_region():
+    from radiosim.scenes import SegmentedChip
+
+    scene = SegmentedChip(dx=8e-6, dt=1e-6)
+    with pytest.raises(RadiosimError, match="emissivity of region 'chip' must be a number or"):
+        SegmentedChip(dx=8e-6, dt=1e-6, emissivity={"chip": np.full(scene.shape, 0.3)})

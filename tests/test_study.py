@@ -1,17 +1,26 @@
 """Studies as data."""
 
+import csv
 import dataclasses
+import json
+import os
 import time
 import tomllib
+from pathlib import Path
 
 import numpy as np
 import pytest
 
 from radiosim import Camera, Electronics
-from radiosim.errors import RadiosimError
+from radiosim.errors import RadiosimError, RadiosimIOError, RadiosimWarning
+from radiosim.files import MANIFEST, RUN_MARKER, OutputFolder
+from radiosim.io import read_exr
 from radiosim.paper import COLUMN_I_COLUMNS
-from conftest import frames_study
-from radiosim.study import STUDY_DIRECTORY, RESULT_COLUMNS, Study, available_studies
+from conftest import (STUDY_TEMPLATE, VALID_STUDY, api_error, fea_rows, fea_text, frames_study,
+                      frames_study_dict, nan_late_study, no_litter, single_line, tree,
+                      write_study)
+from radiosim.study import STUDY_DIRECTORY, RESULT_COLUMNS, Study, available_studies, format_table
+from radiosim.uncertainty import MAX_DRAWS
 
 
 def test_the_papers_study_plans_table_2():
@@ -296,3 +305,443 @@ def test_background_writes_stop_at_the_first_failure_and_skip_the_rest_on_an_err
             assert second.read_text() == "2" and writes.failed == []
         else:  # interrupted: those not started are not done
             assert not second.exists() and writes.failed == [second]
+
+
+# -- study files: errors that name the file, the key and the value ---------------------------------
+
+
+def test_study_from_python_names_the_file_in_a_scene_error(tmp_path):
+    (tmp_path / "s.toml").write_text(STUDY_TEMPLATE.format(sweep="integration_time_us = [2]",
+                                                  scene_extra=""))
+    study = Study.from_toml(tmp_path / "s.toml")
+    with pytest.raises(RadiosimError, match=r"s\.toml: \[scene\]: .*frames\.npy does not "
+                                            "exist"):
+        study.scene
+
+
+STRING_NUMBERS = [
+    pytest.param("dt_us = 1.0", 'dt_us = "0.2"', "dt_us", id="scene-dt_us"),
+    pytest.param("dx_um = 1.0", 'dx_um = "1"', "dx_um", id="scene-dx_um"),
+    pytest.param("dt_us = 1.0", "dt_us = true", "dt_us", id="scene-dt_us-bool"),
+    pytest.param('units = "K"', 'units = "K"\nevent_time_us = "3"', "event_time_us",
+                 id="scene-event_time_us"),
+    pytest.param("pixel_pitch_um = 3.0", 'pixel_pitch_um = "3"', "pixel_pitch_um",
+                 id="camera-pixel_pitch_um"),
+    pytest.param("pixel_pitch_um = 3.0", 'pixel_pitch_um = 3.0\nassumed_emissivity = "0.9"',
+                 "assumed_emissivity", id="camera-assumed_emissivity"),
+    pytest.param("integration_time_us = [2, 4]", 'integration_time_us = ["2", "4"]',
+                 "integration_time_us", id="sweep-integration_time_us"),
+]
+
+
+@pytest.mark.usefixtures("in_tmp")
+@pytest.mark.parametrize("old, new, key", STRING_NUMBERS)
+def test_study_number_written_as_string_is_refused(tmp_path, old, new, key):
+    study = write_study(tmp_path, VALID_STUDY.replace(old, new, 1))
+    with pytest.raises(RadiosimError) as info:
+        Study.from_toml(study).scene  # noqa: B018 (building the scene is the check)
+    api_error(info, key)
+
+
+@pytest.mark.usefixtures("in_tmp")
+@pytest.mark.parametrize("fill, names", [
+    pytest.param('"300"', ["fill_K", "'300'"], id="string"),
+    pytest.param("0", ["fill", "0"], id="zero"),
+    pytest.param("0.0", ["fill", "0"], id="zero-float"),
+    pytest.param("-20", ["fill", "-20"], id="negative"),
+])
+def test_study_fea_bad_fill_is_refused(tmp_path, fill, names):
+    (tmp_path / "nodes.csv").write_text(fea_text(fea_rows()))
+    text = VALID_STUDY.replace(
+        'type = "frames"\npath = "frames.npy"\ndt_us = 1.0\ndx_um = 1.0\nunits = "K"',
+        f'type = "fea"\npath = "nodes.csv"\ndx_um = 1.0\nfill_K = {fill}')
+    study = write_study(tmp_path, text)
+    with pytest.raises(RadiosimError) as info:
+        Study.from_toml(study).scene  # noqa: B018
+    api_error(info, *names)
+
+
+TYPOS = [
+    pytest.param("integration_time_us =", "integration_time_uss =", "integration_time_uss",
+                 id="sweep-integration_time_uss"),
+    pytest.param("integration_time_us =", "integraton_time_us =", "integraton_time_us",
+                 id="sweep-integraton_time_us"),
+    pytest.param('cameras = ["lin"]', 'cameras = ["lin"]\npixel_pitch_umm = [3.0]',
+                 "pixel_pitch_umm", id="sweep-pixel_pitch_umm"),
+    pytest.param("dx_um =", "dx_umm =", "dx_umm", id="scene-dx_umm"),
+    pytest.param('units = "K"', 'units = "K"\nevent_time_uss = 3.0', "event_time_uss",
+                 id="scene-event_time_uss"),
+    pytest.param('preset = "linear-ideal"', 'presett = "linear-ideal"', "presett",
+                 id="camera-presett"),
+    pytest.param("pixel_pitch_um = 3.0", "pixel_pich_um = 3.0", "pixel_pich_um",
+                 id="camera-pixel_pich_um"),
+    pytest.param("[cameras.lin]", "[camera.lin]", "camera", id="top-camera"),
+    pytest.param("[[sweeps]]", "[[sweep]]", "sweep", id="top-sweep"),
+    pytest.param('name = "small"', 'name = "small"\ndescriptoin = "x"', "descriptoin",
+                 id="top-descriptoin"),
+]
+
+
+@pytest.mark.usefixtures("in_tmp")
+@pytest.mark.parametrize("old, new, typo", TYPOS)
+def test_study_typo_names_the_likely_key(tmp_path, old, new, typo):
+    study = write_study(tmp_path, VALID_STUDY.replace(old, new, 1))
+    with pytest.raises(RadiosimError) as info:
+        Study.from_toml(study).scene  # noqa: B018
+    message = api_error(info, typo)
+    assert "did you mean" in message, message
+
+
+@pytest.mark.usefixtures("in_tmp")
+@pytest.mark.parametrize("old, new, key", [
+    pytest.param('units = "K"\n', "", "units", id="scene-units"),
+    pytest.param("dt_us = 1.0\n", "", "dt_us", id="scene-dt_us"),
+    pytest.param('type = "frames"\n', "", "type", id="scene-type"),
+    pytest.param('cameras = ["lin"]\n', "", "cameras", id="sweep-cameras"),
+])
+def test_study_missing_required_key_is_named(tmp_path, old, new, key):
+    study = write_study(tmp_path, VALID_STUDY.replace(old, new, 1))
+    with pytest.raises(RadiosimError) as info:
+        Study.from_toml(study).scene  # noqa: B018
+    api_error(info, key)
+
+
+@pytest.mark.usefixtures("in_tmp")
+@pytest.mark.parametrize("old, new, key", [
+    pytest.param('cameras = ["lin"]', 'cameras = "lin"', "cameras", id="cameras-string"),
+    pytest.param('cameras = ["lin"]', 'cameras = ["lin"]\nalignment = "centred"', "alignment",
+                 id="alignment-string"),
+    pytest.param('cameras = ["lin"]', 'cameras = ["lin"]\nresponse = "linear"', "response",
+                 id="response-string"),
+])
+def test_study_scalar_where_a_list_is_expected_says_list(tmp_path, old, new, key):
+    study = write_study(tmp_path, VALID_STUDY.replace(old, new, 1))
+    with pytest.raises(RadiosimError) as info:
+        Study.from_toml(study)
+    message = api_error(info, key)
+    assert "list" in message, message
+    assert "['l', 'i', 'n']" not in message
+
+
+def test_a_huge_draw_count_in_a_study_file_is_refused(tmp_path):
+    data = frames_study_dict(tmp_path)
+    data["uncertainty"] = {"camera": "lin", "integration_time_us": 2, "draws": 10**8,
+                           "inputs": {"emissivity": {"distribution": "uniform", "low": 0.8,
+                                                     "high": 0.9}}}
+    with pytest.raises(RadiosimError) as info:
+        Study.from_dict(data)
+    single_line(str(info.value), "[uncertainty] draws", "100000000", str(MAX_DRAWS))
+
+
+def test_a_study_lists_its_inputs(tmp_path):
+    data = frames_study_dict(tmp_path)
+    camera = Camera.linear_ideal(3e-6)
+    (tmp_path / "cam.toml").write_text(camera.to_toml())
+    data["cameras"] = {"lin": {"file": "cam.toml"}}
+    study = Study.from_dict(data, base=tmp_path)
+    study.scene
+    inputs = {p.resolve() for p in study.inputs()}
+    assert (tmp_path / "frames.npy").resolve() in inputs
+    assert (tmp_path / "cam.toml").resolve() in inputs
+
+
+# -- names from a study stay inside the output folder ----------------------------------------------
+
+
+@pytest.mark.parametrize("name", ["../../x", "/tmp/abs", "a/b", "", "..", "a\\b", " "])
+def test_a_sweep_name_that_would_leave_out_is_refused(tmp_path, name):
+    data = frames_study_dict(tmp_path)
+    data["sweeps"][0]["name"] = name
+    with pytest.raises(RadiosimError) as info:
+        Study.from_dict(data)
+    single_line(str(info.value), repr(name), "sweeps")
+
+
+@pytest.mark.parametrize("name", ["../../evil", "/tmp/evil", "", "."])
+def test_a_study_name_that_would_leave_out_is_refused(tmp_path, name):
+    data = frames_study_dict(tmp_path, name=name)
+    with pytest.raises(RadiosimError) as info:
+        Study.from_dict(data)
+    single_line(str(info.value), repr(name), "study name")
+
+
+def test_a_camera_name_with_a_separator_is_refused(tmp_path):
+    data = frames_study_dict(tmp_path, cameras={"../c": {"preset": "linear-ideal",
+                                                    "pixel_pitch_um": 3.0}},
+                        sweeps=[{"name": "t", "cameras": ["../c"], "integration_time_us": [1]}])
+    with pytest.raises(RadiosimError) as info:
+        Study.from_dict(data)
+    single_line(str(info.value), "'../c'")
+
+
+def test_names_with_spaces_stay_valid_and_inside_out(tmp_path):
+    data = frames_study_dict(tmp_path, name="my study",
+                        cameras={"cam one": {"preset": "linear-ideal", "pixel_pitch_um": 3.0}},
+                        sweeps=[{"name": "long run", "cameras": ["cam one"],
+                                 "integration_time_us": [1]}])
+    before = {p for p in tmp_path.parent.rglob("*") if tmp_path not in p.parents}
+    result = Study.from_dict(data).run(tmp_path / "out")
+    row = result.rows[0]
+    assert row["sweep"] == "long run" and row["camera"] == "cam one"
+    exr = (tmp_path / "out" / row["exr"]).resolve()
+    assert (tmp_path / "out").resolve() in exr.parents and exr.is_file()
+    after = {p for p in tmp_path.parent.rglob("*") if tmp_path not in p.parents}
+    assert after == before  # nothing outside
+
+
+# -- Study.run: the command's rules for its folder; a full disk; a failure keeps completed rows ----
+
+
+def no_litter_files(root: Path):
+    stray = [p for p in root.rglob("*") if p.name.endswith(".partial") and not p.is_dir()]
+    assert not stray, stray
+    empty = [p for p in root.rglob("*") if p.is_file() and p.stat().st_size == 0]
+    assert not empty, empty
+
+
+def test_study_run_refuses_to_overwrite_a_users_results(tmp_path):
+    out = tmp_path / "out"
+    out.mkdir()
+    (out / "results.csv").write_text("the user's own results\n")
+    study = Study.from_dict(frames_study_dict(tmp_path))
+    with pytest.raises(RadiosimError) as info:
+        study.run(out)
+    single_line(str(info.value), out, "overwrite")
+    assert tree(out) == {"results.csv": b"the user's own results\n"}
+    assert not (tmp_path / "out.partial").exists()
+
+
+def test_study_run_overwrite_replaces_only_its_own_files(tmp_path):
+    out = tmp_path / "out"
+    study = Study.from_dict(frames_study_dict(tmp_path))
+    study.run(out, write_exr=False)
+    (out / "notes.txt").write_text("the user's notes")
+    with pytest.raises(RadiosimError):
+        study.run(out, write_exr=False)  # not without overwrite=True
+    result = study.run(out, write_exr=False, overwrite=True)
+    assert result.table == out / "results.csv" and result.table.is_file()
+    assert (out / "notes.txt").read_text() == "the user's notes"
+    assert "results.csv" in json.loads((out / MANIFEST).read_text())["files"]
+
+
+def test_study_run_overwrite_refuses_a_folder_radiosim_did_not_write(tmp_path):
+    out = tmp_path / "out"
+    out.mkdir()
+    (out / "data.csv").write_text("the user's data")
+    with pytest.raises(RadiosimError) as info:
+        Study.from_dict(frames_study_dict(tmp_path)).run(out, overwrite=True)
+    single_line(str(info.value), out, MANIFEST)
+    assert tree(out) == {"data.csv": b"the user's data"}
+
+
+def test_a_dangling_symlink_as_out_is_refused_before_any_work(tmp_path):
+    out = tmp_path / "out"
+    out.symlink_to(tmp_path / "nowhere")
+    calls = []
+    with pytest.raises(RadiosimError) as info:
+        Study.from_dict(frames_study_dict(tmp_path)).run(out, progress=lambda *a: calls.append(a))
+    single_line(str(info.value), out, "symbolic link")
+    assert calls == [] and out.is_symlink() and not (tmp_path / "nowhere").exists()
+
+
+def test_a_file_as_out_is_refused_before_any_work(tmp_path):
+    out = tmp_path / "out"
+    out.write_text("a user's file")
+    calls = []
+    with pytest.raises(RadiosimError) as info:
+        Study.from_dict(frames_study_dict(tmp_path)).run(out, progress=lambda *a: calls.append(a))
+    single_line(str(info.value), out, "not a folder")
+    assert calls == [] and out.read_text() == "a user's file"
+
+
+def test_an_out_below_a_file_is_refused(tmp_path):
+    (tmp_path / "afile").write_text("x")
+    with pytest.raises(RadiosimError) as info:
+        Study.from_dict(frames_study_dict(tmp_path)).run(tmp_path / "afile" / "out")
+    single_line(str(info.value), tmp_path / "afile", "not a folder")
+
+
+def test_a_run_never_replaces_one_of_its_own_inputs(tmp_path):
+    out = tmp_path / "out"
+    study = Study.from_dict(frames_study_dict(tmp_path))
+    study.run(out, write_exr=False)
+    # The scene now lives in the output folder, as a file of radiosim's previous run.
+    (out / "frames.npy").write_bytes((tmp_path / "frames.npy").read_bytes())
+    manifest = json.loads((out / MANIFEST).read_text())
+    manifest["files"].append("frames.npy")
+    (out / MANIFEST).write_text(json.dumps(manifest))
+    data = frames_study_dict(tmp_path)
+    data["scene"]["path"] = str(out / "frames.npy")
+    before = tree(out)
+    with pytest.raises(RadiosimError) as info:
+        Study.from_dict(data).run(out, write_exr=False, overwrite=True)
+    single_line(str(info.value), out / "frames.npy", "overwrite")
+    assert tree(out) == before
+
+
+def test_a_study_run_from_python_is_marked_while_it_runs(tmp_path):
+    seen = []
+
+    def progress(done, total, label):
+        marker = tmp_path / "out.partial" / RUN_MARKER
+        seen.append(marker.is_file() and marker.read_text().split()[0] == str(os.getpid()))
+
+    Study.from_dict(frames_study_dict(tmp_path)).run(tmp_path / "out", progress=progress)
+    assert seen and all(seen)
+    assert not (tmp_path / "out.partial").exists()
+    assert not (tmp_path / "out" / RUN_MARKER).exists()
+
+
+def test_a_failed_run_keeps_its_rows_in_a_partial_folder_without_marker(tmp_path):
+    study = Study.from_dict(frames_study_dict(tmp_path))
+
+    def fail(done, total, label):
+        if done == 2:
+            raise RuntimeError("stopped")
+
+    with pytest.raises(RuntimeError):
+        study.run(tmp_path / "out", progress=fail)
+    partial = tmp_path / "out.partial"
+    assert not (tmp_path / "out").exists()
+    rows = list(csv.DictReader((partial / "results.csv").open(encoding="utf-8")))
+    assert len(rows) == 2 and all((partial / r["exr"]).is_file() for r in rows)
+    assert not (partial / RUN_MARKER).exists()
+    no_litter_files(tmp_path)
+
+
+def test_a_run_into_an_output_folders_staging_is_committed_by_its_owner(tmp_path):
+    folder = OutputFolder(tmp_path / "out")
+    result = Study.from_dict(frames_study_dict(tmp_path)).run(folder.staging, write_exr=False)
+    assert result.table == folder.staging / "results.csv"
+    written = folder.commit()
+    assert tmp_path / "out" / "results.csv" in written
+
+
+def test_a_study_on_a_real_full_disk_fails_naming_a_file_and_commits_nothing(small_disk):
+    (small_disk / "filler").write_bytes(b"\0" * 40_000)
+    study = Study.from_dict(frames_study_dict(small_disk.parent, shape=(4, 60, 60)))
+    with pytest.raises(RadiosimIOError) as info:
+        study.run(small_disk / "out")
+    single_line(str(info.value), small_disk)
+    assert not (small_disk / "out").exists()
+    no_litter_files(small_disk)
+
+
+@pytest.mark.usefixtures("in_tmp")
+@pytest.mark.parametrize("frame", [
+    pytest.param(0, id="fails-at-once"),
+    pytest.param(18, id="fails-late"),
+])
+def test_study_run_api_failure_keeps_only_completed_rows(tmp_path, frame):
+    study = Study.from_toml(nan_late_study(tmp_path, frame))
+    with pytest.raises(RadiosimError) as info:
+        study.run(tmp_path / "res")
+    api_error(info, f"frame {frame}", "NaN")
+    table = tmp_path / "res" / "results.csv"
+    if table.exists():  # the rows that completed, each with its EXR file
+        rows = list(csv.DictReader(table.open(encoding="utf-8")))
+        assert rows and all(r["integration_time_us"] in ("2.0", "4.0") for r in rows)
+        for row in rows:
+            read_exr(tmp_path / "res" / row["exr"])
+    no_litter(tmp_path)
+
+
+# -- studies never silence a warning ---------------------------------------------------------------
+
+
+def linear_real_study(folder: Path) -> Study:
+    """The user guide's trap: a linear response through real electronics (one DN ≈ 100s K)."""
+    cameras = {"nist-ir-camera": {"preset": "nist-ir", "pixel_pitch_um": 4.0}}
+    sweeps = [{"name": "resp", "cameras": ["nist-ir-camera"], "integration_time_us": [2],
+               "response": ["linear", "planck"]}]
+    return Study.from_dict(frames_study_dict(folder, sweeps, cameras=cameras, value=1000.0,
+                                        shape=(4, 12, 12)))
+
+
+def test_a_coarse_reading_is_flagged_in_its_row_and_raised(tmp_path):
+    study = linear_real_study(tmp_path)
+    with pytest.warns(RadiosimWarning, match="one DN is about"):
+        result = study.run(tmp_path / "out", write_exr=False)
+    rows = {r["response"]: r for r in result.rows}
+    assert "one DN is about" in rows["linear"]["warnings"]
+    assert rows["planck"]["warnings"] == ""
+    table = list(csv.DictReader((tmp_path / "out" / "results.csv").open(encoding="utf-8")))
+    assert "one DN is about" in {r["response"]: r for r in table}["linear"]["warnings"]
+
+
+def test_warnings_travel_back_from_dask_tasks(tmp_path):
+    study = linear_real_study(tmp_path)
+    with pytest.warns(RadiosimWarning, match="one DN"):
+        local = study.run(None, rng=3, scheduler="threads").rows
+    assert "one DN is about" in local[0]["warnings"] and local[1]["warnings"] == ""
+
+
+def test_the_console_table_shows_response_alignment_full_names_and_flags(tmp_path):
+    study = linear_real_study(tmp_path)
+    with pytest.warns(RadiosimWarning):
+        rows = study.run(None).rows
+    lines = format_table(rows)
+    body = [line for line in lines if line.startswith("resp")]
+    assert len(body) == 2
+    assert all("nist-ir-camera" in line for line in body)  # not cut to 8 characters
+    assert "linear" in body[0] and "planck" in body[1]
+    assert all(rows[0]["alignment"] in line for line in body)
+    assert body[0].rstrip().endswith("[1]") and not body[1].rstrip().endswith("]")
+    assert any(line.strip().startswith("[1]") and "one DN" in line for line in lines)
+
+
+# -- one seed, the same bits on every engine -------------------------------------------------------
+
+
+def noisy_study(folder: Path) -> Study:
+    """Two cameras with noise (nist-ir's electronics, Planck response), three sweeps."""
+    cameras = {"real": {"preset": "nist-ir", "pixel_pitch_um": 4.0},
+               "other": {"preset": "nist-ir", "pixel_pitch_um": 6.0}}
+    sweeps = [{"name": "a", "cameras": ["real"], "integration_time_us": [1, 2, 3]},
+              {"name": "b", "cameras": ["other", "real"], "integration_time_us": [2]}]
+    return Study.from_dict(frames_study_dict(folder, sweeps, cameras=cameras, value=900.0,
+                                        shape=(6, 24, 24)))
+
+
+def columns_equal(a: list[dict], b: list[dict]):
+    assert len(a) == len(b) and a
+    for key in a[0]:
+        left, right = [r[key] for r in a], [r[key] for r in b]
+        if all(isinstance(v, float) for v in left):
+            assert np.array_equal(np.array(left), np.array(right), equal_nan=True), key
+        else:
+            assert left == right, key
+
+
+def test_in_process_and_threads_and_synchronous_give_the_same_bits(tmp_path):
+    study = noisy_study(tmp_path)
+    local = study.run(None, rng=11, write_exr=False).rows
+    columns_equal(local, study.run(None, rng=11, scheduler="synchronous").rows)
+    columns_equal(local, study.run(None, rng=11, scheduler="threads").rows)
+    other = study.run(None, rng=12).rows
+    assert not np.array_equal([r["peak_C"] for r in local], [r["peak_C"] for r in other])
+
+
+def test_in_process_and_a_two_worker_cluster_give_the_same_bits(tmp_path):
+    from distributed import Client, LocalCluster
+
+    study = noisy_study(tmp_path)
+    local = study.run(None, rng=5).rows
+    with LocalCluster(n_workers=2, threads_per_worker=1, processes=False,
+                      dashboard_address=None) as cluster, Client(cluster) as client:
+        remote = study.run(None, rng=5, scheduler=client).rows
+    columns_equal(local, remote)
+
+
+def test_a_measurement_keeps_its_noise_whatever_follows_it(tmp_path):
+    study = noisy_study(tmp_path)
+    full = study.run(None, rng=2).rows
+    study.sweeps = study.sweeps[:1]
+    first = study.run(None, rng=2).rows
+    columns_equal(full[:len(first)], first)
+
+
+def test_a_seed_sequence_and_its_integer_agree(tmp_path):
+    study = noisy_study(tmp_path)
+    columns_equal(study.run(None, rng=9).rows,
+                  study.run(None, rng=np.random.SeedSequence(9)).rows)

@@ -8,10 +8,12 @@ import pytest
 from scipy.optimize import brentq
 
 import radiosim as rs
-from radiosim.errors import RadiosimError
+from conftest import single_line
+from radiosim import Camera
+from radiosim.errors import RadiosimError, RadiosimWarning
 from radiosim.radiometry import band_radiance
 from radiosim.scenes import UniformBlackbody
-from radiosim.uncertainty import (HISTOGRAM_BINS, Normal, Samples, Triangular,
+from radiosim.uncertainty import (HISTOGRAM_BINS, MAX_DRAWS, Normal, Samples, Triangular,
                                   TruncatedNormal, Uniform, distribution_from_table, propagate)
 
 
@@ -378,3 +380,61 @@ def test_a_draw_that_moves_the_array_off_the_scene_is_named():
         propagate(camera, gradient_scene(), 2e-6, {"registration_x": Uniform(0.0, 4e-6)},
                   draws=40, rng=3, t_start=0.0, budget_draws=20)
     assert "\n" not in str(info.value)
+
+
+# -- the engine's bounds: draws, domains, progress, warnings ---------------------------------------
+
+
+def small_budget_case(tmp_path):
+    from radiosim.scenes import FrameStack
+
+    scene = FrameStack(np.full((4, 12, 12), 700.0), dt=1e-6, dx=1e-6)
+    return Camera.linear_ideal(3e-6), scene
+
+
+def test_a_huge_draw_count_is_refused_naming_the_bound(tmp_path):
+    camera, scene = small_budget_case(tmp_path)
+    with pytest.raises(RadiosimError) as info:
+        propagate(camera, scene, 2e-6, {"emissivity": Uniform(0.8, 0.9)}, draws=100_000_000)
+    single_line(str(info.value), "draws", "100000000", str(MAX_DRAWS))
+
+
+def test_progress_gives_a_time_estimate(tmp_path):
+    camera, scene = small_budget_case(tmp_path)
+    calls = []
+    propagate(camera, scene, 2e-6, {"emissivity": Uniform(0.8, 0.9)}, draws=6, batch=2,
+              rng=0, budget_draws=2, progress=lambda done, total, left: calls.append(
+                  (done, total, left)))
+    assert [c[:2] for c in calls] == [(2, 6), (4, 6), (6, 6)]
+    assert all(left is not None and left >= 0 for _, _, left in calls)
+    assert calls[-1][2] == 0
+
+
+@pytest.mark.parametrize("name, dist, domain", [
+    ("psf_sigma", Uniform(-5e-6, 1e-6), "[0, inf]"),
+    ("emissivity", Uniform(0.5, 1.2), "[0, 1]"),
+    ("halo_fraction", Normal(0.01, 0.02), "(0, 1]"),
+])
+def test_an_input_range_outside_its_domain_is_refused_naming_it(tmp_path, name, dist, domain):
+    camera, scene = small_budget_case(tmp_path)
+    with pytest.raises(RadiosimError) as info:
+        propagate(camera, scene, 2e-6, {name: dist}, draws=2)
+    single_line(str(info.value), repr(name), "domain", domain)
+
+
+def test_a_negative_psf_sigma_is_named_in_micrometres(tmp_path):
+    camera, scene = small_budget_case(tmp_path)
+    with pytest.raises(RadiosimError) as info:
+        propagate(camera, scene, 2e-6, {"psf_sigma": Uniform(-5e-6, 1e-6)}, draws=2)
+    single_line(str(info.value), "-5", "µm")
+
+
+def test_a_budgets_warnings_reach_the_caller(tmp_path):
+    camera = Camera.preset("nist-ir").replace(response="linear").with_pixel_pitch(4e-6)
+    from radiosim.scenes import FrameStack
+
+    scene = FrameStack(np.full((4, 12, 12), 1000.0), dt=1e-6, dx=1e-6)
+    with pytest.warns(RadiosimWarning, match="one DN"):
+        result = propagate(camera, scene, 2e-6, {"emissivity": Uniform(0.8, 0.9)}, draws=4,
+                           batch=2, rng=0, budget_draws=2)
+    assert any("one DN" in text for text in result.warnings)
