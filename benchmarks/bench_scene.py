@@ -34,12 +34,12 @@ import time
 from radiosim.scenes import SegmentedChip
 scene = SegmentedChip(dx=16e-6)
 scene.geometry
-scene._evaluate(0.0, scene._full(), compiled=False)  # the region's static data
+scene._evaluate(0.0, scene._full(), engine="numpy")  # the region's static data
 t0 = time.perf_counter()
-scene._evaluate(1e-6, scene._full(), compiled=True)
+scene._evaluate(1e-6, scene._full(), engine="compiled")
 first = time.perf_counter() - t0
 t0 = time.perf_counter()
-scene._evaluate(2e-6, scene._full(), compiled=True)
+scene._evaluate(2e-6, scene._full(), engine="compiled")
 print(first - (time.perf_counter() - t0))
 """
 
@@ -58,7 +58,7 @@ def per_frame(scene, k0, n, compiled):
     times = np.empty(n)
     for i in range(n):
         t0 = time.perf_counter()
-        scene._evaluate((k0 + i + 0.5) * scene.dt, full, compiled=compiled)
+        scene._evaluate((k0 + i + 0.5) * scene.dt, full, engine="compiled" if compiled else "numpy")
         times[i] = time.perf_counter() - t0
     return float(np.median(times)), float(times.min())
 
@@ -83,13 +83,13 @@ def main():
     k0 = int(round(start / scene.dt))
 
     # The moving terms: numpy reference against the compiled kernel, on the same frames.
-    scene._evaluate(start, scene._full(), compiled=False)  # the region's static data
+    scene._evaluate(start, scene._full(), engine="numpy")  # the region's static data
     t0 = time.perf_counter()
-    scene._evaluate(start, scene._full(), compiled=True)  # + the kernel's run layout
+    scene._evaluate(start, scene._full(), engine="compiled")  # + the kernel's run layout
     first = time.perf_counter() - t0
     hits = sum(chip_kernel.moving_terms_kernel.stats.cache_hits.values())
-    reference = per_frame(scene, k0, n, compiled=False)
-    compiled = per_frame(scene, k0, n, compiled=True)
+    reference = per_frame(scene, k0, n, engine="numpy")
+    compiled = per_frame(scene, k0, n, engine="compiled")
 
     t0 = time.perf_counter()
     for i in range(n):

@@ -32,14 +32,11 @@ import math
 
 import numpy as np
 
-from radiosim.errors import raise_if_interrupted
-from radiosim.frame_reading import prefetched
+from radiosim.interrupts import raise_if_interrupted
+from radiosim.frame_reading import IMAGE_BLOCK, frame_blocks
 from radiosim.integrator import (FootprintIntegrator, Job, TensorStatistics, Window,
                                  frame_weights, integrate_many)
-from radiosim.kernels.bands import accumulate_bands
-from radiosim.kernels.codes import STATUS_OK
-from radiosim.kernels.engines import get_engine
-from radiosim.kernels.reference import accumulate_bands_reference
+from radiosim.kernels.engines import Engine, get_engine
 from radiosim.psf import PSF, blur_bands
 from radiosim.response import LinearResponse, Response, observed_signal, reflectance
 from radiosim.scenes.base import Scene, SceneFrame
@@ -93,18 +90,13 @@ class SubBandSignals:
     frame or by blocks of consecutive frames sharing their maps (:meth:`add`): the running sums
     of :func:`sample_signals`, also fed by the integrator's pass
     (:func:`radiosim.integrator.integrate_many`'s ``observer``) so that one pass over the
-    frames gives the tensor statistics and the image.
-
-    With the compiled engine, the radiometric responses' signals come from one table lookup
-    per sample for all of them (:func:`radiosim.kernels.bands.accumulate_bands`); rows it
-    leaves (samples below a table, bad samples) are redone by the numpy reference
-    (:func:`radiosim.kernels.reference.accumulate_bands_reference`, each sub-band on its
-    own: exact radiance below the tables, the references' errors). The numpy engine takes that
-    reference throughout.
+    frames gives the tensor statistics and the image. The radiometric responses' signals come
+    from the engine's ``accumulate_bands`` (the compiled one: one table lookup per sample for
+    all sub-bands, :func:`radiosim.kernels.bands.accumulate_bands`).
     """
 
     def __init__(self, scene: Scene, window: Window, responses: list[Response],
-                 engine: str | None = None):
+                 engine: str | Engine | None = None):
         self.first, self.weights = frame_weights(window.start, window.duration, scene.dt,
                                                  scene.n_frames)
         self.stop = self.first + self.weights.size
@@ -113,65 +105,18 @@ class SubBandSignals:
         self.region = (slice(0, scene.shape[0]), slice(0, scene.shape[1]))
         #: (responses, rows, columns): Σ w_t S per sample [each response's unit].
         self.out = np.zeros((len(self.responses), *scene.shape))
-        self.compiled = not get_engine(engine).reference
+        self.engine = get_engine(engine)
         self._complement = _Reflectances()
-        self._buffer = None  # frames kept for one kernel call (see add)
-        self._held = 0
-        self._held_frame = None
-        self._held_start = 0
 
     def add(self, temperature: np.ndarray, frame: SceneFrame, start: int) -> None:
         """Frames ``start``, ``start + 1``, … (``temperature``: one 2-D frame or a 3-D block
-        of consecutive frames, over the whole scene; ``frame``: the first one's scene frame,
-        for its emissivity and reflections).
-
-        Single frames of a grey scene (one scalar emissivity, no regions) are kept, up to
-        :data:`HELD_FRAMES` consecutive ones, and accumulated in one kernel call (the
-        accumulators are read and written once per call, not once per frame): memory
-        :data:`HELD_FRAMES` frames. :meth:`signals` takes the rest."""
+        of consecutive frames sharing their maps, over the whole scene; ``frame``: the first
+        one's scene frame, for its emissivity and reflections)."""
         block = temperature if temperature.ndim == 3 else temperature[None]
         lo, hi = max(start, self.first), min(start + block.shape[0], self.stop)
         if lo >= hi:
             return
         block = block[lo - start:hi - start]
-        if self._holds(block, frame, lo):
-            if self._held == 0:
-                self._held_frame, self._held_start = frame, lo
-            self._buffer[self._held] = block[0]
-            self._held += 1
-            if self._held == HELD_FRAMES:
-                self._flush()
-            return
-        self._flush()
-        self._feed(block, frame, lo)
-
-    def _holds(self, block, frame, index) -> bool:
-        """Whether this single frame joins the held ones (a grey frame following them with
-        the same emissivity and reflection), allocating the buffer on first use."""
-        if not self.compiled or block.shape[0] != 1 or frame.regions is not None \
-                or isinstance(frame.emissivity, np.ndarray) \
-                or isinstance(frame.reflected_temperature, np.ndarray):
-            return False
-        if self._held:
-            held = self._held_frame
-            same = frame.emissivity is held.emissivity or (
-                isinstance(frame.emissivity, (int, float))
-                and isinstance(held.emissivity, (int, float))
-                and frame.emissivity == held.emissivity)
-            if (index != self._held_start + self._held or not same
-                    or frame.reflected_temperature != held.reflected_temperature
-                    or block.dtype != self._buffer.dtype):
-                self._flush()
-        if self._buffer is None or self._buffer.dtype != block.dtype:
-            self._buffer = np.empty((HELD_FRAMES, *block.shape[1:]), dtype=block.dtype)
-        return True
-
-    def _flush(self) -> None:
-        if self._held:
-            n, self._held = self._held, 0
-            self._feed(self._buffer[:n], self._held_frame, self._held_start)
-
-    def _feed(self, block, frame, lo) -> None:
         weights = self.weights[lo - self.first:lo - self.first + block.shape[0]]
         self._add(block, weights, frame, lo)
         if frame.reflected_temperature is not None:
@@ -184,12 +129,12 @@ class SubBandSignals:
 
     def _add_uniform(self, n_frames, weights, frame, index, which) -> bool:
         """The reflected part of a grey frame (one scalar emissivity, no regions, one
-        reflected temperature) is the same at every sample: the kernel's sums for one sample
+        reflected temperature) is the same at every sample: the engine's sums for one sample
         (the same operations as at each of the frame's samples) added to every sample.
         Returns whether it was taken (else the caller takes the pass over the frame)."""
         t_refl = frame.reflected_temperature
-        if not self.compiled or frame.regions is not None \
-                or isinstance(frame.emissivity, np.ndarray) or isinstance(t_refl, np.ndarray):
+        if frame.regions is not None or isinstance(frame.emissivity, np.ndarray) \
+                or isinstance(t_refl, np.ndarray):
             return False
         one = SceneFrame(np.full((1, 1), t_refl, dtype=float), self._complement(frame.emissivity),
                          None, None, frame.index)
@@ -198,9 +143,7 @@ class SubBandSignals:
             return False
         block = np.full((n_frames, 1, 1), t_refl, dtype=float)
         sums = np.zeros((len(tables), 1, 1))
-        status, _ = accumulate_bands(block, weights, tables, sums, frame_index=index)
-        if status != STATUS_OK:
-            return False
+        self.engine.accumulate_bands(block, weights, tables, sums, frame_index=index)
         for row, n in enumerate(which):
             self.out[n] += sums[row, 0, 0]
         return True
@@ -220,35 +163,13 @@ class SubBandSignals:
             return
         every = len(rows) == self.out.shape[0]
         out = self.out if every else np.zeros((len(rows), *self.out.shape[1:]))
-        if self.compiled:
-            status, flagged = accumulate_bands(block, weights, tables, out, frame_index=index)
-        else:
-            status, flagged = -1, np.arange(block.shape[1])
-        if status != STATUS_OK and flagged.size:
-            lo, hi = int(flagged[0]), int(flagged[-1]) + 1
-            part = np.zeros((len(tables), hi - lo, block.shape[2]))
-            cut = [_rows_of_table(t, lo, hi) for t in tables]
-            accumulate_bands_reference(block[:, lo:hi], weights, cut, part, frame_index=index)
-            redo = flagged - lo if status != -1 else slice(None)
-            out[:, lo:hi][:, redo] += part[:, redo]
+        self.engine.accumulate_bands(block, weights, tables, out, frame_index=index)
         if not every:
             self.out[rows] += out
 
     def signals(self) -> np.ndarray:
         """(responses, rows, columns): the window mean of each response's signal."""
-        self._flush()
         return self.out
-
-
-#: Single frames :class:`SubBandSignals` keeps for one kernel call.
-HELD_FRAMES = 4
-
-
-def _rows_of_table(table, lo: int, hi: int):
-    """The table with its maps cut to rows ``lo`` … ``hi − 1``."""
-    grey = table.grey if table.grey_scalar is not None else table.grey[lo:hi]
-    index = None if table.index is None else table.index[lo:hi]
-    return table.with_maps(grey=grey, index=index)
 
 
 def sample_signals(scene: Scene, window: Window, responses: list[Response],
@@ -277,22 +198,25 @@ def sample_signals(scene: Scene, window: Window, responses: list[Response],
     """
     signals = SubBandSignals(scene, window, responses, engine)
     frames = range(signals.first, signals.stop)
-    for done, frame in enumerate(prefetched(scene, frames, signals.region, checked=False),
-                                 start=1):
-        raise_if_interrupted()  # one the work swallowed: raised again, frame by frame
-        signals.add(frame.temperature, frame, frame.index)
+    done = 0
+    for first, temperature, n in frame_blocks(scene, frames, signals.region, IMAGE_BLOCK):
+        raise_if_interrupted()  # one the work swallowed: raised again, block by block
+        signals.add(temperature, first, first.index)
+        done += n
         if progress is not None:
             progress(done, signals.weights.size)
     return signals.signals()
 
 
 def form_image(scene: Scene, integrator: FootprintIntegrator, bands, maps: np.ndarray,
-               psfs, band: tuple[float, float], object_na: float) -> np.ndarray:
+               psfs, band: tuple[float, float], object_na: float,
+               engine: str | Engine | None = None) -> np.ndarray:
     """
     The mean signal per pixel of the image of the window-mean sub-band signals ``maps``
     (:func:`sample_signals`, one per ``(response, wavelength)`` of ``bands``): the path, the
     blur of all sub-bands (:func:`radiosim.psf.blur_bands`, one inverse transform) and each
-    pixel's footprint (steps 2–4 of the module docstring).
+    pixel's footprint (steps 2–4 of the module docstring); the blur's transforms are the
+    engine's (``fft``).
     """
     tau, path_temperature = scene.path_transmission, scene.path_temperature
     fields, surroundings, wavelengths = [], [], []
@@ -311,7 +235,8 @@ def form_image(scene: Scene, integrator: FootprintIntegrator, bands, maps: np.nd
         surroundings.append(around)
         wavelengths.append(wavelength)
     if psfs:
-        total = blur_bands(fields, surroundings, psfs, scene.dx, wavelengths, object_na)
+        total = blur_bands(fields, surroundings, psfs, scene.dx, wavelengths, object_na,
+                           engine=engine)
     else:
         total = np.zeros(scene.shape)
         for field in fields:
@@ -348,7 +273,7 @@ def image_signal(scene: Scene, integrator: FootprintIntegrator, window: Window,
     """
     bands = response.sub_bands(sub_band_count(psfs))
     maps = sample_signals(scene, window, [r for r, _ in bands], progress, engine)
-    return form_image(scene, integrator, bands, maps, psfs, band, object_na)
+    return form_image(scene, integrator, bands, maps, psfs, band, object_na, engine)
 
 
 def image_statistics(scene: Scene, integrator: FootprintIntegrator, window: Window,
@@ -369,7 +294,8 @@ def image_statistics(scene: Scene, integrator: FootprintIntegrator, window: Wind
     # (the linear response's is T itself, formed with the moments).
     truth = integrate_many(scene, [Job(integrator, window, _TRUTH)], progress, engine,
                            emission_only=True, observer=signals)[0]
-    image = form_image(scene, integrator, bands, signals.signals(), psfs, band, object_na)
+    image = form_image(scene, integrator, bands, signals.signals(), psfs, band, object_na,
+                       engine)
     return dataclasses.replace(truth, signal_mean=image)
 
 

@@ -35,12 +35,12 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from radiosim.errors import RadiosimError, raise_if_interrupted
-from radiosim.frame_reading import frames_inline_or_prefetched, prefetched, stacked
+from radiosim.errors import RadiosimError
+from radiosim.interrupts import raise_if_interrupted
+from radiosim.frame_reading import IMAGE_BLOCK, frame_blocks, prefetched
 from radiosim.kernels.engines import ENGINES as _ENGINES
 from radiosim.kernels.engines import get_engine
 from radiosim.kernels.merging import FRAME_BLOCK, FootprintGroup, crop
-from radiosim.kernels.merging import frame_runs as _runs
 from radiosim.response import Response
 from radiosim.scenes.base import Region, Scene, SceneFrame
 from radiosim.units import readable_time, readable_times
@@ -538,12 +538,12 @@ def integrate_many(scene: Scene, jobs: list[Job], progress=None,
     read (or generated) once, over the union of the jobs' regions, and feeds every job whose
     window holds it.
 
-    With the compiled engine, jobs with the same footprints share one kernel pass per frame
-    and response: the frame's per-pixel sums (of T − c, (T − c)², the signal, and the maximum)
-    are formed once at unit weight, and each job adds them with its own time weight. The
-    reference c is then the group's (the pixel means of its first frame), so results equal a
-    job integrated alone to rounding (1e-12 relative), not bit for bit. The numpy engine
-    integrates every job on its own, exactly as :func:`integrate` always did.
+    Jobs with the same footprints share one engine pass per frame and response: the frame's
+    per-pixel sums (of T − c, (T − c)², the signal, and the maximum) are formed once at unit
+    weight, and each job adds them with its own time weight. The reference c is then the
+    group's (the pixel means of its first frame), so results equal a job integrated alone to
+    rounding (1e-12 relative), not bit for bit. A response without a signal table, or a scene
+    that reflects (without ``emission_only``), takes every job on its own in numpy.
 
     Parameters
     ----------
@@ -554,12 +554,12 @@ def integrate_many(scene: Scene, jobs: list[Job], progress=None,
     progress
         Called as ``progress(done, total)`` after each frame.
     engine
-        ``"compiled"`` or ``"numpy"`` (:data:`ENGINES`); ``None``: the chosen one
-        (:func:`radiosim.kernels.engines.get_engine`: ``set_engine``, ``RADIOSIM_ENGINE``, else
-        compiled).
+        An engine's name (:data:`ENGINES`) or :class:`~radiosim.kernels.engines.Engine`;
+        ``None``: the chosen one (:func:`radiosim.kernels.engines.get_engine`: ``set_engine``,
+        ``RADIOSIM_ENGINE``, else compiled).
     emission_only
         The signal need hold each sample's own emission only (the caller adds reflections), so
-        a reflecting scene may take the compiled engine.
+        a reflecting scene may take the engine's pass.
     observer
         Also fed, in the same pass, every frame of its ``first`` … ``stop − 1`` over its
         ``region`` (:class:`~radiosim.imaging.SubBandSignals`): ``observer.add(temperature,
@@ -577,15 +577,15 @@ def integrate_many(scene: Scene, jobs: list[Job], progress=None,
         regions.append(observer.region)
     frames = sorted(set().union(*ranges))
     region = _union(regions)
-    # The compiled kernels integrate each sample's own emission; a scene that reflects is
-    # integrated by the numpy engine, whose Planck signal adds (1 − ε)·L(T_refl) — unless the
-    # caller forms the reflected light itself (the camera's image stage: ``emission_only``).
+    # The engines integrate each sample's own emission from the responses' signal tables; a
+    # scene that reflects, or a response without a table, is integrated job by job in numpy,
+    # whose Planck signal adds (1 − ε)·L(T_refl) — unless the caller forms the reflected light
+    # itself (the camera's image stage: ``emission_only``).
     reflects = not emission_only and scene.reflected_temperature is not None and any(
         a.job.response.radiometric for a in accumulators)
-    if not engine.reference and not reflects and all(a.job.response.has_table
-                                                     for a in accumulators):
-        return _integrate_compiled(scene, accumulators, frames, region, progress, engine,
-                                   observer)
+    if not reflects and all(a.job.response.has_table for a in accumulators):
+        return _integrate_merged(scene, accumulators, frames, region, progress, engine,
+                                 observer)
     for done, frame in enumerate(prefetched(scene, frames, region), start=1):
         raise_if_interrupted()  # a swallowed interrupt: raised again, frame by frame
         k = frame.index
@@ -609,9 +609,9 @@ def integrate_many(scene: Scene, jobs: list[Job], progress=None,
     return [acc.statistics() for acc in accumulators]
 
 
-def _integrate_compiled(scene, accumulators, frames, region, progress, engine, observer=None):
+def _integrate_merged(scene, accumulators, frames, region, progress, engine, observer=None):
     """
-    The compiled engine. Per frame and footprint group, one kernel pass
+    Through the engine. Per frame and footprint group, one engine pass
     (the engine's ``accumulate_merged``; blocks of up to :data:`FRAME_BLOCK` frames
     per call when the scene holds its frames as one array) gives each pixel's frame mean m_k and
     within-frame variance v_k (about the previous frame's means, so the deviations are small)
@@ -642,18 +642,10 @@ def _integrate_compiled(scene, accumulators, frames, region, progress, engine, o
             observer.add(crop(temperature, region, inner), _within(sample, region, inner), start)
 
     done = 0
-    # A scene that holds its frames as one array: blocks of consecutive frames, one kernel
-    # call each (no per-frame Python); otherwise frame by frame.
-    if scene.block_unchecked(frames[0], frames[0] + 1, region) is not None:
-        for start, stop in _runs(frames, FRAME_BLOCK):
-            raise_if_interrupted()
-            merge(scene.block_unchecked(start, stop, region),
-                  scene.sample_unchecked(start, region), start, stop)
-            done += stop - start
-            if progress is not None:
-                progress(done, len(frames))
-        return [m.statistics() for m in merged]
-    for sample, temperature, n in stacked(frames_inline_or_prefetched(scene, frames, region)):
+    # Blocks of consecutive frames, one engine call each (frame_reading.frame_blocks); large
+    # frames in blocks too where the image stage sums sub-bands from them.
+    large = IMAGE_BLOCK if observer is not None else 1
+    for sample, temperature, n in frame_blocks(scene, frames, region, large):
         raise_if_interrupted()
         merge(temperature, sample, sample.index, sample.index + n)
         done += n
@@ -663,8 +655,8 @@ def _integrate_compiled(scene, accumulators, frames, region, progress, engine, o
 
 
 class _Merged:
-    """One job's moments in the compiled engine, merged frame by frame (Chan et al. 1979) by
-    the kernel, in its group's stacked accumulators."""
+    """One job's moments merged frame by frame (Chan et al. 1979) by the engine, in its
+    group's stacked accumulators."""
 
     def __init__(self, acc: _Accumulator):
         self.job, self.first, self.stop, self.weights = acc.job, acc.first, acc.stop, acc.weights

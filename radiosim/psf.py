@@ -62,6 +62,7 @@ from scipy import fft as sfft
 from radiosim.checks import check_count, check_fraction, check_positive
 from radiosim.config import edge_value, si_value
 from radiosim.errors import RadiosimError, RadiosimWarning
+from radiosim.kernels.engines import get_engine
 
 __all__ = ["PSF", "Diffraction", "GaussianBlur", "ScatterHalo", "TabulatedPSF", "as_psf",
            "psf_floor", "transfer", "sampled_transfer", "blur", "blur_bands", "padded_shape",
@@ -657,7 +658,7 @@ def _hashable(psfs) -> tuple:
 
 
 def blur(field: np.ndarray, surroundings: float, psfs, dx: float, wavelength: float,
-         object_na: float) -> np.ndarray:
+         object_na: float, engine=None) -> np.ndarray:
     """
     The sample-square averages of a sampled radiance field seen through the PSFs.
 
@@ -676,6 +677,8 @@ def blur(field: np.ndarray, surroundings: float, psfs, dx: float, wavelength: fl
         Wavelength of the light [m] (for chromatic PSFs).
     object_na
         Object-side numerical aperture of the working cone [1].
+    engine
+        The engine whose ``fft`` transforms (:func:`radiosim.kernels.engines.get_engine`).
 
     Returns
     -------
@@ -686,11 +689,12 @@ def blur(field: np.ndarray, surroundings: float, psfs, dx: float, wavelength: fl
     -----
     :func:`blur_bands` of one band (its notes: the padding and its error bound).
     """
-    return blur_bands([field], [surroundings], psfs, dx, [wavelength], object_na)
+    return blur_bands([field], [surroundings], psfs, dx, [wavelength], object_na, engine=engine)
 
 
 def blur_bands(fields, surroundings, psfs, dx: float, wavelengths, object_na: float,
-               energy: float = PAD_ENERGY, tolerance: float = MERGE_TOLERANCE) -> np.ndarray:
+               energy: float = PAD_ENERGY, tolerance: float = MERGE_TOLERANCE,
+               engine=None) -> np.ndarray:
     """
     Σ_b of the sample-square averages of sub-band b's radiance field seen through the PSFs at
     its wavelength: the blurred image of several sub-bands, in one inverse transform.
@@ -713,6 +717,9 @@ def blur_bands(fields, surroundings, psfs, dx: float, wavelengths, object_na: fl
         The light [1] the padding may leave beyond it (:func:`padding`).
     tolerance
         Sub-bands whose sampled kernels differ by at most this L1 norm share a transfer.
+    engine
+        The engine whose ``fft`` transforms (a name or
+        :class:`~radiosim.kernels.engines.Engine`; ``None``: the chosen one).
 
     Returns
     -------
@@ -738,6 +745,7 @@ def blur_bands(fields, surroundings, psfs, dx: float, wavelengths, object_na: fl
     before one forward transform: their error is at most ``tolerance`` × max abs(field −
     surroundings) of each sub-band so merged.
     """
+    fft = get_engine(engine).fft
     fields = [np.asarray(f, dtype=float) for f in fields]
     n_rows, n_cols = fields[0].shape
     psfs = _hashable(psfs)
@@ -759,8 +767,8 @@ def blur_bands(fields, surroundings, psfs, dx: float, wavelengths, object_na: fl
         np.subtract(fields[members[0]], float(surroundings[members[0]]), out=g)
         for b in members[1:]:
             g += fields[b] - float(surroundings[b])
-        part = sfft.rfft(padded, axis=1, workers=-1)[:, :band_freq]
-        part = sfft.fft(part, shape[0], axis=0, workers=-1)[band_rows]
+        part = fft.rfft(padded, axis=1, workers=-1)[:, :band_freq]
+        part = fft.fft(part, shape[0], axis=0, workers=-1)[band_rows]
         part *= k
         if band_rows.size == rows.size and band_freq == n_freq:
             spectrum += part
@@ -768,10 +776,10 @@ def blur_bands(fields, surroundings, psfs, dx: float, wavelengths, object_na: fl
             spectrum[np.searchsorted(rows, band_rows), :band_freq] += part
     full = np.zeros((shape[0], n_freq), dtype=complex)
     full[rows] = spectrum
-    part = sfft.ifft(full, axis=0, workers=-1)[:n_rows]
+    part = fft.ifft(full, axis=0, workers=-1)[:n_rows]
     out = np.zeros((n_rows, shape[1] // 2 + 1), dtype=complex)
     out[:, :n_freq] = part
-    result = sfft.irfft(out, shape[1], axis=1, workers=-1)[:, :n_cols]
+    result = fft.irfft(out, shape[1], axis=1, workers=-1)[:, :n_cols]
     return result + float(sum(float(s) for s in surroundings))
 
 

@@ -25,9 +25,9 @@ def announce_compile(args, frame_dtype="float64", chip=False):
     Not in a log: there an error stays the one line on stderr."""
     if args.quiet or not sys.stderr.isatty():
         return
-    from radiosim.kernels import compile_pending, compiled_selected
+    from radiosim.kernels import compile_pending, get_engine
 
-    if not compiled_selected():  # the numpy engine compiles nothing
+    if get_engine().name != "compiled":  # the other engines compile nothing of radiosim's
         return
 
     also = ()

@@ -14,7 +14,7 @@ import numba
 import numpy as np
 import pytest
 
-from radiosim.kernels import compiled_selected, set_engine
+from radiosim.kernels import get_engine, set_engine
 from radiosim.scenes import ChipParameters, SegmentedChip
 from radiosim.scenes import segmented_chip as sc
 from radiosim.scenes.segmented_chip import kernel as chip_kernel
@@ -55,14 +55,14 @@ def times(scene):
 
 def assert_agree(scene, t, region=None):
     region = region or scene._full()
-    t_ref, r_ref = scene._evaluate(t, region, want_regions=True, compiled=False)
-    t_new, r_new = scene._evaluate(t, region, want_regions=True, compiled=True)
+    t_ref, r_ref = scene._evaluate(t, region, want_regions=True, engine="numpy")
+    t_new, r_new = scene._evaluate(t, region, want_regions=True, engine="compiled")
     assert t_new.shape == t_ref.shape and t_new.dtype == np.float64
     np.testing.assert_allclose(t_new, t_ref, rtol=RTOL, atol=0)
     np.testing.assert_array_equal(r_new, r_ref)
     assert r_new.dtype == r_ref.dtype
     # Without the region map, the same temperatures.
-    np.testing.assert_array_equal(scene._evaluate(t, region, compiled=True), t_new)
+    np.testing.assert_array_equal(scene._evaluate(t, region, engine="compiled"), t_new)
     return t_ref, r_ref
 
 
@@ -95,7 +95,7 @@ def test_regions_agree_across_a_period(scenes, dx):
         (slice(5, 6), slice(0, cols)),  # one row
         (slice(0, rows), slice(cols // 2, cols // 2 + 1)),  # one column
     ]
-    full = {t: scene._evaluate(t, scene._full(), want_regions=True, compiled=True)
+    full = {t: scene._evaluate(t, scene._full(), want_regions=True, engine="compiled")
             for t in list(times(scene).values())[:7]}
     for region in regions:  # regions outer: each region's static data is built once
         for t, (full_t, full_r) in full.items():
@@ -144,21 +144,21 @@ def test_per_region_emissivity_frames_carry_the_same_region_map(monkeypatch):
 def test_the_compiled_kernel_is_the_default(scenes, monkeypatch):
     scene = scenes[4e-6]
     t = scene.event_time - 33e-6
-    assert compiled_selected() is True
-    compiled = scene._evaluate(t, scene._full(), compiled=True)
-    reference = scene._evaluate(t, scene._full(), compiled=False)
+    assert get_engine().name == "compiled"
+    compiled = scene._evaluate(t, scene._full(), engine="compiled")
+    reference = scene._evaluate(t, scene._full(), engine="numpy")
     np.testing.assert_array_equal(scene.temperature(t), compiled)
     set_engine("numpy")
     np.testing.assert_array_equal(scene.temperature(t), reference)
     np.testing.assert_array_equal(scene.regions(t),
-                                  scene._evaluate(t, scene._full(), True, compiled=False)[1])
+                                  scene._evaluate(t, scene._full(), True, engine="numpy")[1])
 
 
 def test_the_kernel_recomputes_the_geometry_bitwise(scenes):
     scene = scenes[2e-6]
     g = scene.geometry
     r = scene._prepared(scene._full())
-    scene._evaluate(0.0, scene._full(), compiled=True)
+    scene._evaluate(0.0, scene._full(), engine="compiled")
     n, zeta = chip_kernel.kernel_coordinates(r.x, r.y, r.kernel.constants)
     np.testing.assert_array_equal(n, g.n)
     np.testing.assert_array_equal(zeta, g.zeta)
@@ -170,10 +170,10 @@ def test_results_do_not_depend_on_the_number_of_threads(scenes):
     threads = numba.get_num_threads()
     try:
         numba.set_num_threads(1)
-        one = scene._evaluate(t, scene._full(), want_regions=True, compiled=True)
+        one = scene._evaluate(t, scene._full(), want_regions=True, engine="compiled")
     finally:
         numba.set_num_threads(threads)
-    many = scene._evaluate(t, scene._full(), want_regions=True, compiled=True)
+    many = scene._evaluate(t, scene._full(), want_regions=True, engine="compiled")
     np.testing.assert_array_equal(one[0], many[0])
     np.testing.assert_array_equal(one[1], many[1])
 

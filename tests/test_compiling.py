@@ -42,7 +42,7 @@ def test_both_frame_dtypes_launch_one_compiled_kernel():
 def test_float32_frames_take_the_sub_band_kernel_widened():
     # One compiled variant (float64 frames): float32 frames give the same sums as their
     # float64 copy (the widening is exact) and as the numpy reference, within its tolerance.
-    from radiosim.kernels.bands import accumulate_bands, band_kernel
+    from radiosim.kernels.bands import band_kernel, launch_bands
     from radiosim.kernels.reference import accumulate_bands_reference
     from radiosim.kernels.table import SignalTable
     from radiosim.radiometry import BandRadianceTable
@@ -55,7 +55,7 @@ def test_float32_frames_take_the_sub_band_kernel_widened():
     sums = {}
     for dtype in (np.float32, np.float64):
         out = np.zeros((2, 7, 11))
-        status, rows = accumulate_bands(frames.astype(dtype), weights, [table, table], out)
+        status, rows = launch_bands(frames.astype(dtype), weights, [table, table], out)
         assert status == 0 and rows.size == 0
         sums[dtype] = out
     assert np.array_equal(sums[np.float32], sums[np.float64])

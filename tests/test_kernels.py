@@ -549,9 +549,9 @@ def test_the_engine_is_chosen_in_one_place(monkeypatch):
 
     monkeypatch.delenv("RADIOSIM_ENGINE", raising=False)
     monkeypatch.setattr(engines, "_selected", None)
-    assert engines.get_engine().name == "compiled" and engines.compiled_selected()
+    assert engines.get_engine().name == "compiled"
     monkeypatch.setenv("RADIOSIM_ENGINE", "numpy")
-    assert engines.get_engine().name == "numpy" and not engines.compiled_selected()
+    assert engines.get_engine().name == "numpy"
     engines.set_engine("compiled")  # the process setting wins over the environment
     assert engines.get_engine().name == "compiled"
     assert engines.get_engine("numpy").accumulate is accumulate_reference  # an argument wins
@@ -647,3 +647,62 @@ def test_cache_files_of_other_sources_are_removed_once_a_process_writes_there(tm
     os.utime(tmp_path / stale[0], (1e9, 1e9))
     locator.ensure_cache_path()  # the same folder again: left as it is
     assert (tmp_path / stale[0]).exists()
+
+
+def test_an_engine_made_from_numpy_carries_every_pass_with_its_bits(monkeypatch):
+    # An engine registered as a copy of the numpy one carries every hot pass of a nist-ir-psf
+    # measurement, of a frame stack and of the built-in chip (the integrator, the image
+    # stage's sub-bands and blur, the chip's moving terms), running no compiled code (every
+    # compiled entry point is made to fail), with the numpy engine's bits.
+    import dataclasses
+
+    import radiosim as rs
+    from radiosim.kernels import bands, engines, launch
+    from radiosim.scenes import SegmentedChip
+    from radiosim.scenes.segmented_chip import scene as chip_scene
+
+    numpy_engine = engines.ENGINES["numpy"]
+    calls = {}
+
+    def counted(name, function):
+        def run(*args, **kwargs):
+            calls[name] = calls.get(name, 0) + 1
+            return function(*args, **kwargs)
+        return run
+
+    class CountedFFT:
+        def __getattr__(self, name):
+            return counted(f"fft.{name}", getattr(numpy_engine.fft, name))
+
+    terms = numpy_engine.scene_terms["segmented_chip"]
+    copy = dataclasses.replace(
+        numpy_engine, name="x",
+        **{op: counted(op, getattr(numpy_engine, op)) for op in
+           ("pixel_mean", "accumulate", "accumulate_merged", "accumulate_bands")},
+        fft=CountedFFT(), scene_terms={"segmented_chip": counted("chip", terms)})
+    monkeypatch.setitem(engines.ENGINES, "x", copy)
+
+    def compiled(*args, **kwargs):
+        raise AssertionError("compiled code ran")
+
+    for module, name in ((launch, "accumulate_kernel"), (bands, "band_kernel"),
+                         (chip_scene, "evaluate_compiled")):
+        monkeypatch.setattr(module, name, compiled)
+    camera = rs.Camera.preset("nist-ir-psf").replace(assumed_emissivity=0.8)
+    stack = rs.FrameStack(np.random.default_rng(3).uniform(400.0, 1100.0, (6, 40, 50)),
+                          dt=1e-6, dx=1e-6, emissivity=0.8)
+    stack.set_environment(reflected_temperature=300.0)
+    chip = SegmentedChip(dx=6e-6, dt=1e-6)
+    for scene, window in ((stack, 4e-6), (chip, 3e-6)):
+        results = {}
+        for name in ("numpy", "x"):
+            engines.set_engine(name)
+            try:
+                results[name] = camera.measure(scene, window, rng=5)
+            finally:
+                engines.set_engine(None)
+        for field in ("apparent_temperature", "signal_mean", "tensor_mean", "tensor_std",
+                      "counts"):
+            np.testing.assert_array_equal(getattr(results["x"], field),
+                                          getattr(results["numpy"], field), field)
+    assert {"accumulate_merged", "accumulate_bands", "fft.rfft", "fft.irfft", "chip"} <= set(calls)

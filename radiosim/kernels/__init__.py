@@ -49,7 +49,7 @@ _cache.register()  # before any kernel below is decorated with cache=True
 from radiosim.kernels.codes import (SIGNAL_INDEX, SIGNAL_MAP, SIGNAL_NONE, SIGNAL_SCALAR,
                                     STATUS_ABOVE_TABLE, STATUS_BAD_INDEX, STATUS_BAD_SAMPLE,
                                     STATUS_BELOW_TABLE, STATUS_OK)
-from radiosim.kernels.engines import ENGINES, Engine, compiled_selected, get_engine, set_engine
+from radiosim.kernels.engines import ENGINES, Engine, get_engine, set_engine
 from radiosim.kernels.intrinsics import FRAME_DTYPES, fast_exp
 from radiosim.kernels.compiling import cache_location, compile_pending, warmup, warmup_bands
 from radiosim.kernels.launch import accumulate, accumulate_merged, pixel_mean, thread_count
@@ -84,7 +84,6 @@ __all__ = [
     "ENGINES",
     "get_engine",
     "set_engine",
-    "compiled_selected",
     "dispatchers",
     "warmup",
     "warmup_bands",

@@ -33,11 +33,12 @@ from radiosim.kernels.intrinsics import INF, INNER, JIT, _cubic8_grey, _cubic8_m
 from radiosim.kernels.layout import frame_bundle, read_only, rows_of
 from radiosim.kernels.packing import _ones, _uint8_index
 from radiosim.kernels.radiance import _cubic1, _locate, cubic
+from radiosim.kernels.reference import accumulate_bands_reference
 from radiosim.kernels.table import SignalTable
 from radiosim.kernels.threads import run_blocks
 
 
-__all__ = ["StackedTables", "stack", "accumulate_bands", "band_kernel"]
+__all__ = ["StackedTables", "stack", "launch_bands", "accumulate_bands", "band_kernel"]
 
 
 class StackedTables(NamedTuple):
@@ -252,8 +253,8 @@ def _emissivity(table: SignalTable, shape) -> Emissivity:
                       map_length, use_map)
 
 
-def accumulate_bands(block, weights, tables: list[SignalTable], out: np.ndarray, *,
-                     frame_index: int = 0) -> int:
+def launch_bands(block, weights, tables: list[SignalTable], out: np.ndarray, *,
+                 frame_index: int = 0) -> tuple[int, np.ndarray]:
     """
     out[b] += Σ_f weights[f] · S_b(T_f) per sample, for every sub-band's table ``tables[b]``
     (with the block's emissivity maps) and the frames of ``block`` (2-D, or 3-D: consecutive
@@ -293,3 +294,42 @@ def accumulate_bands(block, weights, tables: list[SignalTable], out: np.ndarray,
     flagged = np.flatnonzero(status)
     result = int(np.bitwise_or.reduce(status[flagged])) if flagged.size else STATUS_OK
     return result, flagged
+
+
+def accumulate_bands(block, weights, tables: list[SignalTable], out: np.ndarray, *,
+                     frame_index: int = 0) -> int:
+    """
+    out[b] += Σ_f weights[f] · S_b(T_f) per sample, for every sub-band's table ``tables[b]``
+    (with the block's emissivity maps) and the frames of ``block`` (2-D, or 3-D: consecutive
+    frames sharing those maps), from one table lookup per sample (:func:`launch_bands`); the
+    pixel rows the kernel leaves (samples below a table, bad samples) redone by the numpy
+    reference (:func:`~radiosim.kernels.reference.accumulate_bands_reference`: exact radiance
+    below the tables, its errors otherwise). The compiled engine's ``accumulate_bands``.
+
+    Returns
+    -------
+    int
+        :data:`~radiosim.kernels.codes.STATUS_OK`, or
+        :data:`~radiosim.kernels.codes.STATUS_BELOW_TABLE` if some rows were redone.
+    """
+    block = np.asarray(block)
+    if block.ndim == 2:
+        block = block[None]
+    status, flagged = launch_bands(block, weights, tables, out, frame_index=frame_index)
+    if status == STATUS_OK or not flagged.size:
+        return STATUS_OK
+    lo, hi = int(flagged[0]), int(flagged[-1]) + 1
+    part = np.zeros((len(tables), hi - lo, block.shape[2]))
+    cut = [_rows_of_table(t, lo, hi) for t in tables]
+    result = accumulate_bands_reference(block[:, lo:hi], weights, cut, part,
+                                        frame_index=frame_index)
+    redo = flagged - lo if status != -1 else slice(None)
+    out[:, lo:hi][:, redo] += part[:, redo]
+    return result
+
+
+def _rows_of_table(table: SignalTable, lo: int, hi: int) -> SignalTable:
+    """The table with its maps cut to rows ``lo`` … ``hi − 1``."""
+    grey = table.grey if table.grey_scalar is not None else table.grey[lo:hi]
+    index = None if table.index is None else table.index[lo:hi]
+    return table.with_maps(grey=grey, index=index)

@@ -1,62 +1,67 @@
 """
-The integration engines, chosen in one place.
+The engines: sets of operations that carry every hot pass of the chain.
 
-An engine is an :class:`Engine`: a name and the operations the chain asks of it
-(:meth:`~Engine.pixel_mean`, :meth:`~Engine.accumulate`, :meth:`~Engine.accumulate_merged`,
-with the arguments and results of :mod:`radiosim.kernels.launch`). :data:`ENGINES` holds them
-by name:
+An engine is an :class:`Engine`, a dataclass whose fields are its name and its operations. The
+chain never asks which engine it has: the integrator, the image stage (sub-band signals and
+blur) and the scenes with compiled terms call the chosen engine's operations, whatever it is.
+:data:`ENGINES` holds them by name:
 
 -   ``"compiled"`` (the default): the numba kernels on the CPU;
 -   ``"numpy"``: their plain numpy references (:mod:`radiosim.kernels.reference`), always
-    available, the tests' oracle. The integrator then keeps its own reference arithmetic (each
-    job on its own, :attr:`Engine.reference` is true).
+    available, the tests' oracle.
 
-:func:`get_engine` picks one: an explicit name (an argument of the integrator or the image
-stage), else the process setting (:func:`set_engine`), else the environment variable
-``RADIOSIM_ENGINE``, else ``"compiled"``. :func:`compiled_selected` answers the scenes'
-question, whether their own compiled terms should run.
+:func:`get_engine` picks one: an explicit name or :class:`Engine` (an argument of the
+integrator or the image stage), else the process setting (:func:`set_engine`), else the
+environment variable ``RADIOSIM_ENGINE``, else ``"compiled"``.
+
+The operations
+--------------
+-   ``pixel_mean(frame, rows, cols, *, frame_index=0, threads=None)``, ``accumulate(frame,
+    rows, cols, time_weight, reference, dev, sq, tmax, signal_acc=None, response=None, *,
+    frame_index=0, threads=None)`` and ``accumulate_merged(frame, rows, cols, reference,
+    members, weight, signal_weight, response=None, *, moments=True, frame_index=0,
+    threads=None)``: the integrator's footprint × window sums, with the arguments, checks,
+    errors and return values of :mod:`radiosim.kernels.launch`;
+-   ``accumulate_bands(block, weights, tables, out, *, frame_index=0)``: the image stage's
+    window sums of every sub-band's signal per sample (:mod:`radiosim.kernels.bands`);
+-   ``fft``: the discrete Fourier transforms of the optics' blur, a namespace with the
+    functions of :mod:`scipy.fft` (``rfft``, ``fft``, ``ifft``, ``irfft``, ``irfft2``);
+-   ``scene_terms``: the operations of scenes with terms of their own (the segmented chip's
+    moving terms, ``"segmented_chip"``), registered by those scenes
+    (:func:`register_scene_terms`) since they come later in the chain. A scene whose terms
+    an engine lacks makes its frames with its numpy reference.
+
+What an engine receives is engine-neutral: frames as numpy arrays (float32 or float64,
+possibly memory maps), footprints as :class:`~radiosim.kernels.layout.KernelAxis`, per-pixel
+float64 arrays, and the response's signal as a :class:`~radiosim.kernels.table.SignalTable` or
+``None`` (the signal is T). An engine may keep its own packed form of a table in
+``table.engine_data[<engine name>]``.
 
 Adding an engine (a GPU one, say)
 ---------------------------------
-It is one new module beside this one, ``radiosim/kernels/<engine>.py``, and one entry in
-:data:`ENGINES` here; nothing else in the chain changes (the integrator, the image stage and
-the chip scene reach engines only through :func:`get_engine` and :func:`compiled_selected`).
-The module implements the three operations with the arguments, checks, errors and return
-values of :mod:`radiosim.kernels.launch`:
+One new module beside this one implementing the operations, and one entry in :data:`ENGINES`::
 
--   ``pixel_mean(frame, rows, cols, *, frame_index=0, threads=None)``;
--   ``accumulate(frame, rows, cols, time_weight, reference, dev, sq, tmax, signal_acc=None,
-    response=None, *, frame_index=0, threads=None)``;
--   ``accumulate_merged(frame, rows, cols, reference, members, weight, signal_weight,
-    response=None, *, moments=True, frame_index=0, threads=None)``.
+    ENGINES["gpu"] = Engine("gpu", gpu.pixel_mean, gpu.accumulate, gpu.accumulate_merged,
+                            gpu.accumulate_bands, cupyx.scipy.fft)
 
-What it receives is engine-neutral: frames as numpy arrays (float32 or float64, possibly memory
-maps), footprints as :class:`~radiosim.kernels.layout.KernelAxis` (from
-:func:`~radiosim.kernels.layout.kernel_axis`), per-pixel float64 arrays, and the response's
-signal as a :class:`~radiosim.kernels.table.SignalTable` (the radiance tables' temperature
-grids [K] and cubic coefficients, the exact radiance below them, grey factors, grey and index
-maps) or ``None`` (the signal is T). It packs the table into its own format (as
-:func:`radiosim.kernels.packing.pack` does for the CPU kernels) and may keep that, e.g. on the
-device, in ``table.engine_data[<engine>]``, which the table's per-frame copies share. The
-argument checks are shared (:func:`~radiosim.kernels.layout.merged_arguments`,
-:func:`~radiosim.kernels.reference.checked_arguments`), and so is the treatment of a flagged
-frame (:mod:`radiosim.kernels.messages`: the errors; samples below the table redone by
-:func:`~radiosim.kernels.reference.accumulate_numpy`). Its tests compare it with the numpy
-engine (:mod:`radiosim.kernels.reference`, the oracle), as ``tests/test_kernels.py`` does for
-the compiled one.
+An engine made from another one (``dataclasses.replace(ENGINES["numpy"], name="x")``) shares
+its operations, the scenes' included. Its tests compare it with the numpy engine, as
+``tests/test_kernels.py`` does for the compiled one.
 """
 
 from __future__ import annotations
 
 import os
-from dataclasses import dataclass
-from typing import Callable
+from dataclasses import dataclass, field
+from typing import Any, Callable
+
+from scipy import fft as _scipy_fft
 
 from radiosim.errors import RadiosimError
-from radiosim.kernels import launch, reference
+from radiosim.kernels import bands, launch, reference
 
 __all__ = ["Engine", "ENGINES", "DEFAULT_ENGINE", "ENVIRONMENT_VARIABLE", "get_engine",
-           "set_engine", "compiled_selected"]
+           "set_engine", "register_scene_terms"]
 
 #: The engine taken when nothing else is chosen.
 DEFAULT_ENGINE = "compiled"
@@ -66,7 +71,7 @@ ENVIRONMENT_VARIABLE = "RADIOSIM_ENGINE"
 
 @dataclass(frozen=True)
 class Engine:
-    """An integration engine: the operations the integrator and the image stage ask of it."""
+    """An engine: its name and the operations the chain asks of it (module docstring)."""
 
     #: Its name in :data:`ENGINES`.
     name: str
@@ -78,18 +83,32 @@ class Engine:
     #: Frames merged into several jobs' moments, as
     #: :func:`radiosim.kernels.launch.accumulate_merged`.
     accumulate_merged: Callable
-    #: Whether it is the numpy reference (the integrator then integrates each job on its own
-    #: with its reference arithmetic).
-    reference: bool = False
+    #: Window sums of every sub-band's signal per sample, as
+    #: :func:`radiosim.kernels.bands.accumulate_bands`.
+    accumulate_bands: Callable
+    #: The Fourier transforms of the optics' blur (:mod:`scipy.fft`'s functions).
+    fft: Any = _scipy_fft
+    #: Operations registered by scenes with terms of their own, by the scene's name
+    #: (:func:`register_scene_terms`).
+    scene_terms: dict = field(default_factory=dict)
 
 
 #: The engines by name.
 ENGINES: dict[str, Engine] = {
     "compiled": Engine("compiled", launch.pixel_mean, launch.accumulate,
-                       launch.accumulate_merged),
+                       launch.accumulate_merged, bands.accumulate_bands),
     "numpy": Engine("numpy", reference.pixel_mean_reference, reference.accumulate_reference,
-                    reference.accumulate_merged_reference, reference=True),
+                    reference.accumulate_merged_reference, reference.accumulate_bands_reference),
 }
+
+
+def register_scene_terms(name: str, implementations: dict[str, Callable]) -> None:
+    """Register a scene's operation ``name`` with the engines of ``implementations`` (engine
+    name → function), e.g. the segmented chip's compiled and numpy moving terms. Engines made
+    from one of these (``dataclasses.replace``) share its registrations."""
+    for engine, function in implementations.items():
+        ENGINES[engine].scene_terms[name] = function
+
 
 _selected: str | None = None
 
@@ -121,9 +140,3 @@ def get_engine(name: str | Engine | None = None) -> Engine:
     if chosen:
         return ENGINES[_checked(chosen, f"environment variable {ENVIRONMENT_VARIABLE}")]
     return ENGINES[DEFAULT_ENGINE]
-
-
-def compiled_selected(name: str | Engine | None = None) -> bool:
-    """Whether the chosen engine runs compiled code (the scenes' own compiled terms then run
-    too; with the numpy engine they take their numpy references)."""
-    return not get_engine(name).reference

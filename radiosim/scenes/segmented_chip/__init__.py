@@ -22,8 +22,9 @@ two static fields of its travelling modulation, the tool, the workpiece) is comp
 grid; a frame evaluates only the moving terms, on the samples they can reach. It does so with a
 compiled kernel (numba, :func:`~.kernel.moving_terms_kernel`: one row-parallel pass writing the
 frame, compiled on first use and cached on disk); the numpy implementation it replaces is kept
-as its reference (:func:`~.reference.evaluate_reference`, selected with the numpy engine:
-``radiosim.kernels.set_engine("numpy")``), and the two agree to rounding.
+as its reference (:func:`~.reference.evaluate_reference`, the numpy engine's: ``radiosim.kernels.set_engine
+("numpy")``), and the two agree to rounding; both are registered with the engines
+(:mod:`radiosim.kernels.engines`) by :mod:`.scene`.
 
 Modules, one concept each:
 
@@ -33,7 +34,6 @@ Modules, one concept each:
 -   :mod:`.reference`: the moving terms in numpy (the oracle) and the time functions;
 -   :mod:`.kernel`: the moving terms compiled (numba), driven by one named bundle of constants;
 -   :mod:`.compiled`: the kernel's run layout per region, and its launch;
--   :mod:`.engine`: where the compiled/numpy choice is read;
 -   :mod:`.scene`: :class:`SegmentedChip`, the scene.
 
 Coordinates: lab frame x to the right, y up, origin at the bottom-left corner of the field of

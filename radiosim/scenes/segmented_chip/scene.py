@@ -4,9 +4,10 @@ orthogonal cutting with a segmented chip, periodic in time with the segmentation
 evaluated at any time on any grid (the model: :mod:`radiosim.scenes.segmented_chip`).
 
 The scene builds its grid's static fields once (:class:`~.geometry.Geometry`), each region's
-index sets once (:class:`~.geometry.RegionData`), and per frame evaluates the moving terms with
-the compiled kernel (:mod:`.compiled`, :mod:`.kernel`) or the numpy reference
-(:mod:`.reference`), as :func:`~.engine.use_compiled` says.
+index sets once (:class:`~.geometry.RegionData`), and per frame evaluates the moving terms through the
+engine (:mod:`radiosim.kernels.engines`): with the compiled kernel (:mod:`.compiled`,
+:mod:`.kernel`, :func:`moving_terms_compiled`) or the numpy reference (:mod:`.reference`,
+:func:`moving_terms_reference`), the two registered with the engines here.
 
 References
 ----------
@@ -24,9 +25,9 @@ import numpy as np
 
 from radiosim.checks import check_positive
 from radiosim.errors import RadiosimError
+from radiosim.kernels.engines import get_engine, register_scene_terms
 from radiosim.scenes.base import Region, Scene, SceneFrame, check_emissivity, check_grid
 from radiosim.scenes.segmented_chip.compiled import KernelLayout, evaluate_compiled
-from radiosim.scenes.segmented_chip.engine import use_compiled
 from radiosim.scenes.segmented_chip.geometry import COLUMNS, REGIONS, Geometry, RegionData
 from radiosim.scenes.segmented_chip.parameters import ChipParameters
 from radiosim.scenes.segmented_chip.reference import evaluate_reference, forming_base, phase
@@ -139,32 +140,17 @@ class SegmentedChip(Scene):
             return data
 
     def _evaluate(self, t: float, region: Region, want_regions: bool = False,
-                  compiled: bool | None = None):
+                  engine=None):
         """Frame at time t over ``region``: temperature [K] (and, with ``want_regions``, the
-        region map). ``compiled`` picks the implementation of the moving terms: the numba
-        kernel (True), the numpy reference (False) or, by default, as radiosim's engine setting
-        says (:func:`~.engine.use_compiled`)."""
+        region map). The moving terms are the engine's (``engine``: a name or
+        :class:`~radiosim.kernels.engines.Engine`, default the chosen one): its
+        ``scene_terms["segmented_chip"]`` (:func:`moving_terms_compiled` for the compiled
+        engine, :func:`moving_terms_reference` for the numpy one and any engine without them).
+        A frame the engine found clean (finite, > 0 K) is remembered, so that :meth:`_checked`
+        does not read it again."""
         self._checked_frames.last = None  # only the frame this evaluation makes can be clean
-        if use_compiled(compiled):
-            return self._evaluate_compiled(t, region, want_regions)
-        return self._evaluate_reference(t, region, want_regions)
-
-    def _evaluate_reference(self, t: float, region: Region, want_regions: bool = False):
-        """The moving terms in numpy, term by term over their index sets: the reference the
-        compiled kernel is tested against (:func:`~.reference.evaluate_reference`)."""
-        return evaluate_reference(self.params, self._prepared(region), t, want_regions)
-
-    def _evaluate_compiled(self, t: float, region: Region, want_regions: bool = False):
-        """The moving terms in one fused, row-parallel pass of the compiled kernel
-        (:func:`~.compiled.evaluate_compiled`; same results as :meth:`_evaluate_reference` to
-        rounding, the region map exactly). A frame the kernel found clean (finite, > 0 K) is
-        remembered, so that :meth:`_checked` does not read it again."""
-        p, r = self.params, self._prepared(region)
-        with self._lock:
-            layout = r.kernel
-            if layout is None:
-                layout = r.kernel = KernelLayout(p, self.geometry, region, r)
-        temperature, regions, clean = evaluate_compiled(p, r, layout, t, want_regions)
+        terms = get_engine(engine).scene_terms.get(SCENE_TERMS, moving_terms_reference)
+        temperature, regions, clean = terms(self, t, region, want_regions)
         self._checked_frames.last = weakref.ref(temperature) if clean else None
         if not want_regions:
             return temperature
@@ -283,3 +269,34 @@ def _rebuild_chip(arguments, environment) -> SegmentedChip:
     chip = SegmentedChip(*arguments)
     chip.set_environment(**environment)
     return chip
+
+
+#: The name of the chip's moving terms among an engine's ``scene_terms``.
+SCENE_TERMS = "segmented_chip"
+
+
+def moving_terms_reference(scene: SegmentedChip, t: float, region: Region,
+                           want_regions: bool = False):
+    """The moving terms in numpy, term by term over their index sets: the reference the
+    compiled kernel is tested against (:func:`~.reference.evaluate_reference`). Returns the
+    frame [K], the region map (or None without ``want_regions``) and False (not checked)."""
+    made = evaluate_reference(scene.params, scene._prepared(region), t, want_regions)
+    return (*made, False) if want_regions else (made, None, False)
+
+
+def moving_terms_compiled(scene: SegmentedChip, t: float, region: Region,
+                          want_regions: bool = False):
+    """The moving terms in one fused, row-parallel pass of the compiled kernel
+    (:func:`~.compiled.evaluate_compiled`; same results as :func:`moving_terms_reference` to
+    rounding, the region map exactly). Returns the frame [K], the region map (or None) and
+    whether every value is finite and > 0 K."""
+    p, r = scene.params, scene._prepared(region)
+    with scene._lock:
+        layout = r.kernel
+        if layout is None:
+            layout = r.kernel = KernelLayout(p, scene.geometry, region, r)
+    return evaluate_compiled(p, r, layout, t, want_regions)
+
+
+register_scene_terms(SCENE_TERMS, {"compiled": moving_terms_compiled,
+                                   "numpy": moving_terms_reference})
