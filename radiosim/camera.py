@@ -51,7 +51,7 @@ from radiosim.optics import Optics
 from radiosim.presets import PRESET_DIRECTORY, available_presets, camera_fields, camera_table
 from radiosim.radiometry import CALIBRATION_RANGE
 from radiosim.ratio import Channel
-from radiosim.response import LinearResponse, PlanckResponse, Response
+from radiosim.response import RESPONSES, Response
 from radiosim.scenes.base import Scene
 
 __all__ = ["Optics", "FocalPlaneArray", "Camera", "Channel", "measure_many",
@@ -72,8 +72,8 @@ class Camera:
     electronics : Electronics
         Dark current, noise, full well, gain, offset, ADC.
     response : str
-        ``"planck"`` (in-band photon radiance) or ``"linear"`` (signal = T, the paper's ideal
-        camera).
+        The response model's name in :data:`radiosim.response.RESPONSES`: ``"planck"``
+        (in-band photon radiance) or ``"linear"`` (signal = T, the paper's ideal camera).
     name : str
         Preset or user name.
     frame_rate : float or None
@@ -159,8 +159,9 @@ class Camera:
     channels: tuple[Channel, ...] | None = None
 
     def __post_init__(self):
-        if self.response not in ("linear", "planck"):
-            raise RadiosimError(f"response must be 'linear' or 'planck', got {self.response!r}")
+        if self.response not in RESPONSES:
+            raise RadiosimError(f"response must be one of {', '.join(map(repr, RESPONSES))}, "
+                                f"got {self.response!r}")
         if self.frame_rate is not None:
             object.__setattr__(self, "frame_rate",
                                check_positive(self.frame_rate, "frame_rate", "Hz"))
@@ -364,9 +365,7 @@ class Camera:
     @cached_property
     def response_model(self) -> Response:
         """The response model (built once per camera; the Planck one tabulates radiance)."""
-        if self.response == "linear":
-            return LinearResponse(self.linear_responsivity)
-        return PlanckResponse(self.optics.band, self.responsivity)
+        return RESPONSES[self.response].for_camera(self)
 
     @property
     def rate_per_signal(self) -> float:
@@ -477,9 +476,9 @@ def check_channels(channels, response: str) -> tuple[Channel, ...]:
                             f"{channels!r}")
     out = tuple(c if isinstance(c, Channel) else _channel(k, lambda c=c: Channel(band=c))
                 for k, c in enumerate(channels))
-    if len(out) >= 2 and response != "planck":
+    if len(out) >= 2 and not (response in RESPONSES and RESPONSES[response].radiometric):
         raise RadiosimError(f"a camera with {len(out)} channels reads their ratio, which needs "
-                            f"response = 'planck', got {response!r}")
+                            f"a radiometric response (response = 'planck'), got {response!r}")
     return out
 
 

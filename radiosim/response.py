@@ -96,7 +96,7 @@ def object_signal(observed, reflected, path_transmission: float = 1.0, path_emit
 class Response(ABC):
     """The interface of a response model (see the module docstring)."""
 
-    #: Name (``"linear"`` or ``"planck"``) and unit of the signal.
+    #: Name (its key in :data:`RESPONSES`) and unit of the signal.
     name: str
     unit: str
     #: Whether :meth:`signal_table` describes the signal to the engines (the linear
@@ -106,6 +106,12 @@ class Response(ABC):
     #: Whether the signal is a radiance, so that reflections, paths and the optics' emission add
     #: to it (the linear response's signal is the temperature itself: the paper's ideal).
     radiometric: bool = False
+
+    @classmethod
+    @abstractmethod
+    def for_camera(cls, camera) -> Response:
+        """This response of ``camera`` (a :class:`~radiosim.camera.Camera`: its optics, focal
+        plane array and settings), as the camera's ``response`` name picks it."""
 
     @abstractmethod
     def signal(self, frame: SceneFrame) -> np.ndarray:
@@ -177,6 +183,11 @@ class LinearResponse(Response):
     def __init__(self, responsivity: float = 1e6):
         self.responsivity = check_positive(responsivity, "linear responsivity", "e⁻ s⁻¹ K⁻¹")
 
+    @classmethod
+    def for_camera(cls, camera) -> LinearResponse:
+        """The camera's linear response: its ``linear_responsivity`` [e⁻ s⁻¹ K⁻¹]."""
+        return cls(camera.linear_responsivity)
+
     def signal(self, frame: SceneFrame) -> np.ndarray:
         """The signal of each sample [K]: its temperature."""
         return frame.temperature
@@ -222,6 +233,12 @@ class PlanckResponse(Response):
         self._tables: dict[int, tuple[SpectralDistribution | None, BandRadianceTable]] = {}
         self._signal_tables: dict[tuple, SignalTable] = {}
         self._split: dict[int, list] = {}
+
+    @classmethod
+    def for_camera(cls, camera) -> PlanckResponse:
+        """The camera's Planck response: its optics' band [m] and spectral responsivity
+        (filter, optics, quantum efficiency)."""
+        return cls(camera.optics.band, camera.responsivity)
 
     def sub_bands(self, n: int) -> list:
         if n not in self._split:
@@ -347,5 +364,7 @@ class PlanckResponse(Response):
         return float(etendue)
 
 
-#: Response models by name.
-RESPONSES = {"linear": LinearResponse, "planck": PlanckResponse}
+#: Response models by name: a camera's ``response`` picks one, which builds itself for the
+#: camera (:meth:`Response.for_camera`). A new response (a camera maker's calibration curve,
+#: say) is one class registered here.
+RESPONSES: dict[str, type[Response]] = {"linear": LinearResponse, "planck": PlanckResponse}

@@ -19,6 +19,7 @@ from radiosim.config import read_number, reject_unknown
 from radiosim.errors import RadiosimError
 from radiosim.files import check_name, safe_name
 from radiosim.io.scenes import SCENE_TYPES, STUDY_SCENE_TYPES
+from radiosim.response import RESPONSES
 from radiosim.scenes.base import Scene
 from radiosim.uncertainty import INPUTS, MAX_DRAWS, distribution_from_table
 from radiosim.units import MICRO, shift
@@ -177,9 +178,9 @@ class Sweep:
             raise RadiosimError(f"sweep {name!r}: give pixel_pitch_um or pixel_samples, not both")
         responses = tuple(data.pop("response", [None]))
         for r in responses:
-            if r not in (None, "linear", "planck"):
-                raise RadiosimError(f"sweep {name!r}: response must be 'linear' or "
-                                    f"'planck', got {r!r}")
+            if r is not None and r not in RESPONSES:
+                raise RadiosimError(f"sweep {name!r}: response must be one of "
+                                    f"{', '.join(map(repr, RESPONSES))}, got {r!r}")
         _no_repeats(name, "response", responses)
         alignments = tuple(data.pop("alignment", ["centred"]))
         for a in alignments:
