@@ -58,8 +58,6 @@ _PARTS = """
 import json, pathlib, sys, time
 pathlib.Path(sys.argv[1]).mkdir()
 t0 = time.perf_counter()
-from radiosim import drawing
-drawing.start_drawers(drawing.DRAWERS)  # as radiosim.cli._run, first thing
 import radiosim.cli as cli
 study = cli._study("msec2009")
 draw = study.hook("figures")

@@ -62,13 +62,13 @@ def __dir__():
 #: The package's modules in the order of the chain: a module imports only modules before it
 #: (tests/test_architecture.py checks this with ``ast``).
 CHAIN = (
-    "_version", "errors", "units", "checks", "config", "files", "spectral", "radiometry",
+    "_version", "errors", "interrupts", "units", "checks", "config", "files", "spectral", "radiometry",
     "kernels", "scenes", "response", "fpa", "frame_reading", "integrator",
     "psf", "optics",
     "imaging", "electronics", "calibration", "measurement", "ratio", "presets", "acquisition",
     "camera", "characterization", "calibration_table", "scheduling", "moments", "budget_reuse",
     "uncertainty", "io", "study_spec", "study", "plotting", "reporting", "paper",
-    "example_data", "console", "warmup", "cli_checks", "cli",
+    "example_data", "console", "warmup", "cli_checks", "cli_signals", "cli",
 )
 
 __all__ = [

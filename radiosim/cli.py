@@ -27,12 +27,12 @@ import warnings
 from pathlib import Path
 from typing import TYPE_CHECKING
 
-# radiosim.errors first: in the command's process it installs the start-up signal handlers
+# radiosim.cli_signals first: in the command's process it installs the start-up signal handlers
 # (one line and exit 130 on Ctrl-C or SIGTERM while the heavy modules load).
-from radiosim.errors import (Interrupted, RadiosimError, RadiosimIOError, RadiosimWarning,
-                             command_state as _Command, exit_done as _exit_done,
-                             exit_interrupted as _exit_now, on_interrupt as _interrupt,
-                             on_unraisable as _on_unraisable)
+from radiosim.cli_signals import (exit_done as _exit_done, exit_interrupted as _exit_now,
+                                  on_interrupt as _interrupt, on_unraisable as _on_unraisable)
+from radiosim.errors import Interrupted, RadiosimError, RadiosimIOError, RadiosimWarning
+from radiosim.interrupts import command_state as _Command
 from radiosim import __version__  # noqa: E402
 from radiosim.console import (Progress as _Progress, outlive_the_reader as _outlive_the_reader,
                               show_warning as _show_warning, shell_expanded as _unexpanded)
@@ -88,11 +88,10 @@ def _run(args) -> int:
         if draw is not None and not args.quiet:
             print("drawing the figures", file=sys.stderr, flush=True)
         figures = [] if draw is None else draw(out.staging, study.scene)
-        if args.format == "netcdf":  # the results as one labelled dataset, next to the CSV
-            from radiosim.io.netcdf import write_netcdf
+        from radiosim.io.writers import RESULTS_FORMATS  # e.g. netcdf: results.nc too
 
-            write_netcdf(out.staging / "results.nc", result.to_xarray(
-                study.name, history=getattr(args, "command_line", None)))
+        RESULTS_FORMATS[args.format].write(out.staging, result,
+                                           history=getattr(args, "command_line", None))
         written = out.commit()
         completed = True
     finally:
@@ -104,7 +103,8 @@ def _run(args) -> int:
                       f"{kept}/", file=sys.stderr)
     from radiosim.study import format_table
 
-    print("\n".join(format_table(result.rows)))
+    summary = study.hook("summary")
+    print("\n".join(format_table(result.rows, getattr(summary, "table_columns", ()))))
     exr = sum(1 for r in result.rows if r.get("exr"))
     print(f"wrote {out.path / 'results.csv'}, {len(result.rows)} rows"
           + (f"; {exr} EXR files in {out.path / 'exr'}" if exr else ""))
@@ -116,7 +116,8 @@ def _run(args) -> int:
 
 def _measure(args) -> int:
     from radiosim.acquisition import frame_dtype
-    from radiosim.io import SceneArgumentError, read_scene, write_exr
+    from radiosim.io import SceneArgumentError, read_scene
+    from radiosim.io.writers import write_measurement
     from radiosim.reporting import bad_sample_in, is_bad_sample, measurement_lines
     from radiosim.study import summarise
 
@@ -128,7 +129,10 @@ def _measure(args) -> int:
                            fill=args.fill)
     except SceneArgumentError as exc:
         raise RadiosimError(_scene_refusal(exc, args)) from None
-    _check_out_file(args, ".exr", "radiosim measure writes one EXR file")
+    from radiosim.io.writers import MEASUREMENT_WRITERS
+
+    _check_out_file(args, tuple(MEASUREMENT_WRITERS),
+                    "radiosim measure writes one EXR or NetCDF file")
     if args.out:
         from radiosim.files import check_not_an_input
 
@@ -154,7 +158,7 @@ def _measure(args) -> int:
     if summary["under_range_fraction"] == 1.0:
         _explain_under_range(args, camera, summary["peak_scene_C"])
     if args.out:
-        print(f"wrote {write_exr(args.out, m)}")
+        print(f"wrote {write_measurement(args.out, m, history=args.command_line)}")
     return 0
 
 
@@ -406,9 +410,11 @@ def build_parser() -> argparse.ArgumentParser:
     run.add_argument("--no-exr", action="store_true",
                      help="write no EXR files (then no maps nor profiles either)")
     run.add_argument("--no-figures", action="store_true", help="write no figures")
-    run.add_argument("--format", choices=["exr", "netcdf"], default="exr",
-                     help="netcdf: also write results.nc, the results as a CF-1.8 NetCDF file, "
-                     "one record per measurement (default: CSV and EXR only)")
+    from radiosim.io.writers import RESULTS_FORMATS
+
+    run.add_argument("--format", choices=list(RESULTS_FORMATS), default="exr",
+                     help="; ".join(f"{f.name}: {f.description}"
+                                    for f in RESULTS_FORMATS.values()) + " (default exr)")
     _add_quiet(run)
     _add_dask_options(run, "the measurements")
     run.add_argument("--cluster", choices=["auto", "always"], default="auto",
@@ -544,7 +550,7 @@ class _Parser(argparse.ArgumentParser):
 def main(argv=None) -> int:
     """Run the command; returns the exit code (see the module docstring). As the ``radiosim``
     command itself (no ``argv``), it ends the process when the command is done
-    (:func:`radiosim.errors.exit_done`)."""
+    (:func:`radiosim.cli_signals.exit_done`)."""
     code = _command(argv)
     if argv is None:
         _exit_done(code)
@@ -563,7 +569,7 @@ def _command(argv) -> int:
     logging.basicConfig(level=logging.INFO if args.verbose else logging.WARNING,
                         format="%(levelname)s %(name)s: %(message)s")
     # The work's handlers: Ctrl-C and SIGTERM unwind (every ``finally`` removes its temporary
-    # files), then one line. They replace the start-up handlers (radiosim.errors), which end
+    # files), then one line. They replace the start-up handlers (radiosim.cli_signals), which end
     # the process at once, and are restored after.
     signals = (signal.SIGINT, signal.SIGTERM)
     in_main_thread = _main_thread()

@@ -83,13 +83,16 @@ def check_scale(args, scene, camera: Camera):
             "or as s)?")
 
 
-def check_out_file(args, suffix: str, what: str):
-    """``--out`` of a command that writes one file: the right suffix, and a new file unless
-    ``--overwrite`` (checked before any work)."""
+def check_out_file(args, suffix, what: str):
+    """``--out`` of a command that writes one file: the right suffix (``suffix``: one, or a
+    tuple of those it can write), and a new file unless ``--overwrite`` (checked before any
+    work)."""
     if args.out is None:
         return
-    if Path(args.out).suffix.lower() != suffix:
-        raise RadiosimError(f"--out {args.out}: {what}; give a path ending in {suffix}")
+    suffixes = (suffix,) if isinstance(suffix, str) else tuple(suffix)
+    if Path(args.out).suffix.lower() not in suffixes:
+        raise RadiosimError(f"--out {args.out}: {what}; give a path ending in "
+                            f"{' or '.join(suffixes)}")
     from radiosim.files import check_output_file
 
     check_output_file(args.out)  # its folder, and a name the file system takes

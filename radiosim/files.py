@@ -89,7 +89,7 @@ def _registered(temporary: Path):
 def remove_open_temporaries() -> None:
     """Remove the temporary files of the atomic writes still under way (best effort): for a
     process about to end without unwinding (when the cleanup's time limit runs out:
-    ``radiosim.errors._give_up``), so that a write is complete or absent even then."""
+    ``radiosim.cli_signals._give_up``), so that a write is complete or absent even then."""
     with _OPEN_LOCK:
         open_now = list(_OPEN_TEMPORARIES)
     for temporary in open_now:

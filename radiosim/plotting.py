@@ -281,11 +281,14 @@ def markdown_table(rows: list[dict], formats: dict | None = None) -> str:
 
 # -- a study's results ------------------------------------------------------------------
 
-_NUMERIC = {"integration_time_us", "n_frames", "pixel_pitch_um", "pixel_samples",
-            "sensor_area_um2", "t_start_us", "peak_scene_C", "peak_C", "peak_bias_K",
-            "peak_uncertainty_K", "column_I_scene_C", "column_I_C", "column_I_bias_K",
-            "column_I_uncertainty_K", "saturated_fraction", "under_range_fraction", "over_range_fraction", "time_us",
-            "mean_C"}
+#: The suffixes of numeric columns (their unit), and the unitless numeric columns.
+_NUMERIC_SUFFIXES = ("_C", "_K", "_us", "_um", "_um2", "_fraction")
+_NUMERIC = {"n_frames", "pixel_samples"}
+
+
+def _numeric(column: str) -> bool:
+    """Whether a results column holds numbers: its name ends with a unit, or is a count."""
+    return column in _NUMERIC or column.endswith(_NUMERIC_SUFFIXES)
 
 
 def _rows(path: Path) -> list[dict]:
@@ -294,7 +297,7 @@ def _rows(path: Path) -> list[dict]:
     with path.open(newline="") as handle:
         rows = list(csv.DictReader(handle))
     for row in rows:
-        for key in _NUMERIC & set(row):
+        for key in [k for k in row if k is not None and _numeric(k)]:
             row[key] = float(row[key]) if row[key] not in ("", None) else math.nan
     return rows
 

@@ -22,7 +22,8 @@ import warnings
 import numpy as np
 
 from radiosim.checks import check_positive, check_rng
-from radiosim.errors import RadiosimError, RadiosimWarning, raise_if_interrupted
+from radiosim.errors import RadiosimError, RadiosimWarning
+from radiosim.interrupts import raise_if_interrupted
 
 __all__ = ["connect", "SCHEDULER_TIMEOUT", "recorded_warnings", "recording_run", "seed_sequence",
            "spawn_seeds", "recorded_call", "with_eta", "CLUSTER_START_SECONDS",

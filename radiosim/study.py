@@ -51,9 +51,9 @@ import numpy as np
 from radiosim.acquisition import check_measurable, measure_many_statistics, read_out
 from radiosim.camera import Camera
 from radiosim.config import build_from_toml, reject_unknown
-from radiosim.errors import (RadiosimError, RadiosimIOError, RadiosimWarning,
-                             raise_if_interrupted)
+from radiosim.errors import RadiosimError, RadiosimIOError, RadiosimWarning
 from radiosim.files import OutputFolder, atomic_write, check_name, is_staging, safe_name
+from radiosim.interrupts import raise_if_interrupted
 from radiosim.measurement import Measurement
 from radiosim.scenes.base import CroppedScene, Scene
 from radiosim.scheduling import (SECONDS_PER_SAMPLE, connect, local_workers, recorded_call,
@@ -675,11 +675,12 @@ class Study:
         _write_csv(path, ["camera", "response", "time_us", "mean_C"], rows)
 
 
-def format_table(rows: list[dict]) -> list[str]:
+def format_table(rows: list[dict], extra=()) -> list[str]:
     """
     The console table of a run's rows: sweep, camera (its full name), response, alignment,
-    integration time, pixel pitch, the peak reading and its bias, Column I (where the study
-    has it), the saturated fraction, and a note number for each row with warnings, the notes
+    integration time, pixel pitch, the peak reading and its bias, the ``extra`` columns (a
+    summary hook's ``table_columns``: (heading, column, unit) triples, e.g. the paper's
+    Column I), the saturated fraction, and a note number for each row with warnings, the notes
     listed below the table.
     """
     def cell(value, width=9):
@@ -691,10 +692,10 @@ def format_table(rows: list[dict]) -> list[str]:
     camera_w = max([6, *(len(str(r["camera"])) for r in rows)]) + 2
     align_w = max([9, *(len(str(r["alignment"])) for r in rows)]) + 2
     lines = [f"{'sweep':<{sweep_w}}{'camera':<{camera_w}}{'response':<9}{'alignment':<{align_w}}"
-             f"{'t_int':>8}{'pixel':>7}{'peak':>9}{'bias':>9}{'col. I':>9}{'bias':>9}"
-             f"{'sat.':>7}  flags",
+             f"{'t_int':>8}{'pixel':>7}{'peak':>9}{'bias':>9}"
+             + "".join(f"{heading:>9}" for heading, _, _ in extra) + f"{'sat.':>7}  flags",
              f"{'':<{sweep_w + camera_w + 9 + align_w}}{'[µs]':>8}{'[µm]':>7}{'[°C]':>9}"
-             f"{'[K]':>9}{'[°C]':>9}{'[K]':>9}{'[%]':>7}",
+             f"{'[K]':>9}" + "".join(f"{unit:>9}" for _, _, unit in extra) + f"{'[%]':>7}",
              "  (bias = reading − scene peak: negative when the camera reads low)"]
     notes: dict[str, int] = {}
     for r in rows:
@@ -704,8 +705,8 @@ def format_table(rows: list[dict]) -> list[str]:
             f"{str(r['sweep']):<{sweep_w}}{str(r['camera']):<{camera_w}}"
             f"{str(r['response']):<9}{str(r['alignment']):<{align_w}}"
             f"{r['integration_time_us']:>8.3g}{r['pixel_pitch_um']:>7.3g}{cell(r['peak_C'])}"
-            f"{cell(r['peak_bias_K'])}{cell(r.get('column_I_C', ''))}"
-            f"{cell(r.get('column_I_bias_K', ''))}{100 * r['saturated_fraction']:>7.1f}"
+            f"{cell(r['peak_bias_K'])}" + "".join(cell(r.get(key, "")) for _, key, _ in extra)
+            + f"{100 * r['saturated_fraction']:>7.1f}"
             f"  {marks}".rstrip())
     lines += [f"  [{n}] {text}" for text, n in notes.items()]
     return lines

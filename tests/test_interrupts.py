@@ -143,13 +143,13 @@ def test_an_interrupt_raised_in_a_callback_from_c_is_sent_again_not_reported(cap
     import signal
     import time
 
-    from radiosim import errors
+    from radiosim import cli_signals, interrupts
 
     got = []
     previous = signal.signal(signal.SIGUSR1, lambda signum, frame: got.append(signum))
-    monkeypatch.setattr(errors.command_state, "interrupted", True)
-    monkeypatch.setattr(errors.command_state, "signum", signal.SIGUSR1)
-    monkeypatch.setattr(sys, "unraisablehook", errors.on_unraisable)
+    monkeypatch.setattr(interrupts.command_state, "interrupted", True)
+    monkeypatch.setattr(interrupts.command_state, "signum", signal.SIGUSR1)
+    monkeypatch.setattr(sys, "unraisablehook", cli_signals.on_unraisable)
 
     raised = []
 
@@ -171,10 +171,10 @@ def test_an_interrupt_raised_in_a_callback_from_c_is_sent_again_not_reported(cap
     assert got == [signal.SIGUSR1]
     assert capfd.readouterr().err == ""
     # Anything else is Python's own report.
-    monkeypatch.setattr(errors.command_state, "interrupted", False)
+    monkeypatch.setattr(interrupts.command_state, "interrupted", False)
     reported = []
     monkeypatch.setattr(sys, "__unraisablehook__", reported.append)
-    errors.on_unraisable(type("Unraisable", (), {"exc_value": KeyboardInterrupt()})())
+    cli_signals.on_unraisable(type("Unraisable", (), {"exc_value": KeyboardInterrupt()})())
     assert len(reported) == 1
 
 
@@ -187,7 +187,7 @@ def test_an_interrupt_the_work_swallowed_is_raised_again_between_steps(tmp_path,
     # 15 s limit ended the process in the middle of an EXR write (a .partial file left, seen
     # once in CI). The study's loop and the integrator's raise it again at their next step:
     # nothing is measured, nothing is written, no temporary file is left.
-    from radiosim import errors, integrator
+    from radiosim import errors, integrator, interrupts
     from radiosim.kernels import set_engine
     from radiosim.scenes import UniformBlackbody
     from radiosim.study import Study
@@ -199,11 +199,11 @@ def test_an_interrupt_the_work_swallowed_is_raised_again_between_steps(tmp_path,
     (tmp_path / "small.toml").write_text(frames_study([1, 2, 3], 1.0))
     study = Study.from_toml(tmp_path / "small.toml")
     camera = next(iter(study.plan())).camera  # the study's linear ideal camera
-    monkeypatch.setattr(errors.command_state, "active", True)  # the command's work
-    monkeypatch.setattr(errors.command_state, "interrupted", False)
-    errors.raise_if_interrupted()  # no signal: nothing
-    monkeypatch.setattr(errors.command_state, "interrupted", True)
-    monkeypatch.setattr(errors.command_state, "signal_name", name)
+    monkeypatch.setattr(interrupts.command_state, "active", True)  # the command's work
+    monkeypatch.setattr(interrupts.command_state, "interrupted", False)
+    interrupts.raise_if_interrupted()  # no signal: nothing
+    monkeypatch.setattr(interrupts.command_state, "interrupted", True)
+    monkeypatch.setattr(interrupts.command_state, "signal_name", name)
     # The study's own steps (the integrator's checks off).
     with monkeypatch.context() as only_the_study:
         only_the_study.setattr(integrator, "raise_if_interrupted", lambda: None)
@@ -237,7 +237,7 @@ def test_an_interrupt_the_work_swallowed_is_raised_again_between_steps(tmp_path,
             scheduling.recording_run(run, {})(pytest.fail, [("a task ran",)])
     finally:
         close()
-    monkeypatch.setattr(errors.command_state, "active", False)  # not the command's work: a
+    monkeypatch.setattr(interrupts.command_state, "active", False)  # not the command's work: a
     camera.measure(study.scene, 3e-6)  # library caller's measurement is not interrupted
     assert imaging.sample_signals(study.scene, camera.window(study.scene, 3e-6),
                                   [camera.response_model]).shape[0] == 1
@@ -248,14 +248,14 @@ def test_the_writes_under_way_are_removed_if_the_cleanup_runs_out_of_time(tmp_pa
     # the atomic writes still open are removed first, so a write is complete or absent.
     script = f"""
 import sys
-from radiosim import errors, files
+from radiosim import cli_signals, files
 with files.atomic_write({str(tmp_path / "a.txt")!r}) as handle:
     handle.write("half")
     handle.flush()
     with files.atomic_path({str(tmp_path / "b.exr")!r}) as temporary:
         temporary.write_text("half")
         assert len(files._OPEN_TEMPORARIES) == 2
-        errors._give_up(2)
+        cli_signals._give_up(2)
 """
     done = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True,
                           timeout=120)

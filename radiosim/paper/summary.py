@@ -46,3 +46,6 @@ def column_summary(m: Measurement, scene) -> dict:
 
 #: The columns the hook adds, read by :meth:`radiosim.study.Study.columns`.
 column_summary.columns = COLUMN_I_COLUMNS
+#: Those the command's console table shows after the peak's: (heading, column, unit).
+column_summary.table_columns = (("col. I", "column_I_C", "[°C]"),
+                                ("bias", "column_I_bias_K", "[K]"))
