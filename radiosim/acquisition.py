@@ -2,19 +2,22 @@
 Acquisition: how a camera takes its frames — the stages of one measurement after the scene, and
 the modes that chain measurements in time.
 
-Functions taking the camera first, beside the thin :class:`~radiosim.camera.Camera` (as pvlib
-keeps its models as functions beside ``ModelChain``). :meth:`Camera.measure
-<radiosim.camera.Camera.measure>` and :func:`measure_many` share the same stages:
+The stages take what they need as data, never the camera (:meth:`Camera.measure
+<radiosim.camera.Camera.measure>` and :func:`measure_many` call them in order and they
+return):
 
-1. :func:`check_measurable`: refuse an integration time at which nothing reads;
-2. :func:`tensor_statistics`: the noise-free part — each pixel's mean signal over its footprint ×
-   window with the scene-truth statistics of the same tensor (one pass over the scene's frames
-   for every snapshot camera; a rolling shutter's rows in a pass of their own, one window per
-   row; the optics' image where the camera forms one);
-3. :func:`read_out`: the optics (:func:`photoelectrons`), the electronics and the calibration
-   turn those statistics into a :class:`~radiosim.measurement.Measurement`.
+1. :func:`tensor_statistics`: the noise-free part — from each camera's :class:`Exposure` (its
+   footprints, window, response, image and rows' timing), each pixel's mean signal over its
+   footprint × window with the scene-truth statistics of the same tensor (one pass over the
+   scene's frames for every snapshot camera; a rolling shutter's rows in a pass of their own,
+   one window per row; the optics' image where the camera forms one);
+2. :func:`read_out`: from a camera's :class:`ReadOut` (its calibration, electronics, fixed
+   pattern, NUC, étendue and the optics' own emission), the optics (:func:`photoelectrons`),
+   the electronics and the calibration turn those statistics into a
+   :class:`~radiosim.measurement.Measurement`.
 
-Timing and modes: :func:`readout_shape`, :func:`frame_period`, :func:`record` (frames spaced by
+Timing and modes, functions taking the camera first (as pvlib keeps its models beside
+``ModelChain``): :func:`readout_shape`, :func:`frame_period`, :func:`record` (frames spaced by
 the real frame period) and :func:`superframe` (cycled integration times merged per pixel).
 """
 
@@ -29,18 +32,17 @@ from radiosim.checks import check_positive, check_rng
 from radiosim.errors import RadiosimError, RadiosimWarning
 from radiosim import integrator as _integrator  # its integrate_many looked up per call
 from radiosim.imaging import image_statistics
-from radiosim.integrator import Job, TensorStatistics, Window, stack_rows
+from radiosim.integrator import FootprintIntegrator, Job, TensorStatistics, Window, stack_rows
 from radiosim.measurement import Measurement
 from radiosim.optics import collect
-from radiosim.ratio import channel_cameras, combine
 from radiosim.scenes.base import Scene
 from radiosim.units import readable_time
 
 __all__ = ["readout_shape", "frame_period", "check_frame_period", "check_readout_fits",
-           "check_measurable", "frame_dtype",
-           "is_rolling", "instrument_signal", "photoelectrons", "tensor_statistics",
-           "rolling_statistics", "read_out", "measure_many", "measure_many_statistics",
-           "ChannelStatistics", "channel_cases", "record", "superframe"]
+           "check_measurable", "frame_dtype", "is_rolling", "instrument_signal", "Exposure",
+           "ReadOut", "photoelectrons", "tensor_statistics", "rolling_statistics", "read_out",
+           "measure_many", "measure_many_statistics", "ChannelStatistics", "channel_cases",
+           "record", "superframe"]
 
 
 # -- timing -------------------------------------------------------------------------------------
@@ -144,11 +146,81 @@ def instrument_signal(camera, temperature: float | None = None) -> float:
     return camera.optics.emitted_radiance(camera.fpa.quantum_efficiency, temperature)
 
 
-def photoelectrons(camera, signal_mean, integration_time: float):
-    """Mean photo-electrons [e⁻] of ``camera``'s pixels from their mean signal ``signal_mean``
-    [signal unit] over ``integration_time`` [s]: the signal plus the optics' own emission
-    (:func:`instrument_signal`), through the étendue (:func:`radiosim.optics.collect`)."""
-    return collect(signal_mean + instrument_signal(camera), camera.rate_per_signal,
+@dataclasses.dataclass(frozen=True)
+class Exposure:
+    """
+    One camera's window on a scene, as the noise-free stage needs it
+    (:meth:`Camera.exposure <radiosim.camera.Camera.exposure>`).
+
+    Attributes
+    ----------
+    name : str
+        The camera's name (for messages).
+    footprints : tuple
+        The pixels' footprints: pixel pitch [m], fill factor [1], array shape (rows, columns)
+        or ``None`` (as many as the scene holds) and origin (y, x) [m]
+        (:meth:`FootprintIntegrator.for_scene <radiosim.integrator.FootprintIntegrator.for_scene>`).
+    window : Window
+        The integration window [s].
+    response : Response
+        The response model.
+    image : tuple or None
+        Where the camera forms an image: its PSFs, band (λ1, λ2) [m] and object-side numerical
+        aperture [1] (:func:`radiosim.imaging.image_statistics`); else ``None``.
+    row_time : float or None
+        A rolling shutter's row time [s]: pixel row i's window starts i·row_time after the
+        first's; ``None`` for a snapshot.
+    """
+
+    name: str
+    footprints: tuple
+    window: Window
+    response: object
+    image: tuple | None = None
+    row_time: float | None = None
+
+
+@dataclasses.dataclass(frozen=True)
+class ReadOut:
+    """
+    What the stages after the integrator need of one camera at one integration time
+    (:meth:`Camera.readout <radiosim.camera.Camera.readout>`).
+
+    Attributes
+    ----------
+    camera
+        The camera the measurement records (not called).
+    calibration : Calibration
+        DN → apparent temperature at this integration time.
+    fpa : FocalPlaneArray
+        Its fixed pattern.
+    electronics : Electronics
+        Dark charge, noise, full well, ADC.
+    nuc : NonUniformityCorrection or None
+        The correction applied to counts.
+    rate_per_signal : float
+        Electron rate per unit of response signal [e⁻ s⁻¹ per signal unit] (the étendue).
+    instrument_signal : float
+        The optics' own emission into a pixel [signal unit].
+    unit : str
+        The response signal's unit.
+    """
+
+    camera: object
+    calibration: object
+    fpa: object
+    electronics: object
+    nuc: object
+    rate_per_signal: float
+    instrument_signal: float
+    unit: str
+
+
+def photoelectrons(readout: ReadOut, signal_mean, integration_time: float):
+    """Mean photo-electrons [e⁻] of a camera's pixels from their mean signal ``signal_mean``
+    [signal unit] over ``integration_time`` [s]: the signal plus the optics' own emission,
+    through the étendue (:func:`radiosim.optics.collect`), as ``readout`` states them."""
+    return collect(signal_mean + readout.instrument_signal, readout.rate_per_signal,
                    integration_time)
 
 
@@ -163,47 +235,47 @@ def _passes(progress, n: int):
     return [lambda done, total, k=k: progress(k * total + done, n * total) for k in range(n)]
 
 
-def rolling_statistics(camera, scene: Scene, window: Window, progress=None
+def rolling_statistics(scene: Scene, exposure: Exposure, integrator, progress=None
                        ) -> TensorStatistics:
-    """A rolling shutter's statistics: pixel row i integrates over ``window`` delayed by
-    i·row_time, all rows in one pass over the frames (``progress(done, total)`` after each)."""
-    if camera.forms_image(scene):
+    """A rolling shutter's statistics: pixel row i of ``integrator`` integrates over the
+    exposure's window delayed by i·row_time, all rows in one pass over the frames
+    (``progress(done, total)`` after each)."""
+    if exposure.image is not None:
         raise RadiosimError(
-            f"{camera.name}: a rolling shutter with a PSF, reflections or a path would need "
+            f"{exposure.name}: a rolling shutter with a PSF, reflections or a path would need "
             "one image per row; measure with shutter = 'snapshot' or without them")
-    integrator = camera.integrator(scene)
-    delays = camera.fpa.row_delays(integrator.shape[0])  # [s]
+    window = exposure.window
+    delays = np.arange(integrator.shape[0]) * exposure.row_time  # [s]
     last = window.start + window.duration + delays[-1]
     if scene.duration is not None and last > scene.duration * (1 + 1e-12):
         raise RadiosimError(
             f"the rolling shutter's last row integrates until {readable_time(last)}, past the "
             f"scene's end at {readable_time(scene.duration)} (row time "
-            f"{readable_time(camera.fpa.row_time)} × "
+            f"{readable_time(exposure.row_time)} × "
             f"{integrator.shape[0] - 1} rows)")
     jobs = [Job(integrator.pixel_rows(i, i + 1),
                 Window(window.start + delay, window.duration, window.alignment),
-                camera.response_model) for i, delay in enumerate(delays)]
+                exposure.response) for i, delay in enumerate(delays)]
     return stack_rows(_integrator.integrate_many(scene, jobs, progress))
 
 
-def tensor_statistics(scene: Scene, windowed, progress=None) -> list[TensorStatistics]:
+def tensor_statistics(scene: Scene, exposures, progress=None) -> list[TensorStatistics]:
     """
-    The noise-free stage of each ``(camera, window)`` pair of ``windowed`` on ``scene``: the
-    scene frames (T [K], ε) → the response's signal per sample → its mean per pixel over
+    The noise-free stage of each :class:`Exposure` of ``exposures`` on ``scene``: the scene
+    frames (T [K], ε) → the response's signal per sample → its mean per pixel over
     footprint × window [signal unit], with the tensor's T statistics [K].
 
-    Snapshot cameras share one pass over the frames (cameras with the same footprints share
+    Snapshot exposures share one pass over the frames (those with the same footprints share
     them); a rolling shutter takes a pass of its own (:func:`rolling_statistics`). Where the
-    camera forms an image (a PSF, or reflections or a path a radiometric response sees), the
-    statistics stay scene truth and the signal is the image's, both from one pass of its own
-    (:func:`radiosim.imaging.image_statistics`).
+    camera forms an image, the statistics stay scene truth and the signal is the image's, both
+    from one pass of its own (:func:`radiosim.imaging.image_statistics`).
 
     Parameters
     ----------
     scene
         The scene.
-    windowed
-        ``(camera, window)`` pairs.
+    exposures
+        The :class:`Exposure` of each camera's window.
     progress
         Called as ``progress(done, total)`` after each frame of each pass, counted over all
         passes (frame j of pass k of n as k·total + j of n·total).
@@ -211,77 +283,71 @@ def tensor_statistics(scene: Scene, windowed, progress=None) -> list[TensorStati
     Returns
     -------
     list of TensorStatistics
-        In the order of ``windowed``.
+        In the order of ``exposures``.
     """
-    windowed = list(windowed)
-    snapshot = [i for i, (camera, _) in enumerate(windowed) if not is_rolling(camera)]
-    imaged = [i for i in snapshot if windowed[i][0].forms_image(scene)]
-    plain = [i for i in snapshot if i not in imaged]
-    rolling = [i for i in range(len(windowed)) if i not in snapshot]
+    exposures = list(exposures)
+    integrators = {}  # the footprints' integrators, shared by equal footprints
+
+    def integrator(exposure):
+        key = exposure.footprints
+        if key not in integrators:
+            integrators[key] = FootprintIntegrator.for_scene(scene, *key)
+        return integrators[key]
+
+    rolling = [i for i, e in enumerate(exposures) if e.row_time is not None]
+    imaged = [i for i, e in enumerate(exposures) if e.row_time is None and e.image is not None]
+    plain = [i for i in range(len(exposures)) if i not in rolling and i not in imaged]
     passes = iter(_passes(progress, (1 if plain else 0) + len(rolling) + len(imaged)))
     statistics = {}
     if plain:
-        integrators, jobs = {}, []
-        for camera, window in (windowed[i] for i in plain):
-            fpa = camera.fpa
-            key = (fpa.pixel_pitch, fpa.fill_factor, fpa.shape, fpa.origin)
-            if key not in integrators:  # cameras with the same footprints share them
-                integrators[key] = camera.integrator(scene)
-            jobs.append(Job(integrators[key], window, camera.response_model))
+        jobs = [Job(integrator(exposures[i]), exposures[i].window, exposures[i].response)
+                for i in plain]
         statistics = dict(zip(plain, _integrator.integrate_many(
             scene, jobs, next(passes), emission_only=True)))
     for i in rolling:  # its own pass, one job per row
-        camera, window = windowed[i]
-        statistics[i] = rolling_statistics(camera, scene, window, next(passes))
+        statistics[i] = rolling_statistics(scene, exposures[i], integrator(exposures[i]),
+                                           next(passes))
     for i in imaged:  # one pass each: the scene truth's statistics and the image together
-        camera, window = windowed[i]
-        optics = camera.optics
-        statistics[i] = image_statistics(scene, camera.integrator(scene), window,
-                                         camera.response_model, optics.psf, optics.band,
-                                         optics.object_na(camera.fpa), next(passes))
-    return [statistics[i] for i in range(len(windowed))]
+        e = exposures[i]
+        statistics[i] = image_statistics(scene, integrator(e), e.window, e.response, *e.image,
+                                         next(passes))
+    return [statistics[i] for i in range(len(exposures))]
 
 
 # -- after the integrator: optics, electronics, calibration ------------------------------------
 
 
-def read_out(camera, stats: TensorStatistics, window: Window, scene: Scene,
+def read_out(readout: ReadOut, stats: TensorStatistics, window: Window, scene: Scene,
              rng=None) -> Measurement:
     """
-    The stages after the integrator: the optics, the electronics and the calibration of
-    ``camera`` turn a window's tensor statistics into a :class:`Measurement`, drawing shot
-    and read noise from ``rng`` (seed or :class:`numpy.random.Generator`).
-
-    A multi-channel camera's ``stats`` are its :class:`ChannelStatistics`: each channel is
-    read out in turn (its noise drawn from the same generator, in the channels' order) and
-    the readings combined (:func:`radiosim.ratio.combine`).
+    The stages after the integrator: the optics, the electronics and the calibration of a
+    camera's :class:`ReadOut` turn a window's tensor statistics into a :class:`Measurement`,
+    drawing shot and read noise from ``rng`` (seed or :class:`numpy.random.Generator`). (A
+    multi-channel camera reads out each channel and combines them:
+    :meth:`Camera.read_out <radiosim.camera.Camera.read_out>`.)
     """
-    if isinstance(stats, ChannelStatistics):
-        rng = check_rng(rng)
-        return combine(camera, [read_out(own, own_stats, own_window, scene, rng)
-                                for own, (own_window, own_stats) in zip(
-                                    channel_cameras(camera), stats.channels)])
-    calibration = camera.calibration(window.duration)
+    calibration = readout.calibration
     calibration.check_resolution(stacklevel=3)
     # Optics: mean signal and the optics' emission → mean photo-electrons [e⁻] through the
     # étendue.
-    photo = photoelectrons(camera, stats.signal_mean, window.duration)
+    photo = photoelectrons(readout, stats.signal_mean, window.duration)
     # Electronics: the fixed pattern, dark charge, shot noise, full well, non-linearity,
     # read noise, ADC → counts [DN].
-    pattern = camera.fpa.pattern(photo.shape)
-    exposure = camera.electronics.expose(photo, window.duration, rng, pattern)
-    if camera.nuc is not None:  # the NUC: counts [DN] → corrected counts [DN]; its bad
-        # pixels take their neighbours' values, and their own flags no longer apply
-        good = ~camera.nuc.bad[:exposure.counts.shape[0], :exposure.counts.shape[1]]
+    pattern = readout.fpa.pattern(photo.shape)
+    exposure = readout.electronics.expose(photo, window.duration, rng, pattern)
+    nuc = readout.nuc
+    if nuc is not None:  # the NUC: counts [DN] → corrected counts [DN]; its bad pixels take
+        # their neighbours' values, and their own flags no longer apply
+        good = ~nuc.bad[:exposure.counts.shape[0], :exposure.counts.shape[1]]
         exposure = dataclasses.replace(
-            exposure, counts=camera.nuc.apply(exposure.counts),
+            exposure, counts=nuc.apply(exposure.counts),
             saturated=exposure.saturated & good, adc_floor=exposure.adc_floor & good)
     # Calibration: counts [DN] → apparent temperature [K] and flags.
     reading = calibration.read(exposure)
     if reading.saturated.any():
         warnings.warn(
-            f"{camera.name}: {int(reading.saturated.sum())} of {reading.saturated.size} pixels "
-            f"saturated at {readable_time(window.duration)} integration; their apparent "
+            f"{readout.camera.name}: {int(reading.saturated.sum())} of {reading.saturated.size} "
+            f"pixels saturated at {readable_time(window.duration)} integration; their apparent "
             "temperature is NaN", RadiosimWarning, stacklevel=3)
     return Measurement(
         apparent_temperature=reading.apparent_temperature, counts=exposure.counts,
@@ -289,7 +355,7 @@ def read_out(camera, stats: TensorStatistics, window: Window, scene: Scene,
         under_range=reading.under_range, over_range=reading.over_range,
         tensor_max=stats.max, tensor_mean=stats.mean,
         tensor_std=stats.std, signal_mean=stats.signal_mean,
-        signal_unit=camera.response_model.unit, camera=camera,
+        signal_unit=readout.unit, camera=readout.camera,
         integration_time=window.duration, t_start=window.start, n_frames=stats.n_frames,
         scene=scene.describe(), alignment=window.alignment,
     )
@@ -321,7 +387,7 @@ def measure_many(scene: Scene, cases, rng=None, progress=None) -> list[Measureme
     """
     rng = check_rng(rng)
     cases = list(cases)
-    return [read_out(camera, stats, window, scene, rng)
+    return [camera.read_out(stats, window, scene, rng)
             for (camera, _, _), (window, stats) in zip(
                 cases, measure_many_statistics(scene, cases, progress))]
 
@@ -330,8 +396,9 @@ def measure_many_statistics(scene: Scene, cases, progress=None) -> list:
     """
     The noise-free part of :func:`measure_many`: each case's window, checked
     (:func:`check_measurable`), and tensor statistics (:func:`tensor_statistics`) from one
-    pass over the scene's frames. A read-out (:func:`read_out`) with any generator turns each
-    into a measurement, so callers can give each case its own seed.
+    pass over the scene's frames. A read-out (:meth:`Camera.read_out
+    <radiosim.camera.Camera.read_out>`) with any generator turns each into a measurement, so
+    callers can give each case its own seed.
 
     Returns
     -------
@@ -350,7 +417,8 @@ def measure_many_statistics(scene: Scene, cases, progress=None) -> list:
     for (camera, _, _), window in zip(expanded, windows):
         check_measurable(camera, window.duration)
     statistics = list(zip(windows, tensor_statistics(
-        scene, [(camera, window) for (camera, _, _), window in zip(expanded, windows)],
+        scene, [camera.exposure(scene, window) for (camera, _, _), window in zip(expanded,
+                                                                                   windows)],
         progress)))
     return [statistics[i] if not multi else (statistics[i][0], ChannelStatistics(
         tuple(statistics[i:i + n]))) for i, n, multi in spans]
@@ -368,7 +436,8 @@ def channel_cases(camera, scene: Scene, integration_time: float,
                   t_start: float | None) -> list:
     """
     The ``(camera, integration time [s], t_start [s] or None)`` cases of ``camera``'s
-    channels (:func:`radiosim.ratio.channel_cameras`): the camera's own case without channels.
+    channel cameras (:attr:`Camera.channel_cameras <radiosim.camera.Camera.channel_cameras>`):
+    the camera's own case without channels.
     Channel k integrates for its own integration time (default ``integration_time``) from
     the measurement's window start plus its time offset; a channel with neither keeps
     ``t_start`` as given (and so the window's alignment).
@@ -377,7 +446,7 @@ def channel_cases(camera, scene: Scene, integration_time: float,
         return [(camera, integration_time, t_start)]
     base = camera.window(scene, integration_time, t_start)
     cases = []
-    for channel, own in zip(camera.channels, channel_cameras(camera)):
+    for channel, own in zip(camera.channels, camera.channel_cameras):
         t_int = integration_time if channel.integration_time is None else \
             channel.integration_time
         same = channel.time_offset == 0 and channel.integration_time is None

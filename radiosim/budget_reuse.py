@@ -20,7 +20,7 @@ last frame l, equal weights c between) is
 A draw then forms its image as :func:`radiosim.imaging.image_signal` does, through
 :func:`radiosim.imaging.form_image` (the path, one blur of all sub-bands of the window mean with
 the draw's PSFs, the footprints), or, without an image stage, takes the footprint mean of ε Ē,
-and reads out (:func:`radiosim.acquisition.read_out`) with its own camera and noise generator.
+and reads out (:meth:`radiosim.camera.Camera.read_out`) with its own camera and noise generator.
 
 Exactness. The running sums start at a frame the budget fixes (:attr:`ReusePlan.origin`: the
 first frame the inputs' distributions can reach) and P_j depends only on the frames before j,
@@ -54,7 +54,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from radiosim.acquisition import check_measurable, is_rolling, read_out
+from radiosim.acquisition import check_measurable, is_rolling
 from radiosim.imaging import form_image, sample_signals, sub_band_count
 from radiosim.integrator import TensorStatistics, Window, frame_weights
 
@@ -274,4 +274,4 @@ def draw(plan: ReusePlan, camera, scene, integration_time: float, t_start: float
     signal = _signal(camera, scene, sums.bands, means)
     unknown = np.full(signal.shape, np.nan)  # the scene truth is the nominal's: not needed
     stats = TensorStatistics(signal, unknown, unknown, unknown, int(weights.size))
-    return read_out(camera, stats, window, scene, rng).apparent_temperature.astype(np.float64)
+    return camera.read_out(stats, window, scene, rng).apparent_temperature.astype(np.float64)

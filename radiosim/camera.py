@@ -35,11 +35,12 @@ from pathlib import Path
 
 import numpy as np
 
-from radiosim.acquisition import (check_frame_period, check_measurable, check_readout_fits,
-                                  instrument_signal, measure_many, measure_many_statistics,
-                                  read_out, tensor_statistics)
+from radiosim.acquisition import (ChannelStatistics, Exposure, ReadOut, check_frame_period,
+                                  check_readout_fits, instrument_signal, is_rolling,
+                                  measure_many, measure_many_statistics, read_out,
+                                  tensor_statistics)
 from radiosim.calibration import Calibration, NonUniformityCorrection
-from radiosim.checks import check_fraction, check_positive, check_time
+from radiosim.checks import check_fraction, check_positive, check_rng, check_time
 from radiosim.config import build_checked, build_from_toml, dumps_toml, edge_field
 from radiosim.electronics import Electronics
 from radiosim.errors import RadiosimError
@@ -50,7 +51,7 @@ from radiosim.measurement import Measurement
 from radiosim.optics import Optics
 from radiosim.presets import PRESET_DIRECTORY, available_presets, camera_fields, camera_table
 from radiosim.radiometry import CALIBRATION_RANGE
-from radiosim.ratio import Channel
+from radiosim.ratio import Channel, channel_cameras, combine
 from radiosim.response import RESPONSES, Response
 from radiosim.scenes.base import Scene
 
@@ -415,14 +416,50 @@ class Camera:
 
     def window(self, scene: Scene, integration_time: float,
                t_start: float | None = None) -> Window:
-        """The integration window on ``scene`` [s]: from ``t_start``, else centred on the
-        scene's event, else from t = 0; checked against the frame period."""
-        check_scene(scene)
-        t_int = check_time(integration_time, "integration_time")
-        if t_start is not None:
-            t_start = check_time(t_start, "t_start", positive=False)
-        check_frame_period(self, t_int)
-        return integration_window(scene, t_int, t_start)
+        """The integration window on ``scene`` [s], made and checked here: from ``t_start``,
+        else centred on the scene's event, else from the scene's first frame
+        (:func:`~radiosim.integrator.integration_window`: a time, inside the scene's frames),
+        and within this camera's frame period."""
+        window = integration_window(check_scene(scene), integration_time, t_start)
+        check_frame_period(self, window.duration)
+        return window
+
+    @property
+    def channel_cameras(self) -> tuple[Camera, ...]:
+        """The single-channel cameras of this camera's channels, in order, held by the camera
+        (:func:`radiosim.ratio.channel_cameras`); a camera without channels is its own."""
+        return channel_cameras(self)
+
+    def exposure(self, scene: Scene, window: Window) -> Exposure:
+        """What the noise-free stage needs of this (single-channel) camera's ``window`` on
+        ``scene`` (:class:`~radiosim.acquisition.Exposure`): footprints, window, response, the
+        image the optics form (if they form one) and a rolling shutter's row time."""
+        fpa, optics = self.fpa, self.optics
+        image = ((optics.psf, optics.band, optics.object_na(fpa))
+                 if self.forms_image(scene) else None)
+        return Exposure(self.name, (fpa.pixel_pitch, fpa.fill_factor, fpa.shape, fpa.origin),
+                        window, self.response_model, image,
+                        fpa.row_time if is_rolling(self) else None)
+
+    def readout(self, integration_time: float) -> ReadOut:
+        """What the stages after the integrator need of this (single-channel) camera at
+        ``integration_time`` [s] (:class:`~radiosim.acquisition.ReadOut`)."""
+        return ReadOut(self, self.calibration(integration_time), self.fpa, self.electronics,
+                       self.nuc, self.rate_per_signal, instrument_signal(self),
+                       self.response_model.unit)
+
+    def read_out(self, stats, window: Window, scene: Scene, rng=None) -> Measurement:
+        """The measurement of ``scene`` from a window's noise-free statistics: each channel
+        read out in turn (:func:`radiosim.acquisition.read_out`, its noise drawn from the
+        same generator, in the channels' order) and, for a multi-channel camera
+        (``stats`` its :class:`~radiosim.acquisition.ChannelStatistics`), the readings
+        combined (:func:`radiosim.ratio.combine`)."""
+        if isinstance(stats, ChannelStatistics):
+            rng = check_rng(rng)
+            return combine(self, [own.read_out(own_stats, own_window, scene, rng)
+                                  for own, (own_window, own_stats) in zip(
+                                      self.channel_cameras, stats.channels)])
+        return read_out(self.readout(window.duration), stats, window, scene, rng)
 
     def measure(self, scene: Scene, integration_time: float, t_start: float | None = None,
                 rng=None, progress=None) -> Measurement:
@@ -450,12 +487,13 @@ class Camera:
         """
         if self.channels is not None:  # each channel through the stages below, one pass
             return measure_many(scene, [(self, integration_time, t_start)], rng, progress)[0]
-        window = self.window(scene, integration_time, t_start)  # [s]
-        check_measurable(self, window.duration)
+        window = self.window(scene, integration_time, t_start)  # [s], made and checked
+        readout = self.readout(window.duration)  # calibration, electronics, étendue
+        readout.calibration.check_measurable(self.name)
         # Scene → response → integrator (→ the optics' image): the tensor statistics.
-        stats, = tensor_statistics(scene, [(self, window)], progress)
+        stats, = tensor_statistics(scene, [self.exposure(scene, window)], progress)
         # Optics → electronics → calibration: the measurement.
-        return read_out(self, stats, window, scene, rng)
+        return read_out(readout, stats, window, scene, rng)
 
 
 def _channel(k: int, build) -> Channel:

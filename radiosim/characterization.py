@@ -277,7 +277,7 @@ def size_of_source(camera, diameters, temperature: float = 1273.15,
     base = disc(0, 0.0)
     signal = np.array([disc(k + 1, d) for k, d in enumerate(diameters)])
     calibration = camera.calibration(t_int)
-    photo = photoelectrons(camera, signal, t_int)
+    photo = photoelectrons(camera.readout(t_int), signal, t_int)
     apparent = calibration.temperature(camera.electronics.mean_counts(photo, t_int))
     return SizeOfSource(diameters, signal, base, (signal - base) / (signal[-1] - base),
                         apparent)
@@ -405,7 +405,7 @@ def flat_fields(camera, temperature: float | None, integration_time: float, fram
         at_corner = camera.replace(fpa=dataclasses.replace(camera.fpa, origin=(0.0, 0.0)))
         window = at_corner.window(scene, t_int, 0.0)
         stats = integrate(scene, at_corner.integrator(scene), window, camera.response_model)
-        photo = photoelectrons(camera, stats.signal_mean, t_int)  # [e⁻]
+        photo = photoelectrons(camera.readout(t_int), stats.signal_mean, t_int)  # [e⁻]
     pattern = camera.fpa.pattern(photo.shape)
     counts = np.empty((int(frames), *photo.shape))
     saturated = np.zeros(photo.shape, dtype=bool)

@@ -187,9 +187,9 @@ def _flush_output() -> None:
 
 def exit_done(code: int):
     """End the command's process, its work done and its files written: the exit handlers run
-    (temporary files, logging, compiling processes, a cluster's shutdown) and the output is
-    flushed, but the interpreter does not take down its modules one by one (numba's compiled
-    code, scipy, matplotlib: 0.5–0.7 s that nothing needs)."""
+    (temporary files, logging, a cluster's shutdown) and the output is flushed, but the
+    interpreter does not take down its modules one by one (numba's compiled code, scipy,
+    matplotlib: time that nothing needs)."""
     import atexit
     import os
 

@@ -35,6 +35,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from radiosim.checks import check_time
 from radiosim.errors import RadiosimError
 from radiosim.interrupts import raise_if_interrupted
 from radiosim.frame_reading import IMAGE_BLOCK, frame_blocks, prefetched
@@ -67,12 +68,12 @@ _UNBOUNDED = 2**31 - 1  # pixels along an axis of an array without a stated size
 IMPLAUSIBLE_RATIO = 1e-3
 
 
-def check_scale(scene: Scene, pixel_pitch: float, duration: float | None = None):
+def check_scale(scene: Scene, pixel_pitch: float | None = None, duration: float | None = None):
     """
     Refuse a pixel far smaller than a scene sample, or a window far shorter than a frame
     (ratio below :data:`IMPLAUSIBLE_RATIO`), naming the likely unit slip.
     """
-    if pixel_pitch / scene.dx < IMPLAUSIBLE_RATIO:
+    if pixel_pitch is not None and pixel_pitch / scene.dx < IMPLAUSIBLE_RATIO:
         raise RadiosimError(
             f"the scene's samples are {scene.dx:g} m and the camera's pixels {pixel_pitch:g} m: a "
             f"pixel would see {pixel_pitch / scene.dx:.2g} of one sample. Was dx given in µm as "
@@ -115,6 +116,9 @@ def integration_window(scene: Scene, duration: float, t_start: float | None = No
     The window of one integration: from ``t_start`` [s] if given, else centred on the scene's
     ``event_time``, else from the scene's first frame (t = 0, or the first frame holding data
     for a scene that keeps a file's own time origin, such as an FEA export starting at 5 µs).
+    The one place a window is checked: ``duration`` a time > 0 (and not far shorter than a
+    frame: a unit slip), ``t_start`` a time ≥ 0, and the window inside the scene's frames
+    (:func:`frame_weights`).
 
     Examples
     --------
@@ -122,30 +126,28 @@ def integration_window(scene: Scene, duration: float, t_start: float | None = No
     >>> integration_window(UniformBlackbody(300.0), 1e-6)
     Window(start=0.0, duration=1e-06, alignment='scene start')
     """
-    if not (math.isfinite(duration) and duration > 0):
-        raise RadiosimError(f"integration time must be finite and > 0 [s], got {duration!r}")
+    duration = check_time(duration, "integration_time")
+    check_scale(scene, duration=duration)
     if t_start is not None:
-        try:
-            start = float(t_start)
-        except (TypeError, ValueError):
-            raise RadiosimError(f"t_start must be a number [s], got {t_start!r}") from None
-        if not math.isfinite(start):
-            raise RadiosimError(f"t_start is {start}; expected a finite window start ≥ 0 [s]")
+        start = check_time(t_start, "t_start", positive=False)
         if start < 0:
             raise RadiosimError(f"t_start = {readable_time(start)} is before the scene's first frame "
                                 "(t = 0)")
-        return Window(start, duration, "given")
-    if scene.event_time is None:
+        window = Window(start, duration, "given")
+    elif scene.event_time is None:
         first = getattr(scene, "first_frame", 0) * scene.dt  # [s] in the scene's own time
-        return Window(float(first), duration, "scene start")
-    start = scene.event_time - 0.5 * duration
-    if start < 0:
-        raise RadiosimError(
-            f"a {readable_time(duration)} window centred on the scene's event at "
-            f"{readable_time(scene.event_time)} "
-            "would start before the first frame; give t_start"
-        )
-    return Window(start, duration, "centred")
+        window = Window(float(first), duration, "scene start")
+    else:
+        start = scene.event_time - 0.5 * duration
+        if start < 0:
+            raise RadiosimError(
+                f"a {readable_time(duration)} window centred on the scene's event at "
+                f"{readable_time(scene.event_time)} "
+                "would start before the first frame; give t_start"
+            )
+        window = Window(start, duration, "centred")
+    frame_weights(window.start, window.duration, scene.dt, scene.n_frames)  # inside the scene
+    return window
 
 
 def _snap(value: float) -> float:
@@ -471,7 +473,6 @@ class _Accumulator:
 
     def __init__(self, job: Job, scene: Scene):
         self.job = job
-        check_scale(scene, job.integrator.pixel_pitch, job.window.duration)
         self.first, self.weights = frame_weights(job.window.start, job.window.duration,
                                                  scene.dt, scene.n_frames)
         self.stop = self.first + self.weights.size

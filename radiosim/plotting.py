@@ -145,7 +145,7 @@ def collector_held():
     A figure makes tens of thousands of small objects (ticks, texts, paths, transforms) that
     live until it is saved: with the collector on, they survive its young passes and set off a
     full pass over every object of the process (a study's numba, scipy and matplotlib
-    included, 0.1–0.2 s on each of a run's figures' rounds). Held off, the figures' objects
+    included). Held off, the figures' objects
     are freed by the one young pass at the end, and the process's old objects are not walked.
     The collector's state is restored on exit; nested uses hold it once.
     """
@@ -171,9 +171,8 @@ def unhinted_text():
     ``rcParams``): theirs is kept. (matplotlib caches a text's size whatever the hinting: a
     figure drawn before on the same canvas keeps the sizes it measured then.) matplotlib's
     default runs each glyph's TrueType hinting program whenever a text is shaped; without it
-    the paper's five figures draw in about 1.1 s instead of 1.55 s
-    (``benchmarks/bench_figures.py``), and their pixels do not depend on the FreeType build's
-    hinting. :func:`save_figure` and :func:`wrap_text` measure and draw inside it; the rc
+    the figures draw faster (``benchmarks/bench_figures.py``), and their pixels do not depend on
+    the FreeType build's hinting. :func:`save_figure` and :func:`wrap_text` measure and draw inside it; the rc
     settings are restored on exit.
     """
     import matplotlib

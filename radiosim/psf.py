@@ -675,10 +675,8 @@ def blur(field: np.ndarray, surroundings: float, psfs, dx: float, wavelength: fl
         Sample pitch [m, object space].
     wavelength
         Wavelength of the light [m] (for chromatic PSFs).
-    object_na
-        Object-side numerical aperture of the working cone [1].
-    engine
-        The engine whose ``fft`` transforms (:func:`radiosim.kernels.engines.get_engine`).
+    object_na, engine
+        As for :func:`blur_bands`.
 
     Returns
     -------
@@ -718,8 +716,7 @@ def blur_bands(fields, surroundings, psfs, dx: float, wavelengths, object_na: fl
     tolerance
         Sub-bands whose sampled kernels differ by at most this L1 norm share a transfer.
     engine
-        The engine whose ``fft`` transforms (a name or
-        :class:`~radiosim.kernels.engines.Engine`; ``None``: the chosen one).
+        The engine whose ``fft`` transforms (a name, an Engine or ``None``: the chosen one).
 
     Returns
     -------

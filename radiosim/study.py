@@ -48,7 +48,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-from radiosim.acquisition import check_measurable, measure_many_statistics, read_out
+from radiosim.acquisition import check_measurable, measure_many_statistics
 from radiosim.camera import Camera
 from radiosim.config import build_from_toml, reject_unknown
 from radiosim.errors import RadiosimError, RadiosimIOError, RadiosimWarning
@@ -552,7 +552,6 @@ class Study:
         go to its row and are raised again here, in the plan's order.
         """
         from radiosim.files import BackgroundWrites
-        from radiosim.integrator import frame_weights
         from radiosim.io.exr import write_exr
 
         pixels = {}
@@ -577,7 +576,6 @@ class Study:
                     f"{t_int * 1e6:.10g} µs, pixel pitch {camera.fpa.pixel_pitch * 1e6:.10g} µm")
             try:
                 window = camera.window(scene, t_int, self._window_start(t_int, alignment))
-                frame_weights(window.start, window.duration, scene.dt, scene.n_frames)
                 check_measurable(camera, window.duration)
                 camera.integrator(scene)
             except RadiosimError as exc:
@@ -732,7 +730,7 @@ def _measure_group(scene: Scene, cases, seeds) -> list:
     statistics, caught = recorded_call(measure_many_statistics, scene, cases)
     out = []
     for ((camera, _, _), (window, stats)), seed in zip(zip(cases, statistics), seeds):
-        m, texts = recorded_call(read_out, camera, stats, window, scene,
+        m, texts = recorded_call(camera.read_out, stats, window, scene,
                                  np.random.default_rng(seed))
         out.append((m, caught + texts))
     return out

@@ -61,10 +61,12 @@ def test_photoelectrons_add_the_optics_emission_through_the_etendue():
     signal = np.array([[1e18, 2e18]])  # [photons s⁻¹ m⁻² sr⁻¹]
     emission = camera.optics.emitted_radiance(camera.fpa.quantum_efficiency)
     expected = (signal + emission) * camera.etendue * 10e-6  # rate per signal: the étendue
-    np.testing.assert_allclose(photoelectrons(camera, signal, 10e-6), expected, rtol=1e-12)
+    np.testing.assert_allclose(photoelectrons(camera.readout(10e-6), signal, 10e-6), expected,
+                               rtol=1e-12)
     # Linear: 10⁶ e⁻ s⁻¹ K⁻¹ (linear_responsivity) × T × t, no optics' emission.
     temperature = np.array([[300.0, 900.0]])  # [K]
-    np.testing.assert_allclose(photoelectrons(Camera.linear_ideal(6e-6), temperature, 2e-6),
+    linear = Camera.linear_ideal(6e-6)
+    np.testing.assert_allclose(photoelectrons(linear.readout(2e-6), temperature, 2e-6),
                                temperature * 1e6 * 2e-6, rtol=1e-15)
 
 

@@ -75,7 +75,7 @@ def test_one_pass_gives_the_statistics_and_image_of_two_passes():
     assert one.n_frames == truth.n_frames == 3
     assert np.array_equal(one.signal_mean, image)
     # and what the measurement's statistics give today
-    (stats,) = acquisition.tensor_statistics(scene, [(camera, window)])
+    (stats,) = acquisition.tensor_statistics(scene, [camera.exposure(scene, window)])
     assert np.array_equal(stats.mean, one.mean)
     assert np.max(np.abs(stats.signal_mean / one.signal_mean - 1)) < 1e-12
 

@@ -5,8 +5,8 @@ numba's parallel layer (``parallel=True`` and ``prange``).
 
 Why not ``prange``: numba compiles a parallel loop's body as a function of its own, and the
 optimiser then takes every function the body calls through once more (it inlines them into
-it); for the integrator's kernel that was 9 s of compilation per signature, for a loop whose
-body is one call per block. Blocks are contiguous ranges of rows, each written by one block
+it), about doubling the integrator kernel's compile, for a loop whose body is one call per
+block. Blocks are contiguous ranges of rows, each written by one block
 only, so the result does not depend on the number of threads or on their order.
 """
 

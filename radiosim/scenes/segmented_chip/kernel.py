@@ -43,7 +43,7 @@ _JIT = dict(cache=True, fastmath=False, nogil=True, error_model="numpy", boundsc
 # Helpers called only from compiled code get no CPython or C wrapper (each unboxes every
 # argument) and no cache files of their own (the kernel's hold them); small ones called from
 # one place are inlined into it by numba (not compiled on their own and again inside their
-# caller: 10 s of compile became 5–6 s). numba's inlining copies the helper's IR and types it
+# caller: about half the compile). numba's inlining copies the helper's IR and types it
 # again, so the largest, the row pass, is written in the kernel itself.
 _INNER = dict(_JIT, cache=False, no_cpython_wrapper=True, no_cfunc_wrapper=True)
 _ONCE = dict(_INNER, inline="always")
