@@ -34,8 +34,8 @@ import numpy as np
 
 from radiosim.interrupts import raise_if_interrupted
 from radiosim.frame_reading import IMAGE_BLOCK, frame_blocks
-from radiosim.integrator import (FootprintIntegrator, Job, TensorStatistics, Window,
-                                 frame_weights, integrate_many)
+from radiosim.integrator import (EnginePass, FootprintIntegrator, Job, TensorStatistics,
+                                 Window, frame_weights)
 from radiosim.kernels.engines import Engine, get_engine
 from radiosim.psf import PSF, blur_bands
 from radiosim.response import LinearResponse, Response, observed_signal, reflectance
@@ -88,9 +88,8 @@ class SubBandSignals:
     """
     The window mean of each sample's surface signal per response (sub-band), fed frame by
     frame or by blocks of consecutive frames sharing their maps (:meth:`add`): the running sums
-    of :func:`sample_signals`, also fed by the integrator's pass
-    (:func:`radiosim.integrator.integrate_many`'s ``observer``) so that one pass over the
-    frames gives the tensor statistics and the image. The radiometric responses' signals come
+    of :func:`sample_signals`, fed beside the integrator's pass in :func:`image_statistics` so
+    that one pass over the frames gives the tensor statistics and the image. The radiometric responses' signals come
     from the engine's ``accumulate_bands`` (the compiled one: one table lookup per sample for
     all sub-bands, :func:`radiosim.kernels.bands.accumulate_bands`).
     """
@@ -292,11 +291,21 @@ def image_statistics(scene: Scene, integrator: FootprintIntegrator, window: Wind
     signals = SubBandSignals(scene, window, [r for r, _ in bands], engine)
     # The statistics are the scene truth's T moments: the job's own signal is not needed
     # (the linear response's is T itself, formed with the moments).
-    truth = integrate_many(scene, [Job(integrator, window, _TRUTH)], progress, engine,
-                           emission_only=True, observer=signals)[0]
+    truth = EnginePass(scene, [Job(integrator, window, _TRUTH)], engine)
+    frames = sorted(set(truth.frames) | set(range(signals.first, signals.stop)))
+    done = 0
+    # Each block of frames (large ones stacked too: the sub-band sums are read and written
+    # once per block) to the scene truth's moments and to the sub-band sums.
+    for sample, temperature, n in frame_blocks(scene, frames, signals.region, IMAGE_BLOCK):
+        raise_if_interrupted()  # one the work swallowed: raised again, block by block
+        truth.add(temperature, sample, signals.region)
+        signals.add(temperature, sample, sample.index)
+        done += n
+        if progress is not None:
+            progress(done, len(frames))
     image = form_image(scene, integrator, bands, signals.signals(), psfs, band, object_na,
                        engine)
-    return dataclasses.replace(truth, signal_mean=image)
+    return dataclasses.replace(truth.statistics()[0], signal_mean=image)
 
 
 #: The response of the statistics' job in :func:`image_statistics` (its signal is T).

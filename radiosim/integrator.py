@@ -38,7 +38,7 @@ import numpy as np
 from radiosim.checks import check_time
 from radiosim.errors import RadiosimError
 from radiosim.interrupts import raise_if_interrupted
-from radiosim.frame_reading import IMAGE_BLOCK, frame_blocks, prefetched
+from radiosim.frame_reading import frame_blocks, prefetched
 from radiosim.kernels.engines import ENGINES as _ENGINES
 from radiosim.kernels.engines import get_engine
 from radiosim.kernels.merging import FRAME_BLOCK, FootprintGroup, crop
@@ -47,6 +47,7 @@ from radiosim.scenes.base import Region, Scene, SceneFrame
 from radiosim.units import readable_time, readable_times
 
 __all__ = [
+    "EnginePass",
     "Window",
     "integration_window",
     "AxisFootprints",
@@ -532,19 +533,20 @@ ENGINES = tuple(_ENGINES)
 
 
 def integrate_many(scene: Scene, jobs: list[Job], progress=None,
-                   engine: str | None = None, emission_only: bool = False,
-                   observer=None) -> list[TensorStatistics]:
+                   engine: str | None = None, emission_only: bool = False
+                   ) -> list[TensorStatistics]:
     """
     Integrate several measurements of one scene in one pass: each frame any window touches is
     read (or generated) once, over the union of the jobs' regions, and feeds every job whose
     window holds it.
 
-    Jobs with the same footprints share one engine pass per frame and response: the frame's
-    per-pixel sums (of T − c, (T − c)², the signal, and the maximum) are formed once at unit
-    weight, and each job adds them with its own time weight. The reference c is then the
-    group's (the pixel means of its first frame), so results equal a job integrated alone to
-    rounding (1e-12 relative), not bit for bit. A response without a signal table, or a scene
-    that reflects (without ``emission_only``), takes every job on its own in numpy.
+    Jobs with the same footprints share one engine pass per frame and response
+    (:class:`EnginePass`): the frame's per-pixel sums (of T − c, (T − c)², the signal, and the
+    maximum) are formed once at unit weight, and each job adds them with its own time weight.
+    The reference c is then the group's (the pixel means of its first frame), so results
+    equal a job integrated alone to rounding (1e-12 relative), not bit for bit. A response
+    without a signal table, or a scene that reflects (without ``emission_only``), takes every
+    job on its own in numpy.
 
     Parameters
     ----------
@@ -561,23 +563,10 @@ def integrate_many(scene: Scene, jobs: list[Job], progress=None,
     emission_only
         The signal need hold each sample's own emission only (the caller adds reflections), so
         a reflecting scene may take the engine's pass.
-    observer
-        Also fed, in the same pass, every frame of its ``first`` … ``stop − 1`` over its
-        ``region`` (:class:`~radiosim.imaging.SubBandSignals`): ``observer.add(temperature,
-        frame, start)`` with one 2-D frame or a 3-D block of consecutive frames, the first
-        one's scene frame and its index.
     """
-    engine = get_engine(engine)
     accumulators = [_Accumulator(job, scene) for job in jobs]
     if not accumulators:
         return []
-    ranges = [range(a.first, a.stop) for a in accumulators]
-    regions = [a.job.integrator.region for a in accumulators]
-    if observer is not None:
-        ranges.append(range(observer.first, observer.stop))
-        regions.append(observer.region)
-    frames = sorted(set().union(*ranges))
-    region = _union(regions)
     # The engines integrate each sample's own emission from the responses' signal tables; a
     # scene that reflects, or a response without a table, is integrated job by job in numpy,
     # whose Planck signal adds (1 − ε)·L(T_refl) — unless the caller forms the reflected light
@@ -585,14 +574,22 @@ def integrate_many(scene: Scene, jobs: list[Job], progress=None,
     reflects = not emission_only and scene.reflected_temperature is not None and any(
         a.job.response.radiometric for a in accumulators)
     if not reflects and all(a.job.response.has_table for a in accumulators):
-        return _integrate_merged(scene, accumulators, frames, region, progress, engine,
-                                 observer)
+        engine_pass = EnginePass(scene, jobs, engine)
+        done = 0
+        # Blocks of consecutive frames, one engine call each (frame_reading.frame_blocks).
+        for sample, temperature, n in frame_blocks(scene, engine_pass.frames,
+                                                   engine_pass.region):
+            raise_if_interrupted()  # a swallowed interrupt: raised again, block by block
+            engine_pass.add(temperature, sample, engine_pass.region)
+            done += n
+            if progress is not None:
+                progress(done, len(engine_pass.frames))
+        return engine_pass.statistics()
+    frames = sorted(set().union(*(range(a.first, a.stop) for a in accumulators)))
+    region = _union([a.job.integrator.region for a in accumulators])
     for done, frame in enumerate(prefetched(scene, frames, region), start=1):
         raise_if_interrupted()  # a swallowed interrupt: raised again, frame by frame
         k = frame.index
-        if observer is not None:
-            mine = _within(frame, region, observer.region)
-            observer.add(mine.temperature, mine, k)
         signals = {}
         for acc in accumulators:
             if not acc.first <= k < acc.stop:
@@ -610,27 +607,46 @@ def integrate_many(scene: Scene, jobs: list[Job], progress=None,
     return [acc.statistics() for acc in accumulators]
 
 
-def _integrate_merged(scene, accumulators, frames, region, progress, engine, observer=None):
+class EnginePass:
     """
-    Through the engine. Per frame and footprint group, one engine pass
-    (the engine's ``accumulate_merged``; blocks of up to :data:`FRAME_BLOCK` frames
-    per call when the scene holds its frames as one array) gives each pixel's frame mean m_k and
-    within-frame variance v_k (about the previous frame's means, so the deviations are small)
-    and merges them into each job with its time weight w_k by the parallel update of Chan,
-    Golub & LeVeque (1979): δ = m_k − mean, mean += δ·w_k/n', M2 += w_k·v_k + δ²·n·w_k/n'. A
-    pixel that does not change keeps an exactly zero spread.
-    """
-    groups: dict[int, FootprintGroup] = {}
-    merged = [_Merged(acc) for acc in accumulators]
-    for m in merged:
-        groups.setdefault(id(m.job.integrator),
-                         FootprintGroup(m.job.integrator, engine)).members.append(m)
-    for group in groups.values():
-        group.start()
-    active = list(groups.values())
+    Jobs integrated through the engine from the blocks of frames the caller feeds it
+    (:meth:`add`), in frame order: :func:`integrate_many`'s pass, and the image stage's
+    (:func:`radiosim.imaging.image_statistics`, which feeds the same blocks to its sub-band
+    sums). Per block and footprint group, one engine pass (the engine's
+    ``accumulate_merged``) gives each pixel's frame mean m_k and within-frame variance v_k
+    (about the previous frame's means, so the deviations are small) and merges them into each
+    job with its time weight w_k by the parallel update of Chan, Golub & LeVeque (1979):
+    δ = m_k − mean, mean += δ·w_k/n', M2 += w_k·v_k + δ²·n·w_k/n'. A pixel that does not
+    change keeps an exactly zero spread. The jobs' responses must have signal tables.
 
-    def merge(temperature, sample, start, stop):
-        for group in active:
+    Attributes
+    ----------
+    frames : list of int
+        The frames any job's window holds, sorted.
+    region : Region
+        The union of the jobs' regions.
+    """
+
+    def __init__(self, scene: Scene, jobs: list[Job], engine=None):
+        engine = get_engine(engine)
+        self._merged = [_Merged(_Accumulator(job, scene)) for job in jobs]
+        groups: dict[int, FootprintGroup] = {}
+        for m in self._merged:
+            groups.setdefault(id(m.job.integrator),
+                             FootprintGroup(m.job.integrator, engine)).members.append(m)
+        for group in groups.values():
+            group.start()
+        self._groups = list(groups.values())
+        self.frames = sorted(set().union(*(range(m.first, m.stop) for m in self._merged)))
+        self.region = _union([m.job.integrator.region for m in self._merged])
+
+    def add(self, temperature: np.ndarray, sample: SceneFrame, region: Region) -> None:
+        """Frames ``sample.index``, … (``temperature``: one 2-D frame or a 3-D block of
+        consecutive frames sharing their maps, read over ``region``, which holds
+        :attr:`region`; ``sample``: the first one's scene frame over ``region``)."""
+        start = sample.index
+        stop = start + (temperature.shape[0] if temperature.ndim == 3 else 1)
+        for group in self._groups:
             first, last = max(start, group.first), min(stop, group.stop)
             if first < last:
                 inner = group.integrator.region
@@ -638,21 +654,10 @@ def _integrate_merged(scene, accumulators, frames, region, progress, engine, obs
                 if mine.ndim == 3:
                     mine = mine[first - start:last - start]
                 group.merge(mine, _within(sample, region, inner), first)
-        if observer is not None:
-            inner = observer.region
-            observer.add(crop(temperature, region, inner), _within(sample, region, inner), start)
 
-    done = 0
-    # Blocks of consecutive frames, one engine call each (frame_reading.frame_blocks); large
-    # frames in blocks too where the image stage sums sub-bands from them.
-    large = IMAGE_BLOCK if observer is not None else 1
-    for sample, temperature, n in frame_blocks(scene, frames, region, large):
-        raise_if_interrupted()
-        merge(temperature, sample, sample.index, sample.index + n)
-        done += n
-        if progress is not None:
-            progress(done, len(frames))
-    return [m.statistics() for m in merged]
+    def statistics(self) -> list[TensorStatistics]:
+        """Each job's tensor statistics, in the order of the jobs."""
+        return [m.statistics() for m in self._merged]
 
 
 class _Merged:
