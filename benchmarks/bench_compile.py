@@ -3,13 +3,11 @@ Benchmark: compiling radiosim's kernels from an empty numba cache (issue: instan
 user's hands; target ≤ 15 s for all kernels together on 2 cores).
 
 First ``radiosim warmup`` as a user runs it, from an empty ``NUMBA_CACHE_DIR`` (a temporary
-folder, removed after): every kernel, another process compiling the integrator's kernel (one
-for both frame dtypes) while the command compiles that kernel's last helpers ahead of it (the
-other loads them from the cache), then the chip's and the image stage's kernels (the target's
-measure). Then, in one fresh process with another empty cache, the same kernels one
+folder, removed after): every kernel, one after the other in the command's process (the
+target's measure). Then, in one fresh process with another empty cache, the same kernels one
 after the other: :func:`radiosim.kernels.warmup` and the segmented chip's moving terms,
-recording numba's compile events; it prints the wall time of each step and, per compiled function, its signatures and
-its own compile time (nested compilations of the functions it calls subtracted), largest
+recording numba's compile events; it prints the wall time of each step and, per compiled
+function, its signatures and its own compile time (nested compilations of the functions it calls subtracted), largest
 first: the total CPU the compilation costs, and where. Run on demand:
 
     python benchmarks/bench_compile.py [--top 25]

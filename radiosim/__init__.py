@@ -8,15 +8,19 @@ Heigel & Ivester, MSEC2009-84319, exactly.
 
 The chain, one module per stage, imports flowing one way (:data:`CHAIN`):
 :mod:`radiosim.scenes` → :mod:`radiosim.response` (:mod:`radiosim.radiometry`,
-:mod:`radiosim.spectral`) → :mod:`radiosim.integrator` → :mod:`radiosim.optics` (its
+:mod:`radiosim.spectral`) → :mod:`radiosim.integrator` (the frames read for it by
+:mod:`radiosim.frame_reading`; every hot pass through an engine of :mod:`radiosim.kernels`) →
+:mod:`radiosim.optics` (its
 point-spread functions in :mod:`radiosim.psf`; the image they form in :mod:`radiosim.imaging`) →
 :mod:`radiosim.electronics` → :mod:`radiosim.calibration` → :mod:`radiosim.measurement`
 (several spectral channels and their ratio temperature in :mod:`radiosim.ratio`),
 orchestrated by :class:`radiosim.camera.Camera` (its acquisition modes in
 :mod:`radiosim.acquisition`, its laboratory procedures in :mod:`radiosim.characterization` and
 :mod:`radiosim.calibration_table`). Files in and out are in :mod:`radiosim.io`,
-studies in :mod:`radiosim.study`, and everything specific to the paper in
-:mod:`radiosim.paper`.
+studies in :mod:`radiosim.study`, everything specific to the paper in :mod:`radiosim.paper`,
+and the ``radiosim`` command in :mod:`radiosim.cli` (its signal handling in
+:mod:`radiosim.cli_signals`; the interrupt the library's loops poll in
+:mod:`radiosim.interrupts`).
 """
 
 import importlib

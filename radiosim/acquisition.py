@@ -32,7 +32,8 @@ from radiosim.checks import check_positive, check_rng
 from radiosim.errors import RadiosimError, RadiosimWarning
 from radiosim import integrator as _integrator  # its integrate_many looked up per call
 from radiosim.imaging import image_statistics
-from radiosim.integrator import FootprintIntegrator, Job, TensorStatistics, Window, stack_rows
+from radiosim.integrator import (FootprintIntegrator, Job, TensorStatistics, Window,
+                                 integration_window, stack_rows)
 from radiosim.measurement import Measurement
 from radiosim.optics import collect
 from radiosim.scenes.base import Scene
@@ -444,7 +445,8 @@ def channel_cases(camera, scene: Scene, integration_time: float,
     """
     if camera.channels is None:
         return [(camera, integration_time, t_start)]
-    base = camera.window(scene, integration_time, t_start)
+    # The measurement's start only: each channel's own window is made and checked after.
+    base = integration_window(scene, integration_time, t_start, inside=False)
     cases = []
     for channel, own in zip(camera.channels, camera.channel_cameras):
         t_int = integration_time if channel.integration_time is None else \

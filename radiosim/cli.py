@@ -131,8 +131,8 @@ def _measure(args) -> int:
         raise RadiosimError(_scene_refusal(exc, args)) from None
     from radiosim.io.writers import MEASUREMENT_WRITERS
 
-    _check_out_file(args, tuple(MEASUREMENT_WRITERS),
-                    "radiosim measure writes one EXR or NetCDF file")
+    _check_out_file(args, tuple(MEASUREMENT_WRITERS), "radiosim measure writes one file of "
+                    + " or ".join(w.description for w in MEASUREMENT_WRITERS.values()))
     if args.out:
         from radiosim.files import check_not_an_input
 

@@ -124,9 +124,8 @@ def on_unraisable(unraisable):
 
 
 def _end_children():
-    """Kill this process's multiprocessing children (a local Dask cluster's workers) and the
-    processes compiling kernels for it, if any: quietly, and before the cleanup talks to
-    them."""
+    """Kill this process's multiprocessing children (a local Dask cluster's workers), if any:
+    quietly, and before the cleanup talks to them."""
     import sys
 
     if "multiprocessing" not in sys.modules:

@@ -185,12 +185,6 @@ class FocalPlaneArray:
             return integration_time + readout
         return max(integration_time, readout)
 
-    def row_delays(self, rows: int):
-        """Start of each row's window after the first's [s]: i·row_time when rolling."""
-        if self.shutter == "snapshot":
-            return np.zeros(rows)
-        return np.arange(rows) * self.row_time
-
     @property
     def magnification(self) -> float:
         """Image size over object size (dimensionless)."""

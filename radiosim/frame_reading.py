@@ -9,6 +9,7 @@ the frames' sizes, never from timings.
 
 from __future__ import annotations
 
+import contextvars
 from concurrent.futures import ThreadPoolExecutor
 
 import numpy as np
@@ -33,21 +34,23 @@ STACK_BYTES = 1 << 22
 IMAGE_BLOCK = 4
 
 
-def frame_blocks(scene: Scene, indices, region: Region, large: int = 1):
+def frame_blocks(scene: Scene, indices, region: Region, large: int = 1,
+                 reflections: bool = False):
     """
     The frames of ``indices`` (sorted) over ``region``, unchecked (the engines check every
     sample), as ``(first scene frame, temperature, n)``: ``temperature`` one 2-D frame
     (``n`` = 1) or a 3-D block of ``n`` consecutive frames that share their maps. A scene that
     holds its frames as one array (:meth:`~radiosim.scenes.base.Scene.block_unchecked`) gives
-    views of up to :data:`FRAME_BLOCK` frames, unless its reflected temperature changes from
-    frame to frame (a block shares its first frame's); other scenes' frames are read ahead
-    (:func:`read_ahead`) and stacked (:func:`stacked`, up to ``large`` large frames a block).
+    views of up to :data:`FRAME_BLOCK` frames, unless ``reflections`` are wanted (the image
+    stage) and its reflected temperature changes from frame to frame (a block shares its first
+    frame's); other scenes' frames are read ahead (:func:`read_ahead`) and stacked
+    (:func:`stacked`, up to ``large`` large frames a block).
     """
     indices = list(indices)
     if not indices:
         return
     reflected = scene.reflected_temperature
-    per_frame = isinstance(reflected, np.ndarray) and reflected.ndim == 1
+    per_frame = reflections and isinstance(reflected, np.ndarray) and reflected.ndim == 1
     if not per_frame and scene.block_unchecked(indices[0], indices[0] + 1, region) is not None:
         for start, stop in frame_runs(indices, FRAME_BLOCK):
             yield (scene.sample_unchecked(start, region),
@@ -60,7 +63,9 @@ def prefetched(scene: Scene, indices, region: Region, checked: bool = True, batc
     """Scene frames of ``indices`` in order, read on a worker thread ``batch`` at a time, each
     batch while the previous one is being used (``checked=False``: as the scene holds them,
     for consumers that check every sample). A frame that cannot be read raises its error
-    after the frames before it, whatever the batch: the same error as read one by one."""
+    after the frames before it, whatever the batch: the same error as read one by one. The
+    worker reads in a copy of the caller's context (the engine of the pass under way,
+    :func:`radiosim.kernels.engines.using_engine`)."""
     read = scene.sample if checked else scene.sample_unchecked
 
     def read_batch(ks):
@@ -82,7 +87,8 @@ def prefetched(scene: Scene, indices, region: Region, checked: bool = True, batc
     with ThreadPoolExecutor(max_workers=1) as pool:
         pending = None
         for lo in range(0, len(indices), batch):
-            following = pool.submit(read_batch, indices[lo:lo + batch])
+            following = pool.submit(contextvars.copy_context().run, read_batch,
+                                    indices[lo:lo + batch])
             if pending is not None:
                 yield from delivered(pending)
             pending = following
@@ -115,8 +121,9 @@ def _scalar(value) -> bool:
 def stacked(samples, large: int = 1):
     """
     Scene frames as (first frame, temperature, frames): consecutive frames that differ in
-    temperature only stacked into 3-D blocks (the engines merge a block's frames one after the
-    other, exactly as frame by frame):
+    temperature only stacked into 3-D blocks (the engines merge a block's frames into the
+    integrator's moments one after the other, exactly as frame by frame; the image stage's
+    sub-band sums add a block's sum):
 
     -   small frames (at most a sixteenth of :data:`STACK_BYTES`) with the same emissivity, no
         region map and nothing reflected, up to :data:`FRAME_BLOCK` frames or

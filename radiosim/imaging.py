@@ -8,9 +8,9 @@ reaching a pixel also depends on other samples or on the environment:
 
 1.  per sample and per spectral sub-band, the window mean of the surface's radiance
     ε L(T) + (1 − ε) L(T_refl) (emission and reflection of an opaque surface, Kirchhoff's law),
-    all sub-bands from one table lookup per sample (:class:`SubBandSignals`), in the
-    integrator's own pass over the frames where the statistics are wanted too
-    (:func:`image_statistics`);
+    all sub-bands from one table lookup per sample (:class:`SubBandSignals`), in one pass over
+    the frames with the integrator's (:class:`~radiosim.integrator.EnginePass`) where the
+    statistics are wanted too (:func:`image_statistics`);
 2.  the path: τ · (that) + (1 − τ) · L(T_path) (:func:`radiosim.response.observed_signal`);
 3.  the point-spread function on the window mean, all sub-bands in one inverse transform
     (:func:`radiosim.psf.blur_bands`,
@@ -36,7 +36,7 @@ from radiosim.interrupts import raise_if_interrupted
 from radiosim.frame_reading import IMAGE_BLOCK, frame_blocks
 from radiosim.integrator import (EnginePass, FootprintIntegrator, Job, TensorStatistics,
                                  Window, frame_weights)
-from radiosim.kernels.engines import Engine, get_engine
+from radiosim.kernels.engines import Engine, get_engine, using_engine
 from radiosim.psf import PSF, blur_bands
 from radiosim.response import LinearResponse, Response, observed_signal, reflectance
 from radiosim.scenes.base import Scene, SceneFrame
@@ -198,12 +198,14 @@ def sample_signals(scene: Scene, window: Window, responses: list[Response],
     signals = SubBandSignals(scene, window, responses, engine)
     frames = range(signals.first, signals.stop)
     done = 0
-    for first, temperature, n in frame_blocks(scene, frames, signals.region, IMAGE_BLOCK):
-        raise_if_interrupted()  # one the work swallowed: raised again, block by block
-        signals.add(temperature, first, first.index)
-        done += n
-        if progress is not None:
-            progress(done, signals.weights.size)
+    with using_engine(signals.engine):  # a scene's own terms follow the engine argument
+        for first, temperature, n in frame_blocks(scene, frames, signals.region, IMAGE_BLOCK,
+                                                  reflections=True):
+            raise_if_interrupted()  # one the work swallowed: raised again, block by block
+            signals.add(temperature, first, first.index)
+            done += n
+            if progress is not None:
+                progress(done, signals.weights.size)
     return signals.signals()
 
 
@@ -282,8 +284,9 @@ def image_statistics(scene: Scene, integrator: FootprintIntegrator, window: Wind
     """
     The tensor statistics of the scene truth (T over footprint × window, as
     :func:`radiosim.integrator.integrate`) with ``signal_mean`` the image's
-    (:func:`image_signal`), from ONE pass over the frames: the integrator's pass also feeds
-    the sub-band signals at sample resolution (:class:`SubBandSignals`). Arguments as
+    (:func:`image_signal`), from ONE pass over the frames: each block of frames goes to the
+    scene truth's moments (:class:`~radiosim.integrator.EnginePass`) and to the sub-band
+    signals at sample resolution (:class:`SubBandSignals`). Arguments as
     :func:`image_signal`; returns the same ``signal_mean`` and the same mean, std and max as
     the two passes.
     """
@@ -296,13 +299,15 @@ def image_statistics(scene: Scene, integrator: FootprintIntegrator, window: Wind
     done = 0
     # Each block of frames (large ones stacked too: the sub-band sums are read and written
     # once per block) to the scene truth's moments and to the sub-band sums.
-    for sample, temperature, n in frame_blocks(scene, frames, signals.region, IMAGE_BLOCK):
-        raise_if_interrupted()  # one the work swallowed: raised again, block by block
-        truth.add(temperature, sample, signals.region)
-        signals.add(temperature, sample, sample.index)
-        done += n
-        if progress is not None:
-            progress(done, len(frames))
+    with using_engine(truth.engine):  # a scene's own terms follow the engine argument
+        for sample, temperature, n in frame_blocks(scene, frames, signals.region, IMAGE_BLOCK,
+                                                   reflections=True):
+            raise_if_interrupted()  # one the work swallowed: raised again, block by block
+            truth.add(temperature, sample, signals.region)
+            signals.add(temperature, sample, sample.index)
+            done += n
+            if progress is not None:
+                progress(done, len(frames))
     image = form_image(scene, integrator, bands, signals.signals(), psfs, band, object_na,
                        engine)
     return dataclasses.replace(truth.statistics()[0], signal_mean=image)

@@ -39,9 +39,8 @@ from radiosim.checks import check_time
 from radiosim.errors import RadiosimError
 from radiosim.interrupts import raise_if_interrupted
 from radiosim.frame_reading import frame_blocks, prefetched
-from radiosim.kernels.engines import ENGINES as _ENGINES
-from radiosim.kernels.engines import get_engine
-from radiosim.kernels.merging import FRAME_BLOCK, FootprintGroup, crop
+from radiosim.kernels.engines import get_engine, using_engine
+from radiosim.kernels.merging import FootprintGroup, crop
 from radiosim.response import Response
 from radiosim.scenes.base import Region, Scene, SceneFrame
 from radiosim.units import readable_time, readable_times
@@ -58,7 +57,6 @@ __all__ = [
     "integrate",
     "integrate_many",
     "Job",
-    "ENGINES",
     "check_scale",
 ]
 
@@ -112,14 +110,15 @@ class Window:
         return self.start + self.duration
 
 
-def integration_window(scene: Scene, duration: float, t_start: float | None = None) -> Window:
+def integration_window(scene: Scene, duration: float, t_start: float | None = None,
+                       inside: bool = True) -> Window:
     """
     The window of one integration: from ``t_start`` [s] if given, else centred on the scene's
     ``event_time``, else from the scene's first frame (t = 0, or the first frame holding data
     for a scene that keeps a file's own time origin, such as an FEA export starting at 5 µs).
     The one place a window is checked: ``duration`` a time > 0 (and not far shorter than a
-    frame: a unit slip), ``t_start`` a time ≥ 0, and the window inside the scene's frames
-    (:func:`frame_weights`).
+    frame: a unit slip), ``t_start`` a time ≥ 0, and (unless not ``inside``: a start only) the
+    window inside the scene's frames (:func:`frame_weights`).
 
     Examples
     --------
@@ -147,7 +146,8 @@ def integration_window(scene: Scene, duration: float, t_start: float | None = No
                 "would start before the first frame; give t_start"
             )
         window = Window(start, duration, "centred")
-    frame_weights(window.start, window.duration, scene.dt, scene.n_frames)  # inside the scene
+    if inside:
+        frame_weights(window.start, window.duration, scene.dt, scene.n_frames)
     return window
 
 
@@ -526,12 +526,6 @@ def _within(frame: SceneFrame, outer: Region, inner: Region) -> SceneFrame:
                       frame.region_emissivity, frame.index, cut(frame.reflected_temperature))
 
 
-#: The integration engines' names (the engines themselves, and the choice between them:
-#: :mod:`radiosim.kernels.engines`): ``"compiled"`` (numba kernels) and ``"numpy"`` (the
-#: reference implementation the kernels are tested against).
-ENGINES = tuple(_ENGINES)
-
-
 def integrate_many(scene: Scene, jobs: list[Job], progress=None,
                    engine: str | None = None, emission_only: bool = False
                    ) -> list[TensorStatistics]:
@@ -555,55 +549,59 @@ def integrate_many(scene: Scene, jobs: list[Job], progress=None,
     jobs
         The measurements (:class:`Job`).
     progress
-        Called as ``progress(done, total)`` after each frame.
+        Called as ``progress(done, total)`` after each block of frames (``done`` frames of
+        ``total``).
     engine
-        An engine's name (:data:`ENGINES`) or :class:`~radiosim.kernels.engines.Engine`;
+        An engine's name (:data:`radiosim.kernels.engines.ENGINES`) or
+        :class:`~radiosim.kernels.engines.Engine`;
         ``None``: the chosen one (:func:`radiosim.kernels.engines.get_engine`: ``set_engine``,
         ``RADIOSIM_ENGINE``, else compiled).
     emission_only
         The signal need hold each sample's own emission only (the caller adds reflections), so
         a reflecting scene may take the engine's pass.
     """
-    accumulators = [_Accumulator(job, scene) for job in jobs]
-    if not accumulators:
+    if not jobs:
         return []
     # The engines integrate each sample's own emission from the responses' signal tables; a
     # scene that reflects, or a response without a table, is integrated job by job in numpy,
     # whose Planck signal adds (1 − ε)·L(T_refl) — unless the caller forms the reflected light
     # itself (the camera's image stage: ``emission_only``).
     reflects = not emission_only and scene.reflected_temperature is not None and any(
-        a.job.response.radiometric for a in accumulators)
-    if not reflects and all(a.job.response.has_table for a in accumulators):
+        job.response.radiometric for job in jobs)
+    if not reflects and all(job.response.has_table for job in jobs):
         engine_pass = EnginePass(scene, jobs, engine)
+        frames, region = engine_pass.frames, engine_pass.region
         done = 0
-        # Blocks of consecutive frames, one engine call each (frame_reading.frame_blocks).
-        for sample, temperature, n in frame_blocks(scene, engine_pass.frames,
-                                                   engine_pass.region):
-            raise_if_interrupted()  # a swallowed interrupt: raised again, block by block
-            engine_pass.add(temperature, sample, engine_pass.region)
-            done += n
-            if progress is not None:
-                progress(done, len(engine_pass.frames))
+        with using_engine(engine_pass.engine):  # a scene's own terms too
+            # Blocks of consecutive frames, one engine call each (frame_reading.frame_blocks).
+            for sample, temperature, n in frame_blocks(scene, frames, region):
+                raise_if_interrupted()  # a swallowed interrupt: raised again, block by block
+                engine_pass.add(temperature, sample, region)
+                done += n
+                if progress is not None:
+                    progress(done, len(frames))
         return engine_pass.statistics()
+    accumulators = [_Accumulator(job, scene) for job in jobs]
     frames = sorted(set().union(*(range(a.first, a.stop) for a in accumulators)))
     region = _union([a.job.integrator.region for a in accumulators])
-    for done, frame in enumerate(prefetched(scene, frames, region), start=1):
-        raise_if_interrupted()  # a swallowed interrupt: raised again, frame by frame
-        k = frame.index
-        signals = {}
-        for acc in accumulators:
-            if not acc.first <= k < acc.stop:
-                continue
-            inner = acc.job.integrator.region
-            mine = _within(frame, region, inner)
-            key = (id(acc.job.response), inner[0].start, inner[0].stop, inner[1].start,
-                   inner[1].stop)
-            if key not in signals:
-                signals[key] = (mine, acc.job.response.signal(mine))  # [unit] per sample
-            mine, signal = signals[key]
-            acc.add(mine, k, signal)
-        if progress is not None:
-            progress(done, len(frames))
+    with using_engine(engine):  # a scene's own terms follow the engine argument
+        for done, frame in enumerate(prefetched(scene, frames, region), start=1):
+            raise_if_interrupted()  # a swallowed interrupt: raised again, frame by frame
+            k = frame.index
+            signals = {}
+            for acc in accumulators:
+                if not acc.first <= k < acc.stop:
+                    continue
+                inner = acc.job.integrator.region
+                mine = _within(frame, region, inner)
+                key = (id(acc.job.response), inner[0].start, inner[0].stop, inner[1].start,
+                       inner[1].stop)
+                if key not in signals:
+                    signals[key] = (mine, acc.job.response.signal(mine))  # [unit] per sample
+                mine, signal = signals[key]
+                acc.add(mine, k, signal)
+            if progress is not None:
+                progress(done, len(frames))
     return [acc.statistics() for acc in accumulators]
 
 
@@ -617,7 +615,8 @@ class EnginePass:
     (about the previous frame's means, so the deviations are small) and merges them into each
     job with its time weight w_k by the parallel update of Chan, Golub & LeVeque (1979):
     δ = m_k − mean, mean += δ·w_k/n', M2 += w_k·v_k + δ²·n·w_k/n'. A pixel that does not
-    change keeps an exactly zero spread. The jobs' responses must have signal tables.
+    change keeps an exactly zero spread. Each sample's own emission only: the jobs' responses
+    must have signal tables, and what a scene reflects is the caller's (the image stage's).
 
     Attributes
     ----------
@@ -628,7 +627,12 @@ class EnginePass:
     """
 
     def __init__(self, scene: Scene, jobs: list[Job], engine=None):
-        engine = get_engine(engine)
+        #: The engine of the pass (the scene's own terms follow it: :func:`using_engine`).
+        self.engine = engine = get_engine(engine)
+        tableless = [job.response.name for job in jobs if not job.response.has_table]
+        if tableless:
+            raise RadiosimError(f"an engine pass takes responses with signal tables, got "
+                                f"{', '.join(tableless)} (integrate_many integrates those)")
         self._merged = [_Merged(_Accumulator(job, scene)) for job in jobs]
         groups: dict[int, FootprintGroup] = {}
         for m in self._merged:
@@ -705,8 +709,7 @@ def integrate(
     response
         Signal per sample (:class:`~radiosim.response.Response`).
     engine
-        ``"compiled"`` (the numba kernels) or ``"numpy"`` (their reference); ``None``: the
-        chosen one (:func:`radiosim.kernels.engines.get_engine`).
+        As for :func:`integrate_many`.
     emission_only
         As for :func:`integrate_many`.
 

@@ -8,6 +8,7 @@ The paper's figures are in :mod:`radiosim.paper.figures`.
 
 from __future__ import annotations
 
+import contextlib
 import functools
 import math
 from contextlib import contextmanager
@@ -297,7 +298,11 @@ def _rows(path: Path) -> list[dict]:
         rows = list(csv.DictReader(handle))
     for row in rows:
         for key in [k for k in row if k is not None and _numeric(k)]:
-            row[key] = float(row[key]) if row[key] not in ("", None) else math.nan
+            if row[key] in ("", None):
+                row[key] = math.nan
+            else:
+                with contextlib.suppress(ValueError):  # a hook's text column: kept as text
+                    row[key] = float(row[key])
     return rows
 
 

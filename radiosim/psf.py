@@ -653,10 +653,6 @@ def _merged_bands(psfs: tuple, shape: tuple[int, int], dx: float, wavelengths: t
     return tuple((first, tuple(members)) for first, members in groups)
 
 
-def _hashable(psfs) -> tuple:
-    return tuple(psfs)
-
-
 def blur(field: np.ndarray, surroundings: float, psfs, dx: float, wavelength: float,
          object_na: float, engine=None) -> np.ndarray:
     """
@@ -745,7 +741,7 @@ def blur_bands(fields, surroundings, psfs, dx: float, wavelengths, object_na: fl
     fft = get_engine(engine).fft
     fields = [np.asarray(f, dtype=float) for f in fields]
     n_rows, n_cols = fields[0].shape
-    psfs = _hashable(psfs)
+    psfs = tuple(psfs)  # hashable: the transfers are cached per PSFs
     wavelengths = tuple(float(w) for w in wavelengths)
     pad = max(padding(psfs, w, object_na, energy) for w in wavelengths) / dx
     shape = fft_shape((n_rows, n_cols), pad)

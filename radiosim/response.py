@@ -100,8 +100,8 @@ class Response(ABC):
     name: str
     unit: str
     #: Whether :meth:`signal_table` describes the signal to the engines (the linear
-    #: response's is ``None``: the signal is T); responses that do not are integrated by the
-    #: numpy engine's reference arithmetic.
+    #: response's is ``None``: the signal is T); responses that do not are integrated job by
+    #: job in numpy (:func:`radiosim.integrator.integrate_many`).
     has_table: bool = False
     #: Whether the signal is a radiance, so that reflections, paths and the optics' emission add
     #: to it (the linear response's signal is the temperature itself: the paper's ideal).

@@ -15,7 +15,7 @@ __all__ = ["COMPILE_SECONDS", "announce_compile", "warmup_chip", "warmup_command
 #: About how long [s] a first run of the paper's study compiles, said once when it starts (the
 #: integrator's kernel and the chip's, from an empty cache on 2 cores: docs/performance.md,
 #: measured by benchmarks/bench_cli.py).
-COMPILE_SECONDS = 14
+COMPILE_SECONDS = 12
 
 
 def announce_compile(args, frame_dtype="float64", chip=False):

@@ -157,3 +157,25 @@ def test_the_one_pass_image_sees_each_frames_own_reflected_temperature():
     one = image_statistics(scene, camera.integrator(scene), window, camera.response_model,
                            optics.psf, optics.band, optics.object_na(camera.fpa))
     np.testing.assert_allclose(one.signal_mean, camera.image(scene, window), rtol=1e-12)
+
+
+def test_float32_blocks_are_widened_a_few_frames_at_a_time(monkeypatch):
+    # The sub-band kernel reads float64: a float32 block is widened at most WIDEN_BYTES at a
+    # time (here one frame per kernel call), and the sums are the reference's to 1e-12.
+    from radiosim.kernels import bands
+
+    camera = psf_camera()
+    subs = [r for r, _ in camera.response_model.sub_bands(4)]
+    block = RNG.uniform(250.0, 1500.0, (5, 9, 21)).astype(np.float32)
+    weights = np.full(5, 0.2)
+    tables = [s.signal_table(rs.scenes.SceneFrame(block[0], 0.7)) for s in subs]
+    calls = []
+    launch = bands.launch_bands
+    monkeypatch.setattr(bands, "launch_bands",
+                        lambda b, *a, **k: calls.append(b.shape[0]) or launch(b, *a, **k))
+    monkeypatch.setattr(bands, "WIDEN_BYTES", 8 * 9 * 21)
+    fused, reference = np.zeros((4, 9, 21)), np.zeros((4, 9, 21))
+    assert bands.accumulate_bands(block, weights, tables, fused) == 0
+    assert calls == [1] * 5
+    accumulate_bands_reference(block, weights, tables, reference)
+    assert np.max(np.abs(fused / reference - 1)) < 1e-12

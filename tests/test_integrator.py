@@ -200,7 +200,7 @@ def test_blocks_of_frames_give_the_frame_by_frame_result(monkeypatch):
     # what frame-by-frame calls give (a scene of generated frames, not stacked: STACK_BYTES 0).
     from radiosim import frame_reading, integrator
     from radiosim.camera import measure_many
-    from radiosim.integrator import FRAME_BLOCK
+    from radiosim.kernels.merging import FRAME_BLOCK
 
     monkeypatch.setattr(frame_reading, "STACK_BYTES", 0)
 

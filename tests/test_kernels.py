@@ -706,3 +706,33 @@ def test_an_engine_made_from_numpy_carries_every_pass_with_its_bits(monkeypatch)
             np.testing.assert_array_equal(getattr(results["x"], field),
                                           getattr(results["numpy"], field), field)
     assert {"accumulate_merged", "accumulate_bands", "fft.rfft", "fft.irfft", "chip"} <= set(calls)
+
+
+def test_an_engine_given_as_an_argument_reaches_the_scenes_own_terms(monkeypatch):
+    # An engine passed to the integrator (not registered, not set for the process) also makes
+    # the built-in chip's frames: an engine made from numpy runs no compiled chip kernel and
+    # gives the numpy engine's bits, and one without the chip's terms takes their numpy
+    # reference.
+    import dataclasses
+
+    from radiosim.integrator import FootprintIntegrator, Window, integrate
+    from radiosim.kernels import engines
+    from radiosim.response import LinearResponse
+    from radiosim.scenes import SegmentedChip
+    from radiosim.scenes.segmented_chip import scene as chip_scene
+
+    chip = SegmentedChip(dx=8e-6, dt=1e-6)
+    integrator = FootprintIntegrator.for_scene(chip, 16e-6, 1.0, None)
+    window = Window(chip.event_time - 1.5e-6, 3e-6)
+    expected = integrate(chip, integrator, window, LinearResponse(), engine="numpy")
+
+    def compiled(*args, **kwargs):
+        raise AssertionError("the compiled chip kernel ran")
+
+    monkeypatch.setattr(chip_scene, "evaluate_compiled", compiled)
+    numpy_engine = engines.ENGINES["numpy"]
+    for engine in (dataclasses.replace(numpy_engine, name="y"),
+                   dataclasses.replace(numpy_engine, name="z", scene_terms={})):
+        got = integrate(chip, integrator, window, LinearResponse(), engine=engine)
+        for field in ("mean", "std", "max", "signal_mean"):
+            np.testing.assert_array_equal(getattr(got, field), getattr(expected, field))

@@ -19,7 +19,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 __all__ = ["MeasurementWriter", "MEASUREMENT_WRITERS", "ResultsFormat", "RESULTS_FORMATS",
-           "measurement_writer", "write_measurement"]
+           "measurement_writer", "write_measurement", "write_exr_file", "write_results_netcdf"]
 
 
 def _function(spec: str):
@@ -30,8 +30,9 @@ def _function(spec: str):
 
 @dataclass(frozen=True)
 class MeasurementWriter:
-    """Writes one measurement to a file of its suffix: ``function(path, measurement)``
-    (``module:name``) returns the path written."""
+    """Writes one measurement to a file of its suffix: ``function(path, measurement,
+    history)`` (``module:name``; ``history``: what made it, or ``None``) returns the path
+    written."""
 
     suffix: str
     description: str
@@ -39,16 +40,23 @@ class MeasurementWriter:
 
     def write(self, path, measurement, history: str | None = None) -> Path:
         """Write ``measurement`` to ``path`` (complete or absent); returns the path."""
-        if self.suffix == ".nc":
-            return _function(self.function)(path, measurement, history)
-        return _function(self.function)(path, measurement)
+        return _function(self.function)(path, measurement, history)
 
 
 #: Measurement writers by suffix (lower case, with its dot).
 MEASUREMENT_WRITERS: dict[str, MeasurementWriter] = {
-    ".exr": MeasurementWriter(".exr", "multi-channel OpenEXR", "radiosim.io.exr:write_exr"),
+    ".exr": MeasurementWriter(".exr", "multi-channel OpenEXR",
+                              "radiosim.io.writers:write_exr_file"),
     ".nc": MeasurementWriter(".nc", "CF-1.8 NetCDF-4", "radiosim.io.netcdf:write_netcdf"),
 }
+
+
+def write_exr_file(path, measurement, history: str | None = None) -> Path:
+    """:func:`radiosim.io.exr.write_exr` (its header records the measurement; ``history`` is
+    not kept)."""
+    from radiosim.io.exr import write_exr
+
+    return write_exr(path, measurement)
 
 
 def measurement_writer(path) -> MeasurementWriter | None:

@@ -38,7 +38,11 @@ from radiosim.kernels.table import SignalTable
 from radiosim.kernels.threads import run_blocks
 
 
-__all__ = ["StackedTables", "stack", "launch_bands", "accumulate_bands", "band_kernel"]
+__all__ = ["StackedTables", "stack", "launch_bands", "accumulate_bands", "band_kernel",
+           "WIDEN_BYTES"]
+
+#: Most bytes of float32 frames :func:`accumulate_bands` widens to float64 for one kernel call.
+WIDEN_BYTES = 1 << 24
 
 
 class StackedTables(NamedTuple):
@@ -306,6 +310,8 @@ def accumulate_bands(block, weights, tables: list[SignalTable], out: np.ndarray,
     reference (:func:`~radiosim.kernels.reference.accumulate_bands_reference`: exact radiance
     below the tables, its errors otherwise). The compiled engine's ``accumulate_bands``.
 
+    Float32 frames are widened for the kernel a few at a time (at most :data:`WIDEN_BYTES`).
+
     Returns
     -------
     int
@@ -315,6 +321,14 @@ def accumulate_bands(block, weights, tables: list[SignalTable], out: np.ndarray,
     block = np.asarray(block)
     if block.ndim == 2:
         block = block[None]
+    per_call = max(1, WIDEN_BYTES // (8 * max(1, block[0].size)))
+    if block.dtype != np.float64 and block.shape[0] > per_call:
+        weights = np.asarray(weights, dtype=np.float64).reshape(-1)
+        status = STATUS_OK
+        for lo in range(0, block.shape[0], per_call):
+            status |= accumulate_bands(block[lo:lo + per_call], weights[lo:lo + per_call],
+                                       tables, out, frame_index=frame_index + lo)
+        return status
     status, flagged = launch_bands(block, weights, tables, out, frame_index=frame_index)
     if status == STATUS_OK or not flagged.size:
         return STATUS_OK

@@ -10,26 +10,29 @@ blur) and the scenes with compiled terms call the chosen engine's operations, wh
 -   ``"numpy"``: their plain numpy references (:mod:`radiosim.kernels.reference`), always
     available, the tests' oracle.
 
-:func:`get_engine` picks one: an explicit name or :class:`Engine` (an argument of the
-integrator or the image stage), else the process setting (:func:`set_engine`), else the
-environment variable ``RADIOSIM_ENGINE``, else ``"compiled"``.
-
 The operations
 --------------
 -   ``pixel_mean(frame, rows, cols, *, frame_index=0, threads=None)``, ``accumulate(frame,
     rows, cols, time_weight, reference, dev, sq, tmax, signal_acc=None, response=None, *,
     frame_index=0, threads=None)`` and ``accumulate_merged(frame, rows, cols, reference,
-    members, weight, signal_weight, response=None, *, moments=True, frame_index=0,
-    threads=None)``: the integrator's footprint × window sums, with the arguments, checks,
-    errors and return values of :mod:`radiosim.kernels.launch`;
+    members, weight, signal_weight, response=None, *, moments=True, keep_moments=False,
+    frame_index=0, threads=None)``: the integrator's footprint × window sums, with the
+    arguments, checks, errors and return values of :mod:`radiosim.kernels.launch` (an engine
+    may ignore ``threads``);
 -   ``accumulate_bands(block, weights, tables, out, *, frame_index=0)``: the image stage's
     window sums of every sub-band's signal per sample (:mod:`radiosim.kernels.bands`);
 -   ``fft``: the discrete Fourier transforms of the optics' blur, a namespace with the
-    functions of :mod:`scipy.fft` (``rfft``, ``fft``, ``ifft``, ``irfft``, ``irfft2``);
+    functions of :mod:`scipy.fft` (``rfft``, ``fft``, ``ifft``, ``irfft``; the transfer
+    functions themselves, computed once per PSF and grid, are numpy's);
 -   ``scene_terms``: the operations of scenes with terms of their own (the segmented chip's
     moving terms, ``"segmented_chip"``), registered by those scenes
     (:func:`register_scene_terms`) since they come later in the chain. A scene whose terms
     an engine lacks makes its frames with its numpy reference.
+
+:func:`get_engine` picks one: an explicit name or :class:`Engine`, else the engine of the pass
+under way (:func:`using_engine`: the integrator and the image stage read their frames inside
+it, so a scene's own terms follow an ``engine=`` argument too), else the process setting
+(:func:`set_engine`), else the environment variable ``RADIOSIM_ENGINE``, else ``"compiled"``.
 
 What an engine receives is engine-neutral: frames as numpy arrays (float32 or float64,
 possibly memory maps), footprints as :class:`~radiosim.kernels.layout.KernelAxis`, per-pixel
@@ -45,12 +48,16 @@ One new module beside this one implementing the operations, and one entry in :da
                             gpu.accumulate_bands, cupyx.scipy.fft)
 
 An engine made from another one (``dataclasses.replace(ENGINES["numpy"], name="x")``) shares
-its operations, the scenes' included. Its tests compare it with the numpy engine, as
+its operations and the scene terms registered so far; a scene registering later adds to the
+engines it names only. Its tests compare it with the numpy engine, as
 ``tests/test_kernels.py`` does for the compiled one.
 """
 
 from __future__ import annotations
 
+import contextlib
+import contextvars
+import dataclasses
 import os
 from dataclasses import dataclass, field
 from typing import Any, Callable
@@ -61,7 +68,7 @@ from radiosim.errors import RadiosimError
 from radiosim.kernels import bands, launch, reference
 
 __all__ = ["Engine", "ENGINES", "DEFAULT_ENGINE", "ENVIRONMENT_VARIABLE", "get_engine",
-           "set_engine", "register_scene_terms"]
+           "set_engine", "using_engine", "register_scene_terms"]
 
 #: The engine taken when nothing else is chosen.
 DEFAULT_ENGINE = "compiled"
@@ -104,13 +111,30 @@ ENGINES: dict[str, Engine] = {
 
 def register_scene_terms(name: str, implementations: dict[str, Callable]) -> None:
     """Register a scene's operation ``name`` with the engines of ``implementations`` (engine
-    name → function), e.g. the segmented chip's compiled and numpy moving terms. Engines made
-    from one of these (``dataclasses.replace``) share its registrations."""
+    name → function), e.g. the segmented chip's compiled and numpy moving terms: each named
+    engine is replaced by one with the term added (engines made from it earlier keep theirs,
+    and so make that scene's frames with its numpy reference)."""
     for engine, function in implementations.items():
-        ENGINES[engine].scene_terms[name] = function
+        old = ENGINES[engine]
+        ENGINES[engine] = dataclasses.replace(old, scene_terms={**old.scene_terms,
+                                                                name: function})
 
 
 _selected: str | None = None
+_current: contextvars.ContextVar = contextvars.ContextVar("radiosim_engine", default=None)
+
+
+@contextlib.contextmanager
+def using_engine(engine):
+    """Within the block, :func:`get_engine` with no name gives ``engine`` (a name or an
+    :class:`Engine`): the integrator and the image stage read a scene's frames inside it, so
+    that a scene's own terms follow their ``engine`` argument. Threads that read frames ahead
+    run in a copy of the caller's context (:func:`radiosim.frame_reading.prefetched`)."""
+    token = _current.set(get_engine(engine))
+    try:
+        yield
+    finally:
+        _current.reset(token)
 
 
 def _checked(name, source: str) -> str:
@@ -128,12 +152,16 @@ def set_engine(name: str | None) -> None:
 
 
 def get_engine(name: str | Engine | None = None) -> Engine:
-    """The engine ``name``, or, for ``None``, the chosen one (:func:`set_engine`, else the
-    environment variable ``RADIOSIM_ENGINE``, else ``"compiled"``)."""
+    """The engine ``name``, or, for ``None``, the chosen one (the pass's, :func:`using_engine`;
+    else :func:`set_engine`'s, else the environment variable ``RADIOSIM_ENGINE``'s, else
+    ``"compiled"``)."""
     if isinstance(name, Engine):
         return name
     if name is not None:
         return ENGINES[_checked(name, "engine")]
+    current = _current.get()
+    if current is not None:
+        return current
     if _selected is not None:
         return ENGINES[_selected]
     chosen = os.environ.get(ENVIRONMENT_VARIABLE)

@@ -4,8 +4,8 @@ Merging frames into jobs that share footprints, through an engine
 moments (:class:`~radiosim.kernels.Members`), takes one engine pass per frame (or block of up
 to :data:`FRAME_BLOCK` consecutive frames) and distinct response with a signal table (the
 signal T needs none: a linear job's moments come from the first pass), and merges it into
-every member active in it. The integrator's compiled path
-(:func:`radiosim.integrator.integrate_many`) builds the groups and reads their moments.
+every member active in it. The integrator's engine pass
+(:class:`radiosim.integrator.EnginePass`) builds the groups and reads their moments.
 
 The members are the integrator's per-job records (``first``, ``stop``, ``weights``, ``job``
 with its ``integrator`` and ``response``, and ``group``, ``slot``, ``has_signal`` set here);

@@ -31,8 +31,10 @@ def weighted_mean(values: np.ndarray, rows: KernelAxis, cols: KernelAxis) -> np.
     return np.add.reduceat(weighted * cols.weight[None, :], cols.starts, axis=1)
 
 
-def pixel_mean_reference(frame, rows, cols, *, frame_index: int = 0) -> np.ndarray:
-    """:func:`pixel_mean` in plain numpy (float64 throughout): the oracle."""
+def pixel_mean_reference(frame, rows, cols, *, frame_index: int = 0,
+                         threads: int | None = None) -> np.ndarray:
+    """:func:`pixel_mean` in plain numpy (float64 throughout): the oracle (``threads`` accepted
+    and unused)."""
     rows, cols = kernel_axis(rows, "row"), kernel_axis(cols, "column")
     frame2d = frame_region(frame, rows, cols)
     check_samples(frame2d, rows, cols, frame_index, None)
@@ -70,10 +72,10 @@ def accumulate_reference(frame, rows, cols, time_weight: float, reference: np.nd
                          dev: np.ndarray, sq: np.ndarray, tmax: np.ndarray,
                          signal_acc: np.ndarray | None = None,
                          response: SignalTable | None = None, *,
-                         frame_index: int = 0) -> int:
+                         frame_index: int = 0, threads: int | None = None) -> int:
     """:func:`accumulate` in plain numpy (float64, the integrator's reduceat arithmetic): the
-    oracle, and the path for frames with samples below the radiance table. Same arguments,
-    checks, errors and return value."""
+    oracle, and the path for frames with samples below the radiance table. Same arguments
+    (``threads`` accepted and unused), checks, errors and return value."""
     rows, cols, frame2d = checked_arguments(frame, rows, cols, reference, dev, sq, tmax, signal_acc,
                                    response)
     if response is not None:
@@ -86,8 +88,8 @@ def accumulate_reference(frame, rows, cols, time_weight: float, reference: np.nd
 
 class Members:
     """
-    The accumulators of the jobs that share a footprint group in the integrator's compiled
-    engine (:func:`accumulate_merged`): per job b, the merged mean [K], M2 [K²] (sum of the
+    The accumulators of the jobs that share a footprint group in the engines'
+    pass (:func:`accumulate_merged`): per job b, the merged mean [K], M2 [K²] (sum of the
     weights × squared deviations), maximum [K] and time-weighted signal of each pixel, stacked
     as (jobs, pixel rows, pixel columns), and the total weight n_b merged so far.
     """

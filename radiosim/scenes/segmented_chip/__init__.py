@@ -22,8 +22,8 @@ two static fields of its travelling modulation, the tool, the workpiece) is comp
 grid; a frame evaluates only the moving terms, on the samples they can reach. It does so with a
 compiled kernel (numba, :func:`~.kernel.moving_terms_kernel`: one row-parallel pass writing the
 frame, compiled on first use and cached on disk); the numpy implementation it replaces is kept
-as its reference (:func:`~.reference.evaluate_reference`, the numpy engine's: ``radiosim.kernels.set_engine
-("numpy")``), and the two agree to rounding; both are registered with the engines
+as its reference (:func:`~.reference.evaluate_reference`, the numpy engine's:
+``set_engine("numpy")``), and the two agree to rounding; both are registered with the engines
 (:mod:`radiosim.kernels.engines`) by :mod:`.scene`.
 
 Modules, one concept each:
