@@ -132,3 +132,32 @@ def test_a_written_exr_recording_with_a_file_removed_is_refused(tmp_path):
     with pytest.raises(RadiosimError) as info:
         read_exr_sequence(tmp_path / "rec")
     one_line_naming(info, "frame_0003.exr", "frame number 2 is missing", "frame_0001.exr")
+
+
+def test_an_exr_write_the_library_left_incomplete_fails_and_keeps_the_earlier_file(
+        tmp_path, monkeypatch):
+    # A write the EXR library reports as done but left short (a full disk it did not report)
+    # is caught by reading the file back before the rename: one line naming the file, and
+    # the earlier file at that path byte for byte as it was.
+    import OpenEXR
+
+    from radiosim.io import write_exr
+    from radiosim.scenes import FrameStack
+
+    scene = FrameStack(np.full((2, 12, 12), 700.0), dt=1e-6, dx=1e-6)
+    m = Camera.linear_ideal(2e-6).measure(scene, 2e-6, rng=0)
+    path = write_exr(tmp_path / "m.exr", m)
+    earlier = path.read_bytes()
+    original = OpenEXR.File.write
+
+    def short_write(self, filename):
+        original(self, filename)
+        with open(filename, "r+b") as handle:
+            handle.truncate(len(earlier) // 2)
+
+    monkeypatch.setattr(OpenEXR.File, "write", short_write)
+    with pytest.raises(RadiosimIOError) as info:
+        write_exr(path, m)
+    single_line(str(info.value), path)
+    assert path.read_bytes() == earlier
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["m.exr"]

@@ -144,16 +144,36 @@ def write_channels(path, channels: dict, header: dict) -> Path:
     """
     Write float32 ``channels`` (name → 2-D array) and ``header`` attributes (typed with
     :func:`_typed` by the caller) to one EXR file, atomically (a temporary name, renamed; an
-    error or interrupt leaves nothing behind).
+    error or interrupt leaves nothing behind). The written file is read back and compared with
+    the channels before the rename: a write the EXR library did not complete (a full disk it
+    did not report) fails, and an earlier file at ``path`` stays as it was.
     """
     import OpenEXR
 
     path = Path(path)
     header = {"compression": OpenEXR.ZIP_COMPRESSION, "type": OpenEXR.scanlineimage, **header}
     channels = {k: np.ascontiguousarray(v, dtype=np.float32) for k, v in channels.items()}
-    with atomic_path(path) as temporary, OpenEXR.File(header, channels) as exr:
-        exr.write(str(temporary))
+    with atomic_path(path) as temporary:
+        with OpenEXR.File(header, dict(channels)) as exr:  # (it converts the dict it gets)
+            exr.write(str(temporary))
+        _check_written(temporary, channels)
     return path
+
+
+def _check_written(temporary: Path, channels: dict) -> None:
+    """Raise ``OSError`` unless the EXR file ``temporary`` reads back with exactly
+    ``channels`` (their names, shapes and bits)."""
+    import OpenEXR
+
+    try:
+        with OpenEXR.File(str(temporary), separate_channels=True) as back:
+            stored = {name: channel.pixels for name, channel in back.channels().items()}
+    except Exception as exc:  # noqa: BLE001 - whatever the library says: the file is bad
+        raise OSError(f"the file written does not read back ({exc})") from exc
+    if set(stored) != set(channels) or any(
+            stored[k].shape != v.shape or not np.array_equal(stored[k], v, equal_nan=True)
+            for k, v in channels.items()):
+        raise OSError("the file written does not read back as written (a full disk?)")
 
 
 #: Channels of an uncertainty evaluation's EXR file, with their units.
