@@ -7,6 +7,7 @@ calibrate`` does, through :func:`radiosim.calibration.fit_calibration`).
 
 from __future__ import annotations
 
+import collections
 from dataclasses import dataclass
 
 import numpy as np
@@ -126,9 +127,10 @@ def read_calibration_table(path) -> CalibrationTable:
     except csv.Error as exc:
         raise RadiosimError(f"{path}: not a valid CSV: {exc}") from None
     header = [h.strip() for h in parsed[0]]
-    duplicate = sorted({h for h in header if header.count(h) > 1})
+    times = collections.Counter(header)  # one pass: a long header line is no hang
+    duplicate = sorted(h for h, n in times.items() if n > 1)
     if duplicate:
-        raise RadiosimError(f"{path}: column {duplicate[0]} appears {header.count(duplicate[0])} "
+        raise RadiosimError(f"{path}: column {duplicate[0]} appears {times[duplicate[0]]} "
                             "times in the header; give each column once")
     if "counts" not in header and not any(h.startswith("temperature") for h in header):
         found = ", ".join(header)  # not a calibration table at all (a TOML file, say)

@@ -85,3 +85,21 @@ def test_calibrate_from_table_names_the_file_and_the_points(nist, tmp_path):
     with pytest.warns(RadiosimWarning, match="3000 K"):
         fitted, residuals, table = calibrate_from_table(true, path, 1e-5, exclude_unusable=True)
     assert fitted.electronics.gain == pytest.approx(true.electronics.gain, rel=1e-6)
+
+
+def test_a_header_of_many_columns_is_read_in_one_pass(tmp_path):
+    # 400 000 distinct column names on one line (4 MB): the duplicate-column check counts them
+    # in one pass (it compared every name with every other before: 1.6e11 comparisons, a hang),
+    # and the table is refused for what it lacks, naming the file. Run in a process of its own
+    # with a time limit far above a linear scan's, so a quadratic one fails instead of hanging.
+    import subprocess
+    import sys
+
+    path = tmp_path / "wide.csv"
+    path.write_text(",".join(f"c{k}" for k in range(400_000)) + "\n1\n")
+    code = ("import sys; from radiosim.calibration_table import read_calibration_table\n"
+            "try:\n    read_calibration_table(sys.argv[1])\n"
+            "except Exception as exc:\n    print(type(exc).__name__, exc)\n")
+    done = subprocess.run([sys.executable, "-c", code, str(path)], capture_output=True,
+                          text=True, timeout=120)
+    assert done.stdout.startswith("RadiosimError") and "wide.csv" in done.stdout, done.stdout
