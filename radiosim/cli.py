@@ -177,7 +177,7 @@ def _explain_under_range(args, camera: Camera, peak_scene_C: float):
 
 def _add_dask_options(parser, what: str):
     """The ``--scheduler`` and ``--workers`` options of a command that can run on Dask."""
-    parser.add_argument("--scheduler", default=os.environ.get("RADIOSIM_SCHEDULER"),
+    parser.add_argument("--scheduler", default=os.environ.get("RADIOSIM_SCHEDULER") or None,
                         help=f"run {what} as Dask tasks: synchronous, threads or "
                         "tcp://HOST:PORT (default $RADIOSIM_SCHEDULER; none: in this process)")
     parser.add_argument("--workers", type=_count(1, what="a number of workers"), default=None,

@@ -248,8 +248,8 @@ def connect(scheduler=None, workers: int | None = None, timeout: float | None = 
     if workers is not None and (isinstance(workers, bool) or int(workers) != workers
                                 or workers < 1):
         raise RadiosimError(f"workers must be a whole number ≥ 1, got {workers!r}")
-    scheduler = scheduler if scheduler is not None or workers else os.environ.get(
-        "RADIOSIM_SCHEDULER")
+    scheduler = scheduler if scheduler is not None or workers else (
+        os.environ.get("RADIOSIM_SCHEDULER") or None)  # set but empty: unset
     client, cluster = None, None
     if workers:
         from distributed import Client, LocalCluster
@@ -273,7 +273,7 @@ def connect(scheduler=None, workers: int | None = None, timeout: float | None = 
                 n_workers=int(workers), threads_per_worker=1, processes=True,
                 dashboard_address=":0",  # any free port
                 silence_logs=logging.ERROR,
-                env={"NUMBA_NUM_THREADS": threads, "OMP_WAIT_POLICY": "PASSIVE"})
+                env={"NUMBA_NUM_THREADS": threads})
         finally:
             if blocked:
                 signal.pthread_sigmask(signal.SIG_SETMASK, mask)

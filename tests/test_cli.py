@@ -471,6 +471,24 @@ def test_malformed_scheduler_from_the_environment(here, capsys, monkeypatch):
             "$RADIOSIM_SCHEDULER")
 
 
+def test_an_empty_scheduler_variable_is_unset(here, capsys, monkeypatch):
+    # RADIOSIM_SCHEDULER= (the usual way to unset it in a shell) runs in this process, as
+    # without the variable, for the command and for the library's scheduler.
+    from radiosim.scheduling import connect
+
+    monkeypatch.setenv("RADIOSIM_SCHEDULER", "")
+    np.save(here / "frames.npy", np.full((6, 24, 24), 650.0))
+    (here / "study.toml").write_text(frames_study([2], 3.0))
+    assert main(["run", "study.toml", "--out", "out", "--no-figures", "-q"]) == 0, \
+        capsys.readouterr().err
+    assert (here / "out" / "results.csv").exists()
+    run, close = connect()  # in this process, in order: no address to reach
+    try:
+        assert run(abs, [(-1,), (-2,)]) == [1, 2]
+    finally:
+        close()
+
+
 @pytest.mark.parametrize("t", ["1s", "2ms"])
 def test_sse_integration_past_the_frame_period(here, capsys, t):
     # nist-ir runs at 600 Hz: a frame period of 1666.67 µs, the rule measure enforces.
