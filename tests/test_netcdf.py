@@ -307,3 +307,58 @@ def test_write_netcdf_refuses_swapped_or_wrong_arguments_in_one_line(tmp_path, m
     with pytest.raises(RadiosimError, match=r"Measurement or an xarray.Dataset .* got a dict"):
         write_netcdf(tmp_path / "m.nc", {"a": 1})
     assert list(tmp_path.iterdir()) == []
+
+
+# -- a file read as it states itself: CF units, dimensions by name, checked attributes ---------
+
+_KELVIN_FIELDS = ("apparent_temperature", "tensor_max", "tensor_mean")
+
+
+@pytest.mark.parametrize("unit, offset", [("degC", 273.15), ("degree_Celsius", 273.15),
+                                          ("Celsius", 273.15), ("Kelvin", 0.0), ("K", 0.0)])
+def test_temperatures_in_any_cf_unit_are_read_as_kelvin(tmp_path, measurement, unit, offset):
+    # A file whose temperatures another tool converted (to degC, say) reads back in kelvin:
+    # 800 K stored as 526.85 degC is 800 K again, not 526.85 K. The standard deviation is a
+    # difference: the same number in kelvin and in degrees Celsius.
+    converted = measurement.to_xarray().copy(deep=True)
+    for name in (*_KELVIN_FIELDS, "tensor_std"):
+        shift = offset if name != "tensor_std" else 0.0
+        converted[name] = converted[name] - shift
+        converted[name].attrs = {"units": unit}
+    back = read_netcdf(write_netcdf(tmp_path / "c.nc", converted))
+    for name in (*_KELVIN_FIELDS, "tensor_std"):
+        np.testing.assert_allclose(getattr(back, name), getattr(measurement, name),
+                                   rtol=0, atol=1e-9, err_msg=name)
+
+
+def test_dimensions_are_read_by_name(tmp_path, measurement):
+    # Stored (x, y) by another tool: read back (y, x), not transposed.
+    swapped = measurement.to_xarray().transpose("x", "y")
+    back = read_netcdf(write_netcdf(tmp_path / "t.nc", swapped))
+    assert back.counts.shape == measurement.counts.shape
+    np.testing.assert_array_equal(back.counts, measurement.counts)
+    np.testing.assert_array_equal(back.saturated, measurement.saturated)
+
+
+@pytest.mark.parametrize("change, said", [
+    (lambda ds: ds["tensor_max"].attrs.update(units="m"),
+     "variable tensor_max has units 'm'; expected K"),
+    (lambda ds: ds["tensor_max"].attrs.update(units="kelvins please"),
+     "variable tensor_max has units 'kelvins please', which is no CF unit; expected K"),
+    (lambda ds: ds.attrs.update(integration_time_s=-1e-5),
+     "attribute integration_time_s is -1e-05; expected a finite number > 0"),
+    (lambda ds: ds.attrs.pop("integration_time_s"), "attribute integration_time_s is missing"),
+    (lambda ds: ds.attrs.update(n_frames=2.5),
+     "attribute n_frames is 2.5; expected a whole number ≥ 1"),
+    (lambda ds: ds.attrs.update(camera="[fpa\npixel_pitch_um = "),
+     "attribute camera is not the camera's TOML"),
+])
+def test_a_file_contradicting_itself_or_cf_is_refused_naming_what(tmp_path, measurement,
+                                                                   change, said):
+    broken = measurement.to_xarray().copy(deep=True)
+    change(broken)
+    path = write_netcdf(tmp_path / "b.nc", broken)
+    with pytest.raises(RadiosimError) as info:
+        read_netcdf(path)
+    text = str(info.value)
+    assert "\n" not in text and text.startswith(f"{path}: ") and said in text, text

@@ -44,7 +44,7 @@ import numpy as np
 
 from radiosim.errors import RadiosimError
 from radiosim.files import atomic_path
-from radiosim.measurement import FLAGS, Measurement, global_attributes
+from radiosim.measurement import FIELDS, FLAGS, Measurement, global_attributes
 from radiosim.units import round_significant, shift
 
 __all__ = ["to_xarray", "from_xarray", "write_netcdf", "read_netcdf", "results_to_xarray",
@@ -73,7 +73,12 @@ def _results_layout(dataset) -> str | None:
 
 def from_xarray(dataset) -> Measurement:
     """The :class:`~radiosim.measurement.Measurement` of a dataset made by
-    :func:`to_xarray` (values, flags, units, camera and scene)."""
+    :func:`to_xarray` (values, flags, units, camera and scene), checked against itself and CF
+    (:func:`_array`, :func:`_attribute`): a variable's dimensions by name, its ``units``
+    converted where they are a CF unit of the field's quantity (``degC``, ``degree_Celsius``,
+    ``Kelvin``…, by cf-units: UDUNITS-2 as CF prescribes), the window's attributes typed and
+    in range; anything else refused in one line naming the variable or attribute and the
+    value."""
     from radiosim.camera import Camera
 
     layout = _results_layout(dataset)
@@ -84,19 +89,95 @@ def from_xarray(dataset) -> Measurement:
                and n not in dataset.attrs]
     if missing:
         raise RadiosimError(f"not a radiosim measurement: missing {', '.join(missing)}")
+    signal_unit = _attribute(dataset, "signal_unit", str)
+    try:
+        camera = Camera.from_dict(tomllib.loads(_attribute(dataset, "camera", str)))
+    except tomllib.TOMLDecodeError as exc:
+        raise RadiosimError(f"attribute camera is not the camera's TOML ({exc})") from None
+    arrays = {name: _array(dataset, name, signal_unit) for name in _ARRAYS}
     attrs = dataset.attrs
-    camera = Camera.from_dict(tomllib.loads(attrs["camera"]))
-    arrays = {}
-    for name in _ARRAYS:
-        values = np.asarray(dataset[name].values)
-        arrays[name] = values.astype(bool) if name in FLAGS else values.astype(np.float64)
     scene = {k[len("scene_"):]: (v.item() if isinstance(v, np.generic) else v)
              for k, v in attrs.items() if k.startswith(("scene_", "scene:"))}  # new, old
     extra = _channels_from(dataset, camera, scene) if "channel" in dataset.dims else {}
-    return Measurement(**arrays, signal_unit=str(attrs["signal_unit"]), camera=camera,
-                       integration_time=float(attrs["integration_time_s"]),
-                       t_start=float(attrs["t_start_s"]), n_frames=int(attrs["n_frames"]),
-                       scene=scene, alignment=str(attrs["alignment"]), **extra)
+    return Measurement(**arrays, signal_unit=signal_unit, camera=camera,
+                       integration_time=_attribute(dataset, "integration_time_s", "positive"),
+                       t_start=_attribute(dataset, "t_start_s", "finite"),
+                       n_frames=_attribute(dataset, "n_frames", "count"),
+                       scene=scene, alignment=_attribute(dataset, "alignment", str), **extra)
+
+
+#: The fields that are temperature differences: their units convert by scale alone.
+_DIFFERENCES = ("tensor_std",)
+
+
+def _array(dataset, name: str, signal_unit: str, variable_name: str | None = None,
+           dims=("y", "x")) -> np.ndarray:
+    """Variable ``variable_name`` (default ``name``) of ``dataset`` as the measurement's field
+    ``name``: its dimensions ``dims`` by name (transposed if stored in another order), flags
+    as booleans, numbers as float64 in the field's units
+    (:func:`~radiosim.measurement.field_attributes`)."""
+    from radiosim.measurement import field_attributes
+
+    name_in_file = variable_name or name
+    variable = dataset[name_in_file]
+    if sorted(variable.dims) != sorted(dims):
+        raise RadiosimError(f"variable {name_in_file} has dimensions {variable.dims}; "
+                            f"expected {dims}")
+    values = np.asarray(variable.transpose(*dims).values)
+    if name in FLAGS:
+        return values.astype(bool)
+    values = values.astype(np.float64)
+    expected = field_attributes(name, signal_unit).get("units")
+    own = next((f.unit for f in FIELDS if f.name == name), None)  # radiosim's name (DN, e-)
+    stated = variable.attrs.get("units")
+    if stated is None or expected is None or str(stated) in (expected, own, signal_unit):
+        return values
+    return _converted(values, name_in_file, str(stated), expected,
+                      difference=name in _DIFFERENCES)
+
+
+def _converted(values: np.ndarray, name: str, stated: str, expected: str,
+               difference: bool = False) -> np.ndarray:
+    """``values`` of variable ``name`` in CF units ``stated``, in ``expected`` (with
+    ``difference``, a temperature difference: by scale alone)."""
+    import cf_units
+
+    try:
+        unit = cf_units.Unit(stated)
+    except ValueError:
+        raise RadiosimError(f"variable {name} has units {stated!r}, which is no CF unit; "
+                            f"expected {expected}") from None
+    if not unit.is_convertible(expected):
+        raise RadiosimError(f"variable {name} has units {stated!r}; expected {expected} (or a "
+                            f"CF unit of the same quantity)")
+    if difference:
+        return values * (unit.convert(1.0, expected) - unit.convert(0.0, expected))
+    return np.asarray(unit.convert(values, expected), dtype=np.float64)
+
+
+def _attribute(dataset, key: str, kind):
+    """Global attribute ``key``: a ``str``, or a number that is ``"positive"`` (finite, > 0),
+    ``"finite"``, or a ``"count"`` (a whole number ≥ 1); else one line naming it."""
+    if key not in dataset.attrs:
+        raise RadiosimError(f"attribute {key} is missing")
+    value = dataset.attrs[key]
+    value = value.item() if isinstance(value, np.generic) else value
+    if kind is str:
+        if not isinstance(value, str):
+            raise RadiosimError(f"attribute {key} is {value!r}; expected text")
+        return value
+    try:
+        number = float(np.asarray(value).item())
+    except (TypeError, ValueError):
+        raise RadiosimError(f"attribute {key} is {value!r}; expected a number") from None
+    if not math.isfinite(number) or (kind == "positive" and number <= 0):
+        raise RadiosimError(f"attribute {key} is {value!r}; expected a finite number"
+                            + (" > 0" if kind == "positive" else ""))
+    if kind == "count":
+        if number != int(number) or number < 1:
+            raise RadiosimError(f"attribute {key} is {value!r}; expected a whole number ≥ 1")
+        return int(number)
+    return number
 
 
 def _channels_from(dataset, camera, scene) -> dict:
@@ -108,10 +189,8 @@ def _channels_from(dataset, camera, scene) -> dict:
     cameras = channel_cameras(camera)
     channels = []
     for k in range(dataset.sizes["channel"]):
-        arrays = {}
-        for name in _ARRAYS:
-            values = np.asarray(dataset[f"channel_{name}"].values[k])
-            arrays[name] = values.astype(bool) if name in FLAGS else values.astype(np.float64)
+        arrays = {name: _array(dataset.isel(channel=k), name, str(attrs["signal_unit"]),
+                               f"channel_{name}") for name in _ARRAYS}
         channels.append(Measurement(
             **arrays, signal_unit=str(attrs["signal_unit"]), camera=cameras[k],
             integration_time=float(dataset["channel_integration_time"].values[k]),
