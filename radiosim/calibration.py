@@ -555,6 +555,15 @@ def fit_calibration(camera, temperatures, counts, integration_time: float, frame
     if not gain > 0:
         raise RadiosimError(f"the fitted gain is {gain:.3g} DN/e⁻: the counts do not rise "
                             "with temperature as this camera's radiometry predicts")
+    weighted = design / noise[:, None]
+    try:  # the gain's standard uncertainty from the counts' noise alone [DN/e⁻]
+        spread = math.sqrt(np.linalg.inv(weighted.T @ weighted)[0, 0])
+    except (np.linalg.LinAlgError, ValueError):
+        spread = math.inf
+    if not gain > 3 * spread:
+        raise RadiosimError(f"the counts do not rise with temperature beyond their noise: the "
+                            f"fitted gain is {gain:.3g} ± {spread:.2g} DN/e⁻ (a table of dark "
+                            "frames, or of the wrong camera?)")
     changes = {"electronics": dataclasses.replace(el_model, gain=gain, offset=offset)}
     if columns:
         optics_emissivity = float(solution[1]) / gain

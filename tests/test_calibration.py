@@ -14,6 +14,7 @@ T ≥ 150 K (the calibration range); tolerances below follow from that.
 """
 
 import math
+import re
 import warnings
 from dataclasses import replace
 
@@ -778,3 +779,27 @@ def test_no_warning_is_silenced_by_fit(nist):
         warnings.simplefilter("always")
         fit_calibration(true, temperatures, counts, 1e-5)
     assert any("residuals exceed" in str(w.message) for w in caught)
+
+
+@pytest.mark.parametrize("noise", [0.0, 1.5])
+def test_a_table_of_dark_frames_is_refused_not_fitted(noise):
+    # Counts that do not rise with temperature (every row a dark frame: the offset and the
+    # dark charge, with or without a little noise) give a gain indistinguishable from 0
+    # (7.6e-20 DN/e⁻ was fitted and the command exited 0); it is refused in one line naming
+    # the gain and its uncertainty. A real table of the same camera still fits.
+    camera = Camera.preset("nist-ir")
+    temperatures = np.linspace(350.0, 650.0, 8)
+    t_int = 100e-6
+    el = camera.electronics
+    dark = el.gain * el.dark_current * t_int + el.offset
+    # A micro-DN rise: a fitted gain > 0, but nothing next to the counts' noise.
+    counts = dark + noise * np.sin(np.arange(8.0)) + 1e-6 * np.arange(8.0)
+    with pytest.raises(RadiosimError, match=r"the counts do not rise with temperature") as info:
+        fit_calibration(camera, temperatures, counts, t_int)
+    if noise == 0.0:
+        assert re.search(r"beyond their noise: the fitted gain is \S+ ± \S+ DN/e⁻",
+                         str(info.value)), str(info.value)
+    assert "\n" not in str(info.value)
+    real = counts_table(camera, temperatures, t_int)  # the radiometry written out (conftest)
+    fitted, _ = fit_calibration(camera, temperatures, real, t_int)
+    assert fitted.electronics.gain == pytest.approx(el.gain, rel=1e-3)
