@@ -96,9 +96,12 @@ def read_calibration_table(path) -> CalibrationTable:
 
     from radiosim.errors import RadiosimIOError
 
+    from radiosim.files import why_not_a_file
+
     path = Path(path)
-    if not path.is_file():
-        raise RadiosimError(f"{path} does not exist (expected a CSV of temperature_K or "
+    why = why_not_a_file(path)
+    if why is not None:
+        raise RadiosimError(f"{path} {why} (expected a CSV of temperature_K or "
                             "temperature_C, and counts)")
     try:
         text = path.read_text(encoding="utf-8-sig")

@@ -17,6 +17,7 @@ such as a full disk) exits with 1; Ctrl-C or SIGTERM exits with 130, leaving no 
 from __future__ import annotations
 
 import argparse
+import contextlib
 import gc
 import logging
 import os
@@ -291,9 +292,12 @@ def _calibrate(args) -> int:
 
     camera = _camera(args.camera, command="calibrate")
     _check_frame_period(camera, args)
+    from radiosim.files import why_not_a_file
+
     path = Path(args.table)
-    if not path.is_file():
-        raise RadiosimError(f"{path} does not exist (expected a CSV of temperature_K or "
+    why = why_not_a_file(path)
+    if why is not None:
+        raise RadiosimError(f"{path} {why} (expected a CSV of temperature_K or "
                             "temperature_C, and counts)")
     _check_out_file(args, ".toml", "the fitted camera is a TOML file")
     progress = _Progress("step", args.quiet)
@@ -566,6 +570,7 @@ def _command(argv) -> int:
     args.command_line = shlex.join(["radiosim", *words])  # a results file's history
     if command:
         _outlive_the_reader()  # `radiosim run | head -1` runs to the end, quietly
+        _encode_what_it_can()  # PYTHONIOENCODING=ascii: µ and ° escaped, not a crash
     logging.basicConfig(level=logging.INFO if args.verbose else logging.WARNING,
                         format="%(levelname)s %(name)s: %(message)s")
     # The work's handlers: Ctrl-C and SIGTERM unwind (every ``finally`` removes its temporary
@@ -616,6 +621,13 @@ def _command(argv) -> int:
             raise
         if _Command.interrupted:  # e.g. an import the signal cut short ("initialization failed")
             return _end_interrupted(command, _Command.signal_name)
+        backend = os.environ.get("MPLBACKEND")
+        if backend and isinstance(exc, ValueError) and "for backend" in str(exc):
+            print(f"radiosim: error: the environment variable MPLBACKEND={backend!r} names no "
+                  "matplotlib backend, so matplotlib cannot load to draw the figures; unset it "
+                  "(radiosim draws with Agg whatever it names) or give a valid one",
+                  file=sys.stderr)
+            return EXIT_INPUT
         print(f"radiosim: internal error ({type(exc).__name__}: {exc}); run with --debug for "
               "the traceback and please report it", file=sys.stderr)
         return EXIT_FAILURE
@@ -626,6 +638,16 @@ def _command(argv) -> int:
         if _Command.interrupted:  # only the command silences logging (and then exits)
             logging.disable(logging.NOTSET)
         _Command.active = False
+
+
+def _encode_what_it_can() -> None:
+    """The command's stdout and stderr write what their encoding cannot as escapes (``\\xb5``
+    for µ under ``PYTHONIOENCODING=ascii``) instead of raising after the work is done."""
+    for stream in (sys.stdout, sys.stderr):
+        reconfigure = getattr(stream, "reconfigure", None)
+        if reconfigure is not None:
+            with contextlib.suppress(Exception):  # a stream that cannot: left as it is
+                reconfigure(errors="backslashreplace")
 
 
 def _end_interrupted(command: bool, what: str) -> int:

@@ -21,6 +21,7 @@ import json
 import os
 import shutil
 import socket
+import stat
 import sys
 import tempfile
 import threading
@@ -30,7 +31,34 @@ from radiosim.errors import RadiosimError, RadiosimIOError
 
 __all__ = ["atomic_write", "atomic_path", "write_text", "OutputFolder", "MANIFEST",
            "native_output_silenced", "check_output_folder", "check_not_an_input", "safe_name",
-           "is_staging", "RUN_MARKER", "check_name", "check_output_file", "BackgroundWrites"]
+           "is_staging", "RUN_MARKER", "check_name", "check_output_file", "BackgroundWrites",
+           "why_not_a_file"]
+
+def why_not_a_file(path) -> str | None:
+    """Why ``path`` is no file to read, in words to follow its name (``"does not exist"``, ``"is
+    a FIFO (named pipe), not a file"``, ``"is a symbolic link that loops"``, …), or ``None``
+    for a regular file (or a link to one)."""
+    try:
+        mode = os.stat(path).st_mode
+    except FileNotFoundError:
+        return ("is a broken link (its target does not exist)" if os.path.islink(path)
+                else "does not exist")
+    except OSError as exc:
+        if exc.errno == errno.ELOOP:
+            return "is a symbolic link that loops back on itself"
+        return f"cannot be read ({exc.strerror or exc})"
+    if stat.S_ISREG(mode):
+        return None
+    if stat.S_ISDIR(mode):
+        return "is a folder, not a file"
+    if stat.S_ISFIFO(mode):
+        return "is a FIFO (named pipe), not a file"
+    if stat.S_ISCHR(mode) or stat.S_ISBLK(mode):
+        return "is a device, not a file"
+    if stat.S_ISSOCK(mode):
+        return "is a socket, not a file"
+    return "is not a regular file"
+
 
 _NATIVE = threading.Lock()
 

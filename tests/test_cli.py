@@ -1774,3 +1774,42 @@ def test_cli_compressed_npz_warning_is_one_line_without_source(processes):
     assert "c.npz" in warned[0]
     assert len(lines) == 1, text  # no source line ("warnings.warn(...)") after it
     assert "warnings.warn" not in text
+
+
+def _own_process(args, cwd, **popen):
+    """The radiosim command itself, in a process of its own (``python -m radiosim.cli``)."""
+    import subprocess
+    import sys
+
+    return subprocess.run([sys.executable, "-m", "radiosim.cli", *args], cwd=cwd,
+                          capture_output="stdout" not in popen, text=True, timeout=300, **popen)
+
+
+_MEASURE = ["measure", "frames.npy", "--camera", "linear-ideal", "--pixel-pitch", "3um",
+            "--integration-time", "2us", "--dt", "1us", "--dx", "1um", "--units", "K"]
+
+
+def test_the_command_ends_well_with_a_closed_stdout_or_an_ascii_terminal(here):
+    # Closed stdout (>&-): the file is written and the exit is 0, no traceback at the end.
+    # PYTHONIOENCODING=ascii: µ and ° escaped, the file written, exit 0.
+    import os
+    import subprocess
+
+    closed = _own_process([*_MEASURE, "--out", "a.exr"], here, stdout=subprocess.DEVNULL,
+                      stderr=subprocess.PIPE, preexec_fn=lambda: os.close(1))
+    assert closed.returncode == 0 and closed.stderr == "", closed.stderr
+    assert (here / "a.exr").stat().st_size > 0
+    ascii_ = _own_process([*_MEASURE, "--out", "b.exr"], here,
+                      env={**os.environ, "PYTHONIOENCODING": "ascii"})
+    assert ascii_.returncode == 0, ascii_.stderr
+    assert "\\xb5s" in ascii_.stdout and (here / "b.exr").stat().st_size > 0
+
+
+def test_a_bad_mplbackend_is_named_in_one_line(here):
+    import os
+
+    done = _own_process(["scene", "preview", "--out", "s.png"], here,
+                    env={**os.environ, "MPLBACKEND": "nonsense"})
+    assert done.returncode == 2
+    assert done.stderr.count("\n") == 1 and "MPLBACKEND='nonsense'" in done.stderr, done.stderr
+    assert not (here / "s.png").exists()

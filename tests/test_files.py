@@ -153,3 +153,26 @@ def test_a_stale_marker_is_recognised(tmp_path):
     with pytest.raises(RadiosimError) as info:
         OutputFolder(tmp_path / "out")
     single_line(str(info.value), staging, f"pid {child.pid}", "no longer running")
+
+
+def test_why_a_path_is_no_file_names_the_real_cause(tmp_path):
+    # A FIFO, a device, a folder, a symbolic link that loops or points nowhere: each said for
+    # what it is, not "does not exist"; a regular file (or a link to one) is fine.
+    import os
+
+    from radiosim.files import why_not_a_file
+
+    (tmp_path / "f.npy").write_bytes(b"x")
+    os.mkfifo(tmp_path / "fifo.npy")
+    os.symlink(tmp_path / "loop_a", tmp_path / "loop_b")
+    os.symlink(tmp_path / "loop_b", tmp_path / "loop_a")
+    os.symlink(tmp_path / "nowhere", tmp_path / "broken")
+    os.symlink(tmp_path / "f.npy", tmp_path / "link.npy")
+    assert why_not_a_file(tmp_path / "f.npy") is None
+    assert why_not_a_file(tmp_path / "link.npy") is None
+    assert why_not_a_file(tmp_path / "missing") == "does not exist"
+    assert why_not_a_file(tmp_path) == "is a folder, not a file"
+    assert why_not_a_file(tmp_path / "fifo.npy") == "is a FIFO (named pipe), not a file"
+    assert why_not_a_file("/dev/null") == "is a device, not a file"
+    assert why_not_a_file(tmp_path / "loop_a") == "is a symbolic link that loops back on itself"
+    assert why_not_a_file(tmp_path / "broken") == "is a broken link (its target does not exist)"

@@ -44,7 +44,7 @@ from pathlib import Path
 import numpy as np
 
 from radiosim.errors import RadiosimError
-from radiosim.files import atomic_path, native_output_silenced
+from radiosim.files import atomic_path, native_output_silenced, why_not_a_file
 from radiosim.measurement import FIELDS, Measurement
 
 __all__ = ["CHANNELS", "write_exr", "read_exr", "write_exr_sequence", "read_exr_sequence",
@@ -210,9 +210,10 @@ def read_exr(path) -> Measurement:
     from radiosim.camera import Camera
 
     path = Path(path)
-    if not path.is_file():
+    why = why_not_a_file(path)
+    if why is not None:
         raise RadiosimError(f"{path} is a folder, not an EXR file" if path.is_dir()
-                            else f"{path} does not exist")
+                            else f"{path} {why}")
     try:
         with native_output_silenced(), OpenEXR.File(str(path)) as exr:
             header = dict(exr.header())

@@ -13,6 +13,7 @@ from pathlib import Path
 import numpy as np
 
 from radiosim.errors import RadiosimError, RadiosimWarning
+from radiosim.files import why_not_a_file
 from radiosim.scenes.base import Scene
 from radiosim.scenes.exr_sequence import EXR_TEMPERATURE_CHANNELS, ExrSequence, temperature_unit
 from radiosim.scenes.framestack import FrameStack
@@ -154,9 +155,10 @@ def read_frames(path, dt=None, dx=None, units=None, key=None, channel=None, emis
                                 f"{axis} axis whose unit could be stated; drop {flag} and give "
                                 f"{instead.split()[0]} with its unit (e.g. {instead})")
     if path.suffix.lower() in FrameStack.SUFFIXES:
-        if not path.is_file():
+        why = why_not_a_file(path)
+        if why is not None:
             raise RadiosimError(f"{path} is a folder, not a {path.suffix} file" if path.is_dir()
-                                else f"{path} does not exist")
+                                else f"{path} {why}")
         if units is None:
             raise RadiosimError(f"{path}: NumPy files carry no unit; give --units K or C "
                                 "(units='K' or 'C' in Python)")

@@ -43,7 +43,7 @@ from pathlib import Path
 import numpy as np
 
 from radiosim.errors import RadiosimError
-from radiosim.files import atomic_path
+from radiosim.files import atomic_path, why_not_a_file
 from radiosim.measurement import FIELDS, FLAGS, Measurement, global_attributes
 from radiosim.units import round_significant, shift
 
@@ -249,8 +249,9 @@ def _open(path):
     import xarray as xr
 
     path = Path(path)
-    if not path.is_file():
-        raise RadiosimError(f"{path} does not exist")
+    why = why_not_a_file(path)
+    if why is not None:
+        raise RadiosimError(f"{path} {why}")
     try:
         with xr.open_dataset(path, engine="h5netcdf", decode_timedelta=False) as dataset:
             return dataset.load()

@@ -25,6 +25,7 @@ from pathlib import Path
 from radiosim.checks import check_positive
 from radiosim.config import read_number
 from radiosim.errors import RadiosimError
+from radiosim.files import why_not_a_file
 from radiosim.io.fea import read_fea_mesh, read_fea_nodes
 from radiosim.io.frames import read_frames
 from radiosim.scenes import (ChipParameters, ExrSequence, FeaMesh, FeaNodes, FrameStack,
@@ -270,9 +271,10 @@ def read_scene(path, *, dt=None, dx=None, units=None, time_unit=None, length_uni
     """
     text = str(path)
     path = Path(path)
-    if not any(c in text for c in "*?[") and not path.exists():
-        raise RadiosimError(f"{path} does not exist (expected a .npy/.npz stack, a folder or "
-                            "glob of .exr frames, or an FEA nodal .csv)")
+    why = None if any(c in text for c in "*?[") or path.is_dir() else why_not_a_file(path)
+    if why is not None:
+        raise RadiosimError(f"{path} {why} (expected a .npy/.npz stack, a folder or glob of "
+                            ".exr frames, or an FEA nodal .csv)")
     entry = scene_type_of(path)
     if not entry.from_path:
         raise SceneArgumentError(
