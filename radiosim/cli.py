@@ -613,6 +613,8 @@ def _command(argv) -> int:
             raise
         if _Command.interrupted:
             return _end_interrupted(command, _Command.signal_name)
+        if _short_of_memory(exc):
+            return EXIT_FAILURE
         where = f" {exc.filename}" if exc.filename else ""
         print(f"radiosim: error:{where} {exc.strerror or exc}", file=sys.stderr)
         return EXIT_FAILURE
@@ -621,6 +623,8 @@ def _command(argv) -> int:
             raise
         if _Command.interrupted:  # e.g. an import the signal cut short ("initialization failed")
             return _end_interrupted(command, _Command.signal_name)
+        if _short_of_memory(exc):
+            return EXIT_FAILURE
         backend = os.environ.get("MPLBACKEND")
         if backend and isinstance(exc, ValueError) and "for backend" in str(exc):
             print(f"radiosim: error: the environment variable MPLBACKEND={backend!r} names no "
@@ -638,6 +642,30 @@ def _command(argv) -> int:
         if _Command.interrupted:  # only the command silences logging (and then exits)
             logging.disable(logging.NOTSET)
         _Command.active = False
+
+
+def _short_of_memory(exc: BaseException) -> bool:
+    """Say in one line, and return True, when ``exc`` is the process running out of memory or
+    address space (``MemoryError``, or a library it could not map: ``ulimit -v`` too low)."""
+    text = str(exc)
+    mapping = isinstance(exc, (ImportError, OSError)) and (
+        "failed to map segment" in text or "load shared object" in text
+        or "cannot allocate memory" in text.lower())
+    if not (isinstance(exc, MemoryError) or mapping):
+        return False
+    import resource
+
+    limit = resource.getrlimit(resource.RLIMIT_AS)[0]
+    if not isinstance(exc, MemoryError) and limit == resource.RLIM_INFINITY:
+        return False  # a library missing for another reason: said as it is
+    stated = ("no limit" if limit == resource.RLIM_INFINITY
+              else f"ulimit -v {limit // 1024}, in KiB")
+    what = "ran out of memory" if isinstance(exc, MemoryError) else \
+        f"could not load a library ({text.splitlines()[0][:120]})"
+    print(f"radiosim: error: {what}; the process's address space ({stated}) is too small: "
+          "radiosim needs about 1 GB to load numpy, scipy and numba, and its frames' worth "
+          "more (raise or lift ulimit -v)", file=sys.stderr)
+    return True
 
 
 def _encode_what_it_can() -> None:

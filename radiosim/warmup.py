@@ -56,10 +56,15 @@ def warmup_command(args) -> int:
     kernel, then every variant of the integrator's kernel."""
     import time
 
-    from radiosim.kernels import FRAME_DTYPES, compile_pending, warmup, warmup_bands
+    from radiosim.kernels import FRAME_DTYPES, compile_pending, get_engine, warmup, warmup_bands
     from radiosim.kernels.bands import band_kernel
     from radiosim.scenes.segmented_chip.kernel import band_profile, moving_terms_kernel
 
+    engine = get_engine()
+    if engine.name != "compiled":  # NUMBA_DISABLE_JIT, or the numpy engine chosen
+        print(f"nothing to compile: the {engine.name} engine runs no compiled kernel "
+              "(NUMBA_DISABLE_JIT or RADIOSIM_ENGINE chose it)")
+        return 0
     began = time.perf_counter()
     progress = Progress("step", args.quiet)
     pending = compile_pending(FRAME_DTYPES, ("uint8", "intp"),  # else all is loaded

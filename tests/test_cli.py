@@ -1813,3 +1813,29 @@ def test_a_bad_mplbackend_is_named_in_one_line(here):
     assert done.returncode == 2
     assert done.stderr.count("\n") == 1 and "MPLBACKEND='nonsense'" in done.stderr, done.stderr
     assert not (here / "s.png").exists()
+
+
+def test_the_command_runs_with_numbas_jit_disabled(here):
+    # NUMBA_DISABLE_JIT=1 (a debugging setting): the numpy engine measures (the compiled one's
+    # intrinsics have no Python form), warmup says there is nothing to compile; exit 0 both.
+    import os
+
+    env = {**os.environ, "NUMBA_DISABLE_JIT": "1"}
+    done = _own_process([*_MEASURE, "--out", "j.exr"], here, env=env)
+    assert done.returncode == 0 and done.stderr == "", done.stderr
+    assert (here / "j.exr").stat().st_size > 0
+    warm = _own_process(["warmup", "-q"], here, env=env)
+    assert warm.returncode == 0 and warm.stdout.startswith("nothing to compile"), warm
+
+
+def test_too_small_an_address_space_is_named_in_one_line(here):
+    # ulimit -v far below what numpy, scipy and numba need: one line naming the limit, exit 1,
+    # not "internal error" nor a library's own words alone.
+    import resource
+
+    def limited():
+        resource.setrlimit(resource.RLIMIT_AS, (350 * 2**20, 350 * 2**20))
+
+    done = _own_process([*_MEASURE], here, preexec_fn=limited)
+    assert done.returncode == 1, done.stderr
+    assert done.stderr.count("\n") == 1 and "ulimit -v 358400" in done.stderr, done.stderr

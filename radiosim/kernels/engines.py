@@ -6,7 +6,8 @@ chain never asks which engine it has: the integrator, the image stage (sub-band 
 blur) and the scenes with compiled terms call the chosen engine's operations, whatever it is.
 :data:`ENGINES` holds them by name:
 
--   ``"compiled"`` (the default): the numba kernels on the CPU;
+-   ``"compiled"`` (the default, unless numba's JIT is disabled, ``NUMBA_DISABLE_JIT=1``:
+    then ``"numpy"``): the numba kernels on the CPU;
 -   ``"numpy"``: their plain numpy references (:mod:`radiosim.kernels.reference`), always
     available, the tests' oracle.
 
@@ -167,4 +168,13 @@ def get_engine(name: str | Engine | None = None) -> Engine:
     chosen = os.environ.get(ENVIRONMENT_VARIABLE)
     if chosen:
         return ENGINES[_checked(chosen, f"environment variable {ENVIRONMENT_VARIABLE}")]
-    return ENGINES[DEFAULT_ENGINE]
+    return ENGINES["numpy" if _jit_disabled() else DEFAULT_ENGINE]
+
+
+def _jit_disabled() -> bool:
+    """Whether numba runs its functions as plain Python (``NUMBA_DISABLE_JIT=1``): the compiled
+    engine cannot run then (its LLVM intrinsics have no Python form), so the default is the
+    numpy engine, which gives the same results to rounding."""
+    import numba
+
+    return bool(numba.config.DISABLE_JIT)
