@@ -803,3 +803,26 @@ def test_a_table_of_dark_frames_is_refused_not_fitted(noise):
     real = counts_table(camera, temperatures, t_int)  # the radiometry written out (conftest)
     fitted, _ = fit_calibration(camera, temperatures, real, t_int)
     assert fitted.electronics.gain == pytest.approx(el.gain, rel=1e-3)
+
+
+def test_the_share_reported_at_the_lowest_measurable_temperature_is_the_documented_one():
+    # Counts are whole numbers: a pixel is reported where rint(analogue) ≥ L, i.e. where its
+    # analogue counts reach ⌈L⌉ − 0.5 DN (docs/physics.md). At the lowest measurable
+    # temperature (mean counts = L) that share is Φ((L − ⌈L⌉ + 0.5) / σ_a), σ_a the analogue
+    # noise (the temporal noise less the 1/12 DN² of rounding): not the 50 % a threshold at L
+    # would give. 40 000 pixels of nist-ir at 10 µs: within 4 binomial standard deviations.
+    from scipy.stats import norm
+
+    camera = Camera.preset("nist-ir")
+    t_int = 10e-6
+    calibration = camera.calibration(t_int)
+    low = calibration.lowest_measurable_temperature()
+    limit = calibration.detection_limit_counts
+    electrons = float(calibration.electrons(low))
+    sigma = math.sqrt(float(camera.electronics.temporal_noise_counts(electrons)) ** 2 - 1 / 12)
+    expected = norm.cdf((limit - math.ceil(limit) + 0.5) / sigma)
+    scene = UniformBlackbody(low, (400, 400), dx=camera.fpa.pixel_pitch, dt=1e-6)
+    m = camera.replace(fpa=replace(camera.fpa, shape=(200, 200))).measure(scene, t_int, rng=1)
+    share = float(np.mean(~m.under_range))
+    assert abs(share - expected) < 4 * math.sqrt(expected * (1 - expected) / m.counts.size)
+    assert abs(expected - 0.5) > 4 * math.sqrt(0.25 / m.counts.size)  # the effect is seen
