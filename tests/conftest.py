@@ -130,8 +130,8 @@ def small_disk(tmp_path):
 # Hypothesis keeps its caches outside the repository, and no example database.
 if not os.environ.get("HYPOTHESIS_STORAGE_DIRECTORY"):
     set_hypothesis_home_dir(Path(tempfile.gettempdir()) / "radiosim-tests-hypothesis")
-BOUNDED = settings(max_examples=30, deadline=None, database=None,
-                   suppress_health_check=[HealthCheck.too_slow])
+BOUNDED = settings(max_examples=30, deadline=None, database=None, derandomize=True,
+                   suppress_health_check=[HealthCheck.too_slow])  # seeded: the same examples
 
 _TEMPORARY = [tempfile.gettempdir()]  # and pytest's base folder (see in_tmp)
 
@@ -296,3 +296,15 @@ def write_file(tmp_path, text, name="table.csv", encoding="utf-8"):
     path = tmp_path / name
     path.write_text(text, encoding=encoding)
     return path
+
+
+@pytest.fixture(autouse=True)
+def _numpy_print_options_restored():
+    """Every test leaves numpy's print options as it found them (importing colour-science
+    switches them to ``legacy="1.13"``, and doctests that run after would print otherwise)."""
+    import numpy as np
+
+    options = np.get_printoptions()
+    yield
+    np.set_printoptions(**options)
+
