@@ -80,15 +80,16 @@ def _temperature(path, rows, columns, stem, line_of, stated):
     return found["K"] if "K" in found else found["C"]
 
 
-def read_calibration_table(path) -> CalibrationTable:
+def read_calibration_table(path, monotonic: bool = True) -> CalibrationTable:
     """
     Read a calibration table: a CSV with ``temperature_K`` (or ``temperature_C``) and
     ``counts`` columns, optionally ``instrument_temperature_K`` (or ``_C``); ``#`` lines are
     comments, and a ``# units: temperature=C`` line states units the columns must agree with.
     A table whose columns contradict each other is refused naming the file and the column:
     a column given twice, a temperature in both units that disagree, a units line that
-    disagrees with a column's suffix, a value that is not a number, or counts that fall as
-    the temperature rises.
+    disagrees with a column's suffix, a value that is not a number, or (with ``monotonic``)
+    counts that fall as the temperature rises at all. (:func:`calibrate_from_table` leaves
+    that to the fit, which knows the counts' noise: a dip within it is no contradiction.)
     """
     import csv
     import re
@@ -166,7 +167,7 @@ def read_calibration_table(path) -> CalibrationTable:
         k = int(np.argmax(temperature <= 0))
         raise RadiosimError(f"{path}: line {line_of[k]}: temperature {temperature[k]:g} K is not "
                             "above 0 K (°C in a temperature_K column?)")
-    if instrument is None:
+    if instrument is None and monotonic:
         order = np.argsort(temperature, kind="stable")
         ts, ys = temperature[order], counts[order]
         fall = (np.diff(ts) > 0) & (np.diff(ys) < 0)
@@ -202,7 +203,7 @@ def calibrate_from_table(camera, path, integration_time: float, frames: int = 1,
         if progress is not None:
             progress(done, 3, label)
 
-    table = read_calibration_table(path)
+    table = read_calibration_table(path, monotonic=False)  # the fit judges dips by their noise
     step(1, f"read {len(table.temperature)} points")
     camera.response_model  # the response (for Planck, its radiance table), built once
     step(2, "the camera's response")

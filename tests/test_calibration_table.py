@@ -103,3 +103,23 @@ def test_a_header_of_many_columns_is_read_in_one_pass(tmp_path):
     done = subprocess.run([sys.executable, "-c", code, str(path)], capture_output=True,
                           text=True, timeout=120)
     assert done.stdout.startswith("RadiosimError") and "wide.csv" in done.stdout, done.stdout
+
+
+def test_a_dip_within_the_counts_noise_is_fitted_and_one_beyond_it_refused(tmp_path):
+    # The command and fit_calibration agree: counts dipping 0.3 DN as the temperature rises
+    # (inside one frame's temporal noise) are no contradiction and fit; a 50 DN drop is
+    # refused naming the file, by the fit's noise-aware check.
+    camera = Camera.preset("nist-ir")  # its noise: about 1 DN per frame at 450 K
+    temperatures = np.array([450.0, 450.02, 500.0, 550.0, 600.0])
+    counts = counts_table(camera, temperatures, 100e-6)
+    counts[1] = counts[0] - 0.3  # the dip
+    rows = "".join(f"{t:g},{c:.4f}\n" for t, c in zip(temperatures, counts))
+    fitted, _, _ = calibrate_from_table(camera, write_file(tmp_path, "temperature_K,counts\n"
+                                                           + rows), 100e-6)
+    assert fitted.electronics.gain > 0
+    counts[1] = counts[0] - 50.0
+    rows = "".join(f"{t:g},{c:.4f}\n" for t, c in zip(temperatures, counts))
+    path = write_file(tmp_path, "temperature_K,counts\n" + rows, name="drop.csv")
+    with pytest.raises(RadiosimError, match="counts fall as the temperature rises") as info:
+        calibrate_from_table(camera, path, 100e-6)
+    assert str(path) in one_line_message(info)
