@@ -296,3 +296,28 @@ def test_from_xarray_refuses_a_dt_that_contradicts_the_coordinate():
     with pytest.raises(RadiosimError) as info:
         FrameStack.from_xarray(variable, dt=2e-6)
     one_line_naming(info, "'T'", "dt=2e-06", "1e-06")
+
+
+@pytest.mark.parametrize("unit, kelvin", [("degree_Celsius", 273.15), ("Celsius", 273.15),
+                                          ("degC", 273.15), ("Kelvin", 0.0), ("K", 0.0)])
+def test_from_xarray_reads_cf_temperature_units_and_a_decreasing_y(unit, kelvin):
+    # CF's spellings of kelvin and degrees Celsius are read as such, and a y coordinate that
+    # decreases with the row (an image's rows counted from the top) is evenly spaced too.
+    import xarray as xr
+
+    frames = np.full((3, 4, 5), 500.0)
+    da = xr.DataArray(frames, dims=("time", "y", "x"), attrs={"units": unit},
+                      coords={"time": np.arange(3) * 1e-6, "y": 3e-6 - np.arange(4) * 1e-6,
+                              "x": np.arange(5) * 1e-6})
+    scene = FrameStack.from_xarray(da)
+    assert scene.dx == pytest.approx(1e-6) and scene.dt == pytest.approx(1e-6)
+    np.testing.assert_allclose(scene.sample(1).temperature, 500.0 + kelvin)
+
+
+def test_from_xarray_refuses_a_unit_that_is_no_temperature_naming_it():
+    import xarray as xr
+
+    da = xr.DataArray(np.full((2, 3, 3), 500.0), dims=("time", "y", "x"),
+                      attrs={"units": "degF"}, coords={"time": [0.0, 1e-6]})
+    with pytest.raises(RadiosimError, match="units 'degF' are neither kelvin nor degrees"):
+        FrameStack.from_xarray(da, dx=1e-6)

@@ -153,8 +153,10 @@ class FrameStack(Scene):
         ``dt`` [s] and ``dx`` [m] default to the spacing of the time and x coordinates (in
         seconds and metres, or with a ``units`` attribute of s/ms/us/ns, m/mm/um; datetime64
         and timedelta64 times are converted to seconds), ``units`` (K or C) to the variable's
-        ``units`` attribute. Coordinates must be evenly spaced, the x and y spacings equal, and
-        a given ``dt``/``dx`` must agree with the coordinates.
+        ``units`` attribute, any CF unit of temperature (``K``, ``Kelvin``, ``degC``,
+        ``degree_Celsius``…, by cf-units) read as kelvin or degrees Celsius. Coordinates must
+        be evenly spaced (y increasing or decreasing: images often count rows from the top),
+        the x and y spacings equal, and a given ``dt``/``dx`` must agree with the coordinates.
         """
         if getattr(variable, "ndim", None) != 3 or not hasattr(variable, "dims"):
             raise RadiosimError(f"need an xarray variable with 3 dimensions (time, y, x), got "
@@ -162,8 +164,9 @@ class FrameStack(Scene):
         name = f"xarray variable {variable.name!r}"
         variable = _time_y_x(variable, name)
 
-        def coordinate(dim, kind):
-            """The spacing of coordinate ``dim`` [s or m], or None if it has none."""
+        def coordinate(dim, kind, either_way=False):
+            """The spacing of coordinate ``dim`` [s or m], or None if it has none
+            (``either_way``: decreasing values too)."""
             if dim not in variable.coords or variable.sizes[dim] < 2:
                 return None
             raw = np.asarray(variable[dim].values)
@@ -185,6 +188,8 @@ class FrameStack(Scene):
                 raise RadiosimError(f"{name}: the {dim!r} coordinate's unit {unit!r} is not one "
                                     f"of {', '.join(table)}")
             step = np.diff(values) * 10.0 ** table[unit][0]
+            if either_way and step[0] < 0:
+                step = -step
             uneven = np.abs(step - step[0]) > 1e-6 * abs(step[0])
             if step[0] <= 0 or uneven.any():
                 k = int(np.argmax(uneven)) if uneven.any() else 0
@@ -213,12 +218,11 @@ class FrameStack(Scene):
 
         time, y, x = variable.dims
         dx = spacing(x, dx, "length", "dx")
-        dy = coordinate(y, "length")
+        dy = coordinate(y, "length", either_way=True)
         if dy is not None and isinstance(dx, (int, float)) and abs(dy - dx) > 1e-6 * abs(dx):
             raise RadiosimError(f"{name}: its {y!r} spacing {dy:g} m differs from its {x!r} "
                                 f"spacing {dx:g} m; a scene's samples are square (dx = dy)")
-        unit = units or variable.attrs.get("units", "K")
-        unit = {"degC": "C", "°C": "C", "celsius": "C", "kelvin": "K"}.get(unit, unit)
+        unit = units or _temperature_unit(variable.attrs.get("units", "K"), name)
         return cls(_LazyFrames(variable), spacing(time, dt, "time", "dt"), dx,
                    emissivity=emissivity, event_time=event_time, units=unit,
                    description={"source": name})
@@ -286,6 +290,29 @@ def _ragged(nested) -> str:
         return None
 
     return walk(nested, []) or "its elements have different shapes"
+
+
+def _temperature_unit(stated, name: str) -> str:
+    """``"K"`` or ``"C"`` for a variable's CF ``units`` of temperature (``K``, ``Kelvin``,
+    ``degC``, ``degree_Celsius``, …: cf-units, UDUNITS-2 as CF prescribes); another unit, or
+    none CF knows, is refused naming it."""
+    text = str(stated)
+    if text in ("K", "C"):
+        return text
+    import cf_units
+
+    try:
+        unit = cf_units.Unit(text)
+        if unit.is_convertible("K"):
+            offset = float(unit.convert(0.0, "K"))
+            scale = float(unit.convert(1.0, "K")) - offset
+            if scale == 1.0 and offset in (0.0, 273.15):
+                return "K" if offset == 0.0 else "C"
+    except ValueError:
+        pass
+    raise RadiosimError(f"{name}: its units {text!r} are neither kelvin nor degrees Celsius "
+                        "(K, Kelvin, degC, degree_Celsius, …); convert it, or pass units='K' "
+                        "or 'C'")
 
 
 class _LazyFrames:
