@@ -14,6 +14,8 @@ moment, its temporary files removed.
 -   :func:`exit_interrupted` and :func:`exit_done` end the process.
 """
 
+import contextlib
+
 from radiosim.errors import Interrupted
 from radiosim.interrupts import GRACE, command_state
 
@@ -125,7 +127,11 @@ def on_unraisable(unraisable):
 
 def _end_children():
     """Kill this process's multiprocessing children (a local Dask cluster's workers), if any:
-    quietly, and before the cleanup talks to them."""
+    quietly, and before the cleanup talks to them. All are stopped first (SIGSTOP), then
+    killed: a worker killed before another would otherwise let that one log, with a
+    traceback, the connection it lost."""
+    import os
+    import signal
     import sys
 
     if "multiprocessing" not in sys.modules:
@@ -133,7 +139,11 @@ def _end_children():
     import multiprocessing
 
     try:
-        for child in multiprocessing.active_children():
+        children = multiprocessing.active_children()
+        for child in children:
+            with contextlib.suppress(OSError):
+                os.kill(child.pid, signal.SIGSTOP)
+        for child in children:
             child.kill()
     except Exception:  # noqa: BLE001 - best effort on the way out
         pass

@@ -9,7 +9,7 @@ import os
 import numpy as np
 
 from radiosim.errors import RadiosimError, RadiosimIOError
-from radiosim.units import TEMPERATURE_OFFSETS, UNITS, readable_time, to_kelvin
+from radiosim.units import TEMPERATURE_OFFSETS, UNITS, readable_time, to_kelvin, CELSIUS_OFFSET
 from radiosim.checks import check_non_negative
 from radiosim.scenes.base import Region, Scene, check_emissivity, check_grid
 
@@ -306,7 +306,7 @@ def _temperature_unit(stated, name: str) -> str:
         if unit.is_convertible("K"):
             offset = float(unit.convert(0.0, "K"))
             scale = float(unit.convert(1.0, "K")) - offset
-            if scale == 1.0 and offset in (0.0, 273.15):
+            if scale == 1.0 and offset in (0.0, CELSIUS_OFFSET):
                 return "K" if offset == 0.0 else "C"
     except ValueError:
         pass
