@@ -308,3 +308,21 @@ def _numpy_print_options_restored():
     yield
     np.set_printoptions(**options)
 
+
+#: Test files that start processes, clusters, notebooks or the docs' build: ``slow``.
+SLOW_FILES = {"test_validation_notebooks.py", "test_docs.py", "test_snippets.py",
+              "test_examples.py", "test_packaging.py", "test_startup.py", "test_interrupts.py"}
+#: Words in the names of the other tests that start processes or clusters: ``slow`` too.
+SLOW_WORDS = ("workers", "signals_during", "never_answers", "real_process", "closed_stdout",
+              "mplbackend", "jit_disabled", "address_space", "no_other_process",
+              "importing_and_launching", "many_columns")
+
+
+def pytest_collection_modifyitems(items):
+    """Mark ``slow`` what starts processes, clusters, notebooks or the docs' build, so that
+    ``pytest -m "not slow"`` runs the physics core on its own."""
+    for item in items:
+        name = item.nodeid.split("::")[-1]
+        if item.path.name in SLOW_FILES or any(word in name for word in SLOW_WORDS):
+            item.add_marker(pytest.mark.slow)
+
