@@ -469,6 +469,11 @@ def fit_calibration(camera, temperatures, counts, integration_time: float, frame
     residuals : numpy.ndarray
         Measured minus fitted counts [DN]; NaN at excluded points.
     """
+    if getattr(camera, "channels", None) is not None:
+        raise RadiosimError(f"fit_calibration fits one band; {camera.name} has "
+                            f"{len(camera.channels)} channels: fit each channel camera "
+                            "(camera.channel_cameras[k]) with its own table, or a ratio curve "
+                            "with radiosim.ratio.fit_ratio_calibration")
 
     t = np.asarray(temperatures, dtype=float)
     y = np.asarray(counts, dtype=float)

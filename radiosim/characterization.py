@@ -49,6 +49,7 @@ from radiosim.checks import check_positive, check_rng
 from radiosim.errors import RadiosimError, RadiosimWarning
 from radiosim.integrator import integrate, integration_window
 from radiosim.psf import ScatterHalo
+from radiosim.ratio import ratio_netd
 from radiosim.scenes.analytic import UniformBlackbody
 from radiosim.scenes.framestack import FrameStack
 from radiosim.units import AMBIENT_TEMPERATURE, CELSIUS_OFFSET
@@ -98,6 +99,7 @@ def photon_transfer(camera, integration_time: float, temperatures, pixels=(64, 6
     electronics alone). Frames go through the full chain (:meth:`Camera.measure`).
     ``progress``, if given, is called as ``progress(level)`` after each level's pair.
     """
+    single_band(camera, "photon_transfer")
     rng = np.random.default_rng(rng)
     temperatures = np.asarray(temperatures, dtype=float)
     pitch = camera.fpa.pixel_pitch
@@ -250,12 +252,14 @@ def size_of_source(camera, diameters, temperature: float = 1273.15,
     --------
     >>> from radiosim.camera import Camera
     >>> from radiosim.psf import ScatterHalo
+from radiosim.ratio import ratio_netd
     >>> cam = Camera.linear_ideal(6e-6)
     >>> cam = cam.replace(optics=dataclasses.replace(cam.optics, psf=ScatterHalo(0.1, 60e-6)))
     >>> curve = size_of_source(cam, [60e-6, 240e-6, 960e-6])
     >>> np.round(curve.sse, 3).tolist()
     [0.922, 0.967, 1.0]
     """
+    single_band(camera, "size_of_source (the SSE)")
     diameters = np.asarray(diameters, dtype=float)
     if diameters.ndim != 1 or diameters.size < 2 or not np.all(np.isfinite(diameters)) or \
             np.any(diameters <= 0) or np.any(np.diff(diameters) <= 0):
@@ -391,6 +395,7 @@ def flat_fields(camera, temperature: float | None, integration_time: float, fram
     The blackbody is imaged once; each frame is a new read-out of the electronics (shot
     and read noise, with the array's fixed pattern), without the NUC.
     """
+    single_band(camera, "flat_fields")
     if camera.fpa.shape is None:
         raise RadiosimError(f"{camera.name} has no array shape: a flat field needs one")
     if isinstance(frames, bool) or int(frames) != frames or frames < 1:
@@ -430,6 +435,7 @@ def fit_nuc(camera, temperatures, integration_time: float, frames: int = 16, rng
     ``frames`` read-outs each, at ``integration_time`` [s]
     (:class:`~radiosim.calibration.NonUniformityCorrection`).
     """
+    single_band(camera, "fit_nuc")
     rng = check_rng(rng)
     temperatures = [float(t) for t in temperatures]
     flats, saturated = zip(*(flat_field(camera, t, integration_time, frames, rng)
@@ -445,9 +451,13 @@ def netd(camera, temperature, integration_time: float) -> np.ndarray:
     emissivity and settings) at ``temperature`` [K] and ``integration_time`` [s]: the temporal
     noise [e⁻ rms] over the slope of the mean charge, d e⁻/dT (shot noise of signal,
     background and dark charge; read and quantisation noise). The fixed pattern is not
-    temporal noise and is not included.
+    temporal noise and is not included. A camera of two or more channels reads the ratio
+    temperature: its NETD is the ratio's (:func:`radiosim.ratio.ratio_netd`); a channel's own
+    is ``netd(camera.channel_cameras[k], …)``.
     """
-    return camera.calibration(integration_time).netd(temperature)
+    if camera.channels is not None and len(camera.channels) >= 2:
+        return ratio_netd(camera, temperature, integration_time)
+    return single_band(camera, "netd").calibration(integration_time).netd(temperature)
 
 
 def measurable_range(camera, integration_time: float) -> tuple[float, float]:
@@ -455,10 +465,28 @@ def measurable_range(camera, integration_time: float) -> tuple[float, float]:
     (lowest measurable temperature, saturation temperature) [K] of a grey body with ``camera``
     at ``integration_time`` [s]: the temperature whose mean counts reach the detection limit
     (blank + k σ, k = the camera's ``detection_sigma``), and the one that fills the well or
-    the converter (NaN or ∞ where the calibration range does not hold them).
+    the converter (NaN or ∞ where the calibration range does not hold them). A camera of two
+    or more channels reads where every channel does: the highest of its channels' lowest
+    temperatures, the lowest of their saturation temperatures (each channel's own range is
+    ``measurable_range(camera.channel_cameras[k], …)``).
     """
+    if camera.channels is not None:
+        ranges = [measurable_range(own, integration_time) for own in camera.channel_cameras]
+        return max(low for low, _ in ranges), min(high for _, high in ranges)
     calibration = camera.calibration(integration_time)
     return calibration.lowest_measurable_temperature(), calibration.saturation_temperature
+
+
+def single_band(camera, what: str):
+    """``camera`` if it has one band; a multi-channel camera is refused in one line saying
+    ``what`` needs one band and naming its channel cameras."""
+    if camera.channels is None:
+        return camera
+    bands = ", ".join(f"{k}: {lo * 1e6:g}–{hi * 1e6:g} µm"
+                      for k, (lo, hi) in enumerate(c.band for c in camera.channels))
+    raise RadiosimError(f"{what} measures one band; {camera.name} has {len(camera.channels)} "
+                        f"channels ({bands}): give one of its channel cameras, "
+                        "camera.channel_cameras[k] (or a file of one channel)")
 
 
 # -- the spatial model (EMVA 1288 §8), linearity and the NUC's residual ----------------------
@@ -519,6 +547,7 @@ def spatial_nonuniformity(camera, temperature: float, integration_time: float, g
     dark level or response beyond 6 robust standard deviations (dead and hot pixels) — are
     left out and counted.
     """
+    single_band(camera, "spatial_nonuniformity")
     rng = np.random.default_rng(rng)
     dark, dark_saturated = flat_fields(camera, None, integration_time, frames, rng)
     bright, saturated = flat_fields(camera, temperature, integration_time, frames, rng)
@@ -576,6 +605,7 @@ def residual_nonuniformity(camera, temperatures, integration_time: float, frames
     the NUC's own flat fields) at the NUC's points, rising away from them where the pixels'
     responses differ in shape (non-linearity spread).
     """
+    single_band(camera, "residual_nonuniformity")
     if camera.nuc is None:
         raise RadiosimError(f"{camera.name} has no NUC: fit one first "
                             "(radiosim.characterization.fit_nuc)")
@@ -671,6 +701,7 @@ def datasheet(camera, integration_time: float, ptc_temperatures, netd_temperatur
     ``progress``, if given, is called as ``progress(done, total, label)`` after each step
     (each photon-transfer level, the flat fields, the NETD curve, each range time).
     """
+    single_band(camera, "the datasheet")
     rng = np.random.default_rng(rng)
     total = len(ptc_temperatures) + 2 + len(range_times)
     done = 0
@@ -748,6 +779,7 @@ def datasheet_plan(camera, integration_time: float) -> DatasheetPlan:
     temperature [K], both within the camera's calibration range. Refuses a camera without an
     array shape, or one with no measurable range at that time.
     """
+    single_band(camera, "the datasheet")
     if camera.fpa.shape is None:
         raise RadiosimError(f"{camera.name} has no array shape ([fpa] shape): a datasheet "
                             "measures its whole array")

@@ -229,3 +229,49 @@ def test_a_two_colour_exr_holds_each_channel_and_the_ratio(tmp_path):
     assert list(header["radiosim:band_m:ch1"]) == list(SHORT)
     assert np.array_equal(read_exr(path).apparent_temperature,
                           m.apparent_temperature.astype(np.float32).astype(np.float64))
+
+
+# -- a multi-channel camera through the laboratory procedures ---------------------------------
+
+
+def test_netd_and_measurable_range_of_a_two_colour_camera_are_its_ratio_readings():
+    # The camera reads the ratio temperature: its NETD is the ratio's (not the full band's
+    # 0.2 K), and it reads where both channels do (the highest of their lowest measurable
+    # temperatures, the lowest of their saturation temperatures), each channel's range from
+    # its own calibration.
+    from radiosim.characterization import measurable_range, netd
+
+    camera = Camera.preset("two-colour")
+    t_int = 10e-6
+    np.testing.assert_array_equal(netd(camera, 1000.0, t_int), ratio_netd(camera, 1000.0, t_int))
+    full_band = netd(camera.replace(channels=None), 1000.0, t_int)
+    assert float(netd(camera, 1000.0, t_int)) > 5 * float(full_band)
+    lows, highs = [], []
+    for own in camera.channel_cameras:
+        calibration = own.calibration(t_int)
+        lows.append(calibration.lowest_measurable_temperature())
+        highs.append(calibration.saturation_temperature)
+    assert measurable_range(camera, t_int) == (max(lows), min(highs))
+    assert measurable_range(camera, t_int) != measurable_range(camera.replace(channels=None),
+                                                                t_int)
+
+
+@pytest.mark.parametrize("procedure", ["fit_calibration", "size_of_source", "flat_fields",
+                                       "datasheet_plan"])
+def test_one_band_procedures_refuse_a_two_colour_camera_naming_its_channels(procedure):
+    # A procedure that measures one band is refused for a camera of several, in one line
+    # naming the channels and what to give instead (it fitted the whole band before).
+    from radiosim import characterization
+
+    camera = Camera.preset("two-colour")
+    calls = {
+        "fit_calibration": lambda: characterization.fit_calibration(
+            camera, [400.0, 500.0, 600.0], [1100.0, 1500.0, 2500.0], 10e-6),
+        "size_of_source": lambda: characterization.size_of_source(camera, [12e-6, 60e-6]),
+        "flat_fields": lambda: characterization.flat_fields(camera, 500.0, 10e-6),
+        "datasheet_plan": lambda: characterization.datasheet_plan(camera, 10e-6),
+    }
+    with pytest.raises(RadiosimError, match=r"channel") as info:
+        calls[procedure]()
+    text = str(info.value)
+    assert "\n" not in text and "channel_cameras[k]" in text, text
