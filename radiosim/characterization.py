@@ -252,7 +252,6 @@ def size_of_source(camera, diameters, temperature: float = 1273.15,
     --------
     >>> from radiosim.camera import Camera
     >>> from radiosim.psf import ScatterHalo
-from radiosim.ratio import ratio_netd
     >>> cam = Camera.linear_ideal(6e-6)
     >>> cam = cam.replace(optics=dataclasses.replace(cam.optics, psf=ScatterHalo(0.1, 60e-6)))
     >>> curve = size_of_source(cam, [60e-6, 240e-6, 960e-6])
