@@ -196,17 +196,27 @@ def sample_signals(scene: Scene, window: Window, responses: list[Response],
         (len(responses), rows, columns) [each response's unit].
     """
     signals = SubBandSignals(scene, window, responses, engine)
-    frames = range(signals.first, signals.stop)
+    _one_pass(scene, range(signals.first, signals.stop), signals, [], progress)
+    return signals.signals()
+
+
+def _one_pass(scene: Scene, frames, signals: SubBandSignals, passes: list, progress) -> None:
+    """Each block of ``frames`` over the whole scene (large frames stacked too: the sub-band
+    sums are read and written once per block) to the sub-band sums ``signals`` and to each
+    :class:`~radiosim.integrator.EnginePass` of ``passes``, in the engine of ``signals``
+    (a scene's own terms follow it); ``progress(done, total)`` after each block."""
+    frames = list(frames)
     done = 0
-    with using_engine(signals.engine):  # a scene's own terms follow the engine argument
-        for first, temperature, n in frame_blocks(scene, frames, signals.region, IMAGE_BLOCK,
-                                                  reflections=True):
+    with using_engine(signals.engine):
+        for sample, temperature, n in frame_blocks(scene, frames, signals.region, IMAGE_BLOCK,
+                                                   reflections=True):
             raise_if_interrupted()  # one the work swallowed: raised again, block by block
-            signals.add(temperature, first, first.index)
+            for engine_pass in passes:
+                engine_pass.add(temperature, sample, signals.region)
+            signals.add(temperature, sample, sample.index)
             done += n
             if progress is not None:
-                progress(done, signals.weights.size)
-    return signals.signals()
+                progress(done, len(frames))
 
 
 def form_image(scene: Scene, integrator: FootprintIntegrator, bands, maps: np.ndarray,
@@ -296,18 +306,7 @@ def image_statistics(scene: Scene, integrator: FootprintIntegrator, window: Wind
     # (the linear response's is T itself, formed with the moments).
     truth = EnginePass(scene, [Job(integrator, window, _TRUTH)], engine)
     frames = sorted(set(truth.frames) | set(range(signals.first, signals.stop)))
-    done = 0
-    # Each block of frames (large ones stacked too: the sub-band sums are read and written
-    # once per block) to the scene truth's moments and to the sub-band sums.
-    with using_engine(truth.engine):  # a scene's own terms follow the engine argument
-        for sample, temperature, n in frame_blocks(scene, frames, signals.region, IMAGE_BLOCK,
-                                                   reflections=True):
-            raise_if_interrupted()  # one the work swallowed: raised again, block by block
-            truth.add(temperature, sample, signals.region)
-            signals.add(temperature, sample, sample.index)
-            done += n
-            if progress is not None:
-                progress(done, len(frames))
+    _one_pass(scene, frames, signals, [truth], progress)
     image = form_image(scene, integrator, bands, signals.signals(), psfs, band, object_na,
                        engine)
     return dataclasses.replace(truth.statistics()[0], signal_mean=image)
