@@ -25,6 +25,7 @@ import stat
 import sys
 import tempfile
 import threading
+import time
 from pathlib import Path
 
 from radiosim.errors import RadiosimError, RadiosimIOError
@@ -270,6 +271,9 @@ def write_text(path, text: str) -> Path:
 #: The marker a running run leaves in its staging folder: its process id and host.
 RUN_MARKER = ".radiosim-run"
 
+#: Seconds a run waits for the marker of an empty staging folder another run has just made.
+MARKER_WAIT = 2.0
+
 _STAGING: set[Path] = set()  # staging folders of the OutputFolders open in this process
 
 
@@ -292,6 +296,16 @@ def _process_alive(pid: int) -> bool:
     except (OSError, OverflowError, ValueError):
         return False
     return True
+
+
+def _just_made(staging: Path) -> bool:
+    """Whether ``staging`` is a folder holding nothing but, perhaps, its marker being written
+    (a run's staging folder between its creation and its marker)."""
+    try:
+        return staging.is_dir() and all(p.name.startswith((RUN_MARKER, "." + RUN_MARKER))
+                                        for p in staging.iterdir())
+    except OSError:
+        return False
 
 
 def _read_marker(staging: Path) -> tuple[int | None, str]:
@@ -555,6 +569,13 @@ class OutputFolder:
         if not (self.staging.exists() or self.staging.is_symlink()):
             return
         pid, host = _read_marker(self.staging)
+        waited = 0.0
+        while pid is None and waited < MARKER_WAIT and _just_made(self.staging):
+            # An empty staging folder without its marker: another run may have just made it
+            # (between its mkdir and its marker's write); give its marker a moment.
+            time.sleep(0.05)
+            waited += 0.05
+            pid, host = _read_marker(self.staging)
         if pid is not None and host in ("", socket.gethostname()) and _process_alive(pid):
             raise RadiosimError(f"another run (pid {pid}) is writing {self.path} (its partial "
                                 f"results are in {self.staging}); wait for it to finish or "

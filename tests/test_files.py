@@ -176,3 +176,23 @@ def test_why_a_path_is_no_file_names_the_real_cause(tmp_path):
     assert why_not_a_file("/dev/null") == "is a device, not a file"
     assert why_not_a_file(tmp_path / "loop_a") == "is a symbolic link that loops back on itself"
     assert why_not_a_file(tmp_path / "broken") == "is a broken link (its target does not exist)"
+
+
+def test_a_run_starting_meanwhile_is_named_not_taken_for_an_old_partial_result(tmp_path):
+    # Another run has just made its staging folder and not yet written its marker: this one
+    # waits a moment for the marker and says a run is writing there (it said "an earlier
+    # run's partial result" before, while the other run was still starting).
+    import threading
+
+    out = tmp_path / "results"
+    staging = tmp_path / "results.partial"
+    staging.mkdir()
+    writer = threading.Timer(0.3, lambda: (staging / RUN_MARKER).write_text(
+        f"{os.getpid()} {socket.gethostname()}\n"))
+    writer.start()
+    try:
+        with pytest.raises(RadiosimError, match=r"another run \(pid \d+\) is writing"):
+            OutputFolder(out)
+    finally:
+        writer.join()
+    assert staging.exists() and not out.exists()
