@@ -116,6 +116,26 @@ def test_an_xdmf_time_series(tmp_path, monkeypatch):
     assert np.all(np.isfinite(m.apparent_temperature)) and m.tensor_max.max() > 600
 
 
+def test_times_contradicting_an_xdmf_series_own_are_refused(tmp_path, monkeypatch):
+    # The series states its times (0, 2, 4 µs): the same given again are fine, others (a
+    # wrong step, or too few) are refused in one line naming both (they were ignored).
+    monkeypatch.chdir(tmp_path)
+    points = mesh_points(10.0)
+    path = tmp_path / "series.xdmf"
+    with meshio.xdmf.TimeSeriesWriter(path) as writer:
+        writer.write_points_cells(np.column_stack([points, np.zeros(len(points))]),
+                                  [("triangle", Delaunay(points).simplices)])
+        for t in (0.0, 2.0, 4.0):
+            writer.write_data(t, point_data={"temperature": field(points[:, 0], points[:, 1],
+                                                                 t)})
+    units = {"length": "um", "time": "us", "temperature": "K"}
+    read_fea_mesh(path, dx=2e-6, units=units, times=[0.0, 2e-6, 4e-6])
+    for wrong in ([0.0, 3e-6, 6e-6], [0.0, 2e-6]):
+        with pytest.raises(RadiosimError, match=r"contradict the file's own times") as info:
+            read_fea_mesh(path, dx=2e-6, units=units, times=wrong)
+        assert "\n" not in str(info.value)
+
+
 @pytest.mark.parametrize("kwargs, message", [
     (dict(units={"temperature": "K"}), "length unit"),
     (dict(units={"length": "um"}), "temperature unit"),

@@ -546,6 +546,15 @@ def read_fea_mesh(source, dx, times=None, field: str = "temperature", units=None
         steps.append((xy, triangles, values, kind))
         step_times.append(float(t))
     step_times = np.asarray(step_times)
+    own_times = isinstance(source, (str, Path)) and Path(source).suffix.lower() in (
+        ".pvd", ".xdmf", ".xmf")
+    if own_times and times is not None:  # the file states its times: a contradiction is refused
+        given = np.asarray(times, dtype=float).reshape(-1)
+        if given.size != step_times.size or not np.allclose(given, step_times, rtol=1e-9,
+                                                             atol=0.0):
+            raise RadiosimError(f"{where}: times={given.tolist()} s contradict the file's own "
+                                f"times {step_times.tolist()} s; drop times (the file states "
+                                "them) or correct them")
     if step_times.size > 1:
         step = np.diff(step_times)
         if np.any(step <= 0) or np.any(np.abs(step - step.mean()) > 1e-6 * step.mean()):
