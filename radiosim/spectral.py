@@ -278,7 +278,17 @@ def as_spectrum(value: float | str | Path | SpectralDistribution, what: str):
     -------
     float or SpectralDistribution
     """
-    if is_spectrum(value):
+    if is_spectrum(value):  # a user's curve: checked as a file's would be
+        domain = np.asarray(value.domain, dtype=float)
+        values = np.asarray(value.values, dtype=float)
+        if domain.size and (not np.all(np.isfinite(domain)) or domain.min() <= 0
+                            or domain.max() > 1e-3):
+            raise RadiosimError(f"{what}: its wavelengths run {domain.min():g}–{domain.max():g}; "
+                                "wavelengths are in metres, > 0 and up to 1 mm (a µm or nm "
+                                "value passed as metres?)")
+        if not np.all(np.isfinite(values)) or values.min() < 0 or values.max() > 1:
+            raise RadiosimError(f"{what}: its values run {values.min():g}–{values.max():g}; "
+                                "expected dimensionless fractions in [0, 1]")
         return value
     if isinstance(value, (str, Path)):
         return read_spectrum(value)

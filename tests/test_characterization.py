@@ -186,3 +186,22 @@ def test_datasheet_figures_show_the_fit_the_saturation_and_celsius(result):
     assert dashed.get_linestyle() == "--" and list(dashed.get_xdata()) == [1.0]
     assert "calibration's top" in axes[2].get_legend().get_texts()[1].get_text()
     plt.close(fig)
+
+
+def test_the_dark_noise_has_the_quantisation_variance_removed():
+    # A dark noise of 0.7 DN, where the converter's 1/12 DN² is 17 % of the variance: the
+    # EMVA 1288 dark noise (σ_y,dark² − 1/12)^½ / K recovers the electrons' noise within 4
+    # standard errors of a variance from 128 × 128 pixels; leaving the 1/12 DN² in would be 8 %
+    # high, twice and more that tolerance (the effect the test guards is seen).
+    camera = Camera.preset("nist-ir")
+    el = camera.electronics
+    read = 0.7 / el.gain  # [e⁻]: 0.7 DN
+    camera = camera.replace(electronics=_dc.replace(el, read_noise=read))
+    ptc = photon_transfer(camera, T_INT, np.linspace(300.0, 700.0, 21), pixels=(128, 128),
+                          rng=2)
+    fit = fit_emva1288(ptc)
+    truth = math.sqrt(read**2 + el.dark_current * T_INT)  # [e⁻]
+    tolerance = 4 * math.sqrt(1 / (2 * 128 * 128)) + 4 * math.sqrt(2 / (128 * 128)) / 4
+    assert fit.dark_noise == pytest.approx(truth, rel=tolerance)
+    unremoved = math.sqrt(ptc.dark_variance) / fit.gain
+    assert abs(unremoved / truth - 1) > 2 * tolerance

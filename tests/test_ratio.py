@@ -275,3 +275,24 @@ def test_one_band_procedures_refuse_a_two_colour_camera_naming_its_channels(proc
         calls[procedure]()
     text = str(info.value)
     assert "\n" not in text and "channel_cameras[k]" in text, text
+
+
+def test_a_channels_registration_offset_is_y_then_x():
+    # Channel 2 registered one pixel further down (offset (y, x) = (pitch, 0)) on a scene that
+    # varies along y only: its pixel rows see the first channel's next rows (an offset taken
+    # as (x, y) would shift columns, which see the same values here).
+    import dataclasses
+
+    camera = Camera.preset("two-colour")
+    pitch = camera.fpa.pixel_pitch
+    first, second = camera.channels
+    camera = camera.replace(
+        channels=(first, dataclasses.replace(second, registration_offset=(pitch, 0.0))),
+        fpa=dataclasses.replace(camera.fpa, shape=(6, 5)))
+    rows = np.arange(60)
+    stack = np.broadcast_to((600.0 + 10.0 * rows)[None, :, None], (3, 60, 50)).copy()
+    m = camera.measure(FrameStack(stack, dt=1e-6, dx=pitch / 10), 2e-6, t_start=0.0, rng=0)
+    a, b = m.channels
+    # Each pixel averages 10 sample rows: row i of channel 1 is 600 + 10 (10 i + 4.5) K.
+    np.testing.assert_allclose(a.tensor_mean[:, 0], 645.0 + 100.0 * np.arange(5), rtol=1e-12)
+    np.testing.assert_allclose(b.tensor_mean[:, 0], 745.0 + 100.0 * np.arange(5), rtol=1e-12)

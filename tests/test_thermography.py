@@ -305,3 +305,43 @@ def test_camera_file_round_trip_keeps_the_thermography_settings(tmp_path):
                       path_temperature=300.0)
     np.testing.assert_array_equal(back.measure(scene, 1e-4).apparent_temperature,
                                   camera.measure(scene, 1e-4).apparent_temperature)
+
+
+def test_a_spectral_emissivity_reflects_its_own_complement():
+    # A surface whose emissivity falls across the band (0.8 at 3.8 µm to 0.3 at 5.1 µm) in a
+    # 600 K room: the image stage's signal is ∫ (ε(λ) L_λ(T) + (1 − ε(λ)) L_λ(T_refl)) through
+    # filter × optics × QE, by our own quadrature, to the radiance tables' 1e-6 (a grey 1 − ε
+    # of the mean ε, or a missing reflection, is off by percents here).
+    from radiosim.spectral import colour_science
+
+    camera = camera_for()
+    lo, hi = camera.optics.band
+    nodes = np.linspace(lo, hi, 14)  # [m]: radiosim's curves are in metres
+    values = np.interp(nodes, [lo, hi], [0.8, 0.3])
+    curve = colour_science().SpectralDistribution(dict(zip(nodes, values)))
+    t, t_refl = 900.0, 600.0
+    scene = scene_for(t, curve, reflected_temperature=t_refl)
+    m = camera.measure(scene, 1e-4)
+    rad = Radiometry(camera)
+    eps = np.interp(rad.wavelength, nodes, values)
+    weight = rad.filter * rad.optics * rad.qe
+    expected = (rad._integral(weight * eps, t) + rad._integral(weight * (1 - eps), t_refl))
+    np.testing.assert_allclose(m.signal_mean, expected, rtol=1e-6)
+    grey = float(np.mean(eps))
+    for wrong in (rad._integral(weight * eps, t) + (1 - grey) * rad.L(t_refl),
+                  rad._integral(weight * eps, t)):
+        assert abs(wrong / expected - 1) > 100 * 1e-6
+
+
+def test_a_spectral_emissivity_in_nanometres_is_refused_not_misread():
+    # The same curve with its wavelengths in nm (3750–5150) passed as metres: refused in one
+    # line naming the unit slip (it measured 32 % off the truth before, silently).
+    from radiosim.spectral import colour_science
+
+    lo, hi = camera_for().optics.band
+    nodes = np.linspace(lo * 1e9, hi * 1e9, 14)  # [nm], not metres
+    curve = colour_science().SpectralDistribution(dict(zip(nodes, np.full(14, 0.5))))
+    with pytest.raises(RadiosimError, match=r"emissivity: its wavelengths run 3750–5150; "
+                                            r"wavelengths are in metres") as info:
+        scene_for(900.0, curve)
+    assert "\n" not in str(info.value)
