@@ -623,7 +623,7 @@ def _command(argv) -> int:
             raise
         if _Command.interrupted:  # e.g. an import the signal cut short ("initialization failed")
             return _end_interrupted(command, _Command.signal_name)
-        if _short_of_memory(exc):
+        if _short_of_memory(exc) or _damaged_cache(exc):
             return EXIT_FAILURE
         backend = os.environ.get("MPLBACKEND")
         if backend and isinstance(exc, ValueError) and "for backend" in str(exc):
@@ -665,6 +665,24 @@ def _short_of_memory(exc: BaseException) -> bool:
     print(f"radiosim: error: {what}; the process's address space ({stated}) is too small: "
           "radiosim needs about 1 GB to load numpy, scipy and numba, and its frames' worth "
           "more (raise or lift ulimit -v)", file=sys.stderr)
+    return True
+
+
+def _damaged_cache(exc: BaseException) -> bool:
+    """Say in one line, and return True, when ``exc`` arose reading numba's on-disk cache of
+    radiosim's kernels (a damaged or truncated file there), naming the folder to delete."""
+    trace, folder = exc.__traceback__, None
+    while trace is not None:  # the deepest frame of numba's cache: the file it was reading
+        frame = trace.tb_frame
+        if frame.f_code.co_filename.replace("\\", "/").endswith("numba/core/caching.py"):
+            folder = getattr(frame.f_locals.get("self"), "_cache_path", folder) or ""
+        trace = trace.tb_next
+    if folder is None:
+        return False
+    print(f"radiosim: error: numba's cache of radiosim's kernels cannot be read "
+          f"({type(exc).__name__}: {str(exc)[:80]}): a file there is damaged; delete the folder "
+          f"{folder or 'of the cache (NUMBA_CACHE_DIR, or radiosim/kernels/__pycache__)'} (the "
+          "kernels are compiled again on the next run)", file=sys.stderr)
     return True
 
 

@@ -315,7 +315,7 @@ SLOW_FILES = {"test_validation_notebooks.py", "test_docs.py", "test_snippets.py"
 #: Words in the names of the other tests that start processes or clusters: ``slow`` too.
 SLOW_WORDS = ("workers", "signals_during", "never_answers", "real_process", "closed_stdout",
               "mplbackend", "jit_disabled", "address_space", "no_other_process",
-              "importing_and_launching", "many_columns")
+              "importing_and_launching", "many_columns", "damaged_kernel_cache")
 
 
 def pytest_collection_modifyitems(items):

@@ -1839,3 +1839,23 @@ def test_too_small_an_address_space_is_named_in_one_line(here):
     done = _own_process([*_MEASURE], here, preexec_fn=limited)
     assert done.returncode == 1, done.stderr
     assert done.stderr.count("\n") == 1 and "ulimit -v 358400" in done.stderr, done.stderr
+
+
+def test_a_damaged_kernel_cache_is_named_in_one_line(here, tmp_path):
+    # numba's cache of the kernels with a damaged file: one line naming the folder to delete,
+    # exit 1 (an "internal error" with UnpicklingError before); once deleted, the next run
+    # compiles again and measures.
+    import os
+    import shutil
+
+    cache = tmp_path / "numba-cache"
+    env = {**os.environ, "NUMBA_CACHE_DIR": str(cache)}
+    assert _own_process([*_MEASURE], here, env=env).returncode == 0  # compiles, fills it
+    for index in cache.rglob("*.nbi"):
+        index.write_bytes(b"\x00damaged")
+    done = _own_process([*_MEASURE], here, env=env)
+    assert done.returncode == 1 and done.stderr.count("\n") == 1, done.stderr
+    named = done.stderr.split("delete the folder ")[1].split(" (the kernels")[0]
+    assert Path(named).is_dir() and Path(named).is_relative_to(cache), done.stderr
+    shutil.rmtree(named)
+    assert _own_process([*_MEASURE], here, env=env).returncode == 0
