@@ -17,7 +17,6 @@ such as a full disk) exits with 1; Ctrl-C or SIGTERM exits with 130, leaving no 
 from __future__ import annotations
 
 import argparse
-import contextlib
 import gc
 import logging
 import os
@@ -30,8 +29,12 @@ from typing import TYPE_CHECKING
 
 # radiosim.cli_signals first: in the command's process it installs the start-up signal handlers
 # (one line and exit 130 on Ctrl-C or SIGTERM while the heavy modules load).
-from radiosim.cli_signals import (exit_done as _exit_done, exit_interrupted as _exit_now,
-                                  on_interrupt as _interrupt, on_unraisable as _on_unraisable)
+from radiosim.cli_signals import (bad_mplbackend as _bad_mplbackend,
+                                  damaged_cache as _damaged_cache,
+                                  encode_what_it_can as _encode_what_it_can,
+                                  exit_done as _exit_done, exit_interrupted as _exit_now,
+                                  on_interrupt as _interrupt, on_unraisable as _on_unraisable,
+                                  short_of_memory as _short_of_memory)
 from radiosim.errors import Interrupted, RadiosimError, RadiosimIOError, RadiosimWarning
 from radiosim.interrupts import command_state as _Command
 from radiosim import __version__  # noqa: E402
@@ -625,12 +628,7 @@ def _command(argv) -> int:
             return _end_interrupted(command, _Command.signal_name)
         if _short_of_memory(exc) or _damaged_cache(exc):
             return EXIT_FAILURE
-        backend = os.environ.get("MPLBACKEND")
-        if backend and isinstance(exc, ValueError) and "for backend" in str(exc):
-            print(f"radiosim: error: the environment variable MPLBACKEND={backend!r} names no "
-                  "matplotlib backend, so matplotlib cannot load to draw the figures; unset it "
-                  "(radiosim draws with Agg whatever it names) or give a valid one",
-                  file=sys.stderr)
+        if _bad_mplbackend(exc):
             return EXIT_INPUT
         print(f"radiosim: internal error ({type(exc).__name__}: {exc}); run with --debug for "
               "the traceback and please report it", file=sys.stderr)
@@ -642,58 +640,6 @@ def _command(argv) -> int:
         if _Command.interrupted:  # only the command silences logging (and then exits)
             logging.disable(logging.NOTSET)
         _Command.active = False
-
-
-def _short_of_memory(exc: BaseException) -> bool:
-    """Say in one line, and return True, when ``exc`` is the process running out of memory or
-    address space (``MemoryError``, or a library it could not map: ``ulimit -v`` too low)."""
-    text = str(exc)
-    mapping = isinstance(exc, (ImportError, OSError)) and (
-        "failed to map segment" in text or "load shared object" in text
-        or "cannot allocate memory" in text.lower())
-    if not (isinstance(exc, MemoryError) or mapping):
-        return False
-    import resource
-
-    limit = resource.getrlimit(resource.RLIMIT_AS)[0]
-    if not isinstance(exc, MemoryError) and limit == resource.RLIM_INFINITY:
-        return False  # a library missing for another reason: said as it is
-    stated = ("no limit" if limit == resource.RLIM_INFINITY
-              else f"ulimit -v {limit // 1024}, in KiB")
-    what = "ran out of memory" if isinstance(exc, MemoryError) else \
-        f"could not load a library ({text.splitlines()[0][:120]})"
-    print(f"radiosim: error: {what}; the process's address space ({stated}) is too small: "
-          "radiosim needs about 1 GB to load numpy, scipy and numba, and its frames' worth "
-          "more (raise or lift ulimit -v)", file=sys.stderr)
-    return True
-
-
-def _damaged_cache(exc: BaseException) -> bool:
-    """Say in one line, and return True, when ``exc`` arose reading numba's on-disk cache of
-    radiosim's kernels (a damaged or truncated file there), naming the folder to delete."""
-    trace, folder = exc.__traceback__, None
-    while trace is not None:  # the deepest frame of numba's cache: the file it was reading
-        frame = trace.tb_frame
-        if frame.f_code.co_filename.replace("\\", "/").endswith("numba/core/caching.py"):
-            folder = getattr(frame.f_locals.get("self"), "_cache_path", folder) or ""
-        trace = trace.tb_next
-    if folder is None:
-        return False
-    print(f"radiosim: error: numba's cache of radiosim's kernels cannot be read "
-          f"({type(exc).__name__}: {str(exc)[:80]}): a file there is damaged; delete the folder "
-          f"{folder or 'of the cache (NUMBA_CACHE_DIR, or radiosim/kernels/__pycache__)'} (the "
-          "kernels are compiled again on the next run)", file=sys.stderr)
-    return True
-
-
-def _encode_what_it_can() -> None:
-    """The command's stdout and stderr write what their encoding cannot as escapes (``\\xb5``
-    for µ under ``PYTHONIOENCODING=ascii``) instead of raising after the work is done."""
-    for stream in (sys.stdout, sys.stderr):
-        reconfigure = getattr(stream, "reconfigure", None)
-        if reconfigure is not None:
-            with contextlib.suppress(Exception):  # a stream that cannot: left as it is
-                reconfigure(errors="backslashreplace")
 
 
 def _end_interrupted(command: bool, what: str) -> int:

@@ -12,14 +12,21 @@ moment, its temporary files removed.
     that arrived where it cannot unwind; the library's loops raise again one that was swallowed
     (:func:`radiosim.interrupts.raise_if_interrupted`).
 -   :func:`exit_interrupted` and :func:`exit_done` end the process.
+
+And the environments the command ends in one line rather than a traceback: too small an
+address space (:func:`short_of_memory`), a damaged kernel cache (:func:`damaged_cache`), an
+``MPLBACKEND`` matplotlib refuses (:func:`bad_mplbackend`), streams that cannot encode µ and °
+(:func:`encode_what_it_can`).
 """
 
 import contextlib
+import sys
 
 from radiosim.errors import Interrupted
 from radiosim.interrupts import GRACE, command_state
 
-__all__ = ["on_interrupt", "on_unraisable", "exit_interrupted", "exit_done"]
+__all__ = ["on_interrupt", "on_unraisable", "exit_interrupted", "exit_done", "short_of_memory",
+           "damaged_cache", "bad_mplbackend", "encode_what_it_can"]
 
 
 # -- the command's start-up ------------------------------------------------------------------
@@ -206,3 +213,72 @@ def exit_done(code: int):
     atexit._run_exitfuncs()
     _flush_output()
     os._exit(code)
+
+
+# -- environments the command ends in one line ----------------------------------------------
+
+
+def short_of_memory(exc: BaseException) -> bool:
+    """Say in one line, and return True, when ``exc`` is the process running out of memory or
+    address space (``MemoryError``, or a library it could not map: ``ulimit -v`` too low)."""
+    text = str(exc)
+    mapping = isinstance(exc, (ImportError, OSError)) and (
+        "failed to map segment" in text or "load shared object" in text
+        or "cannot allocate memory" in text.lower())
+    if not (isinstance(exc, MemoryError) or mapping):
+        return False
+    import resource
+
+    limit = resource.getrlimit(resource.RLIMIT_AS)[0]
+    if not isinstance(exc, MemoryError) and limit == resource.RLIM_INFINITY:
+        return False  # a library missing for another reason: said as it is
+    stated = ("no limit" if limit == resource.RLIM_INFINITY
+              else f"ulimit -v {limit // 1024}, in KiB")
+    what = "ran out of memory" if isinstance(exc, MemoryError) else \
+        f"could not load a library ({text.splitlines()[0][:120]})"
+    print(f"radiosim: error: {what}; the process's address space ({stated}) is too small: "
+          "radiosim needs about 1 GB to load numpy, scipy and numba, and its frames' worth "
+          "more (raise or lift ulimit -v)", file=sys.stderr)
+    return True
+
+
+def damaged_cache(exc: BaseException) -> bool:
+    """Say in one line, and return True, when ``exc`` arose reading numba's on-disk cache of
+    radiosim's kernels (a damaged or truncated file there), naming the folder to delete."""
+    trace, folder = exc.__traceback__, None
+    while trace is not None:  # the deepest frame of numba's cache: the file it was reading
+        frame = trace.tb_frame
+        if frame.f_code.co_filename.replace("\\", "/").endswith("numba/core/caching.py"):
+            folder = getattr(frame.f_locals.get("self"), "_cache_path", folder) or ""
+        trace = trace.tb_next
+    if folder is None:
+        return False
+    print(f"radiosim: error: numba's cache of radiosim's kernels cannot be read "
+          f"({type(exc).__name__}: {str(exc)[:80]}): a file there is damaged; delete the folder "
+          f"{folder or 'of the cache (NUMBA_CACHE_DIR, or radiosim/kernels/__pycache__)'} (the "
+          "kernels are compiled again on the next run)", file=sys.stderr)
+    return True
+
+
+def encode_what_it_can() -> None:
+    """The command's stdout and stderr write what their encoding cannot as escapes (``\\xb5``
+    for µ under ``PYTHONIOENCODING=ascii``) instead of raising after the work is done."""
+    for stream in (sys.stdout, sys.stderr):
+        reconfigure = getattr(stream, "reconfigure", None)
+        if reconfigure is not None:
+            with contextlib.suppress(Exception):  # a stream that cannot: left as it is
+                reconfigure(errors="backslashreplace")
+
+
+def bad_mplbackend(exc: BaseException) -> bool:
+    """Say in one line, and return True, when ``exc`` is matplotlib refusing the backend the
+    environment variable ``MPLBACKEND`` names (radiosim draws with Agg whatever it names)."""
+    import os
+
+    backend = os.environ.get("MPLBACKEND")
+    if not (backend and isinstance(exc, ValueError) and "for backend" in str(exc)):
+        return False
+    print(f"radiosim: error: the environment variable MPLBACKEND={backend!r} names no "
+          "matplotlib backend, so matplotlib cannot load to draw the figures; unset it "
+          "(radiosim draws with Agg whatever it names) or give a valid one", file=sys.stderr)
+    return True
