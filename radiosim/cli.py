@@ -294,6 +294,9 @@ def _calibrate(args) -> int:
     from radiosim.reporting import calibration_lines
 
     camera = _camera(args.camera, command="calibrate")
+    from radiosim.characterization import single_band
+
+    single_band(camera, "radiosim calibrate")  # before any work: a table fits one band
     _check_frame_period(camera, args)
     from radiosim.files import why_not_a_file
 
