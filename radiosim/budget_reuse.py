@@ -56,7 +56,7 @@ import numpy as np
 
 from radiosim.acquisition import check_measurable, is_rolling
 from radiosim.imaging import form_image, sample_signals, sub_band_count
-from radiosim.integrator import TensorStatistics, Window, frame_weights
+from radiosim.integrator import TensorStatistics, Window
 
 __all__ = ["ReusePlan", "FrameSums", "draw", "IN_MEMORY_BYTES", "release"]
 
@@ -107,7 +107,7 @@ class ReusePlan:
         if not _grey(scene.emissivity) or not (scene.reflected_temperature is None
                                                 or _grey(scene.reflected_temperature)):
             return False
-        corner = scene.sample_unchecked(getattr(scene, "first_frame", 0),
+        corner = scene.sample_unchecked(scene.first_frame,
                                         (slice(0, 1), slice(0, 1)))
         return corner.regions is None
 
@@ -117,9 +117,9 @@ class ReusePlan:
         ``None`` if :meth:`supports` says no."""
         if not cls.supports(camera, scene):
             return None
-        dt = scene.dt
-        origin = max(0, math.floor(earliest / dt * (1 + 1e-12)))
-        stop = math.ceil(latest / dt * (1 - 1e-12))
+        dt, zero = scene.dt, scene.frame_origin  # frame k starts at zero + k·dt [s]
+        origin = max(0, math.floor((earliest - zero) / dt * (1 + 1e-12)))
+        stop = math.ceil((latest - zero) / dt * (1 - 1e-12))
         if scene.n_frames is not None:
             stop = min(scene.n_frames, stop)
         return cls(camera, scene, origin, max(stop, origin + 1),
@@ -146,14 +146,14 @@ class FrameSums:
             scene.set_environment(**{**scene.environment, "reflected_temperature": None})
         self.origin = plan.origin if origin is None else origin
         self.stop = plan.stop if stop is None else stop
-        self.dt, self.n_frames = scene.dt, scene.n_frames
+        self.scene = scene
         self.bands = plan.camera.response_model.sub_bands(plan.sub_bands)
         responses = [r for r, _ in self.bands]
         shape = (self.stop - self.origin + 1, len(responses), *scene.shape)
         self.sums = _storage(shape)
         self.sums[0] = 0.0
         for j, k in enumerate(range(self.origin, self.stop)):
-            frame = sample_signals(scene, Window(k * self.dt, self.dt), responses)
+            frame = sample_signals(scene, Window(scene.frame_start(k), scene.dt), responses)
             np.add(self.sums[j], frame, out=self.sums[j + 1])
 
     @property
@@ -167,7 +167,7 @@ class FrameSums:
 
     def window_mean(self, window: Window) -> np.ndarray:
         """Ē per sub-band and sample over ``window`` [signal unit], (sub-bands, rows, cols)."""
-        first, weights = frame_weights(window.start, window.duration, self.dt, self.n_frames)
+        first, weights = self.scene.window_frames(window)
         lo, n = first - self.origin, weights.size
         sums = self.sums
         out = weights[0] * (sums[lo + 1] - sums[lo])
@@ -265,7 +265,7 @@ def draw(plan: ReusePlan, camera, scene, integration_time: float, t_start: float
         return None
     window = camera.window(scene, integration_time, t_start)  # [s], checked
     check_measurable(camera, window.duration)
-    first, weights = frame_weights(window.start, window.duration, scene.dt, scene.n_frames)
+    first, weights = scene.window_frames(window)
     sums = _kept(plan) if plan.reuse else None
     if sums is None or not sums.holds(first, weights.size):
         # Outside the kept frames (or without reuse): this draw's own sums, the same arithmetic.

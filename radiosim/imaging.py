@@ -35,7 +35,7 @@ import numpy as np
 from radiosim.interrupts import raise_if_interrupted
 from radiosim.frame_reading import IMAGE_BLOCK, frame_blocks
 from radiosim.integrator import (EnginePass, FootprintIntegrator, Job, TensorStatistics,
-                                 Window, frame_weights)
+                                 Window)
 from radiosim.kernels.engines import Engine, get_engine, using_engine
 from radiosim.psf import PSF, blur_bands
 from radiosim.response import LinearResponse, Response, observed_signal, reflectance
@@ -96,8 +96,7 @@ class SubBandSignals:
 
     def __init__(self, scene: Scene, window: Window, responses: list[Response],
                  engine: str | Engine | None = None):
-        self.first, self.weights = frame_weights(window.start, window.duration, scene.dt,
-                                                 scene.n_frames)
+        self.first, self.weights = scene.window_frames(window)
         self.stop = self.first + self.weights.size
         self.responses = list(responses)
         #: The region of the scene it reads: the whole frame.

@@ -42,7 +42,7 @@ from radiosim.frame_reading import frame_blocks, prefetched
 from radiosim.kernels.engines import get_engine, using_engine
 from radiosim.kernels.merging import FootprintGroup, crop
 from radiosim.response import Response
-from radiosim.scenes.base import Region, Scene, SceneFrame
+from radiosim.scenes.base import Region, Scene, SceneFrame, frame_weights
 from radiosim.units import readable_time, readable_times
 
 __all__ = [
@@ -130,13 +130,16 @@ def integration_window(scene: Scene, duration: float, t_start: float | None = No
     check_scale(scene, duration=duration)
     if t_start is not None:
         start = check_time(t_start, "t_start", positive=False)
-        if start < 0:
-            raise RadiosimError(f"t_start = {readable_time(start)} is before the scene's first frame "
-                                "(t = 0)")
+        first = scene.frame_start(scene.first_frame)  # [s] where the scene's data start
+        if start < 0 or (start < first and _snap(start / scene.dt) < _snap(first / scene.dt)):
+            data = ("the scene's first frame (t = 0)" if first == 0 else
+                    f"the scene's data, which start at {readable_time(first)} (the first time "
+                    f"stamp of {scene.describe().get('source', 'its file')})")
+            raise RadiosimError(f"t_start = {readable_time(start)} is before {data}")
         window = Window(start, duration, "given")
     elif scene.event_time is None:
-        first = getattr(scene, "first_frame", 0) * scene.dt  # [s] in the scene's own time
-        window = Window(float(first), duration, "scene start")
+        window = Window(scene.frame_start(scene.first_frame), duration,
+                        "scene start")
     else:
         start = scene.event_time - 0.5 * duration
         if start < 0:
@@ -147,7 +150,7 @@ def integration_window(scene: Scene, duration: float, t_start: float | None = No
             )
         window = Window(start, duration, "centred")
     if inside:
-        frame_weights(window.start, window.duration, scene.dt, scene.n_frames)
+        scene.window_frames(window)
     return window
 
 
@@ -275,63 +278,6 @@ def _axis_footprints(n_samples: int, sample_pitch: float, pixel_pitch: float,
     for array in arrays:
         array.flags.writeable = False
     return AxisFootprints(*arrays)
-
-
-def frame_weights(
-    t_start: float, duration: float, dt: float, n_frames: int | None = None
-) -> tuple[int, np.ndarray]:
-    """
-    Exact time weights of the frames overlapping the window [t_start, t_start + duration].
-
-    Parameters
-    ----------
-    t_start
-        Window start [s], ≥ 0.
-    duration
-        Integration time [s], > 0.
-    dt
-        Frame interval [s].
-    n_frames
-        Frames in the scene (``None``: unbounded); the window must lie inside them.
-
-    Returns
-    -------
-    first : int
-        Index of the first frame overlapping the window.
-    weights : numpy.ndarray
-        Overlap of each frame from ``first`` on with the window, over ``duration``; they sum
-        to 1 and are all > 0.
-
-    Examples
-    --------
-    The paper's 1 µs window over 0.2 µs frames is exactly five frames:
-
-    >>> frame_weights(0.0, 1e-6, 0.2e-6)
-    (0, array([0.2, 0.2, 0.2, 0.2, 0.2]))
-    >>> frame_weights(0.1e-6, 0.4e-6, 0.2e-6)
-    (0, array([0.25, 0.5 , 0.25]))
-    """
-    if not (math.isfinite(duration) and duration > 0):
-        raise RadiosimError(f"integration time must be finite and > 0 [s], got {duration!r}")
-    if not math.isfinite(t_start) or t_start < 0:
-        raise RadiosimError(
-            f"integration window starts at {readable_time(t_start) if math.isfinite(t_start) else t_start}, "
-            "before the scene's first frame (t = 0)"
-        )
-    a = _snap(t_start / dt)
-    b = _snap((t_start + duration) / dt)
-    if n_frames is not None and b > n_frames:
-        (start, end, covered), unit = readable_times(t_start, t_start + duration, n_frames * dt)
-        raise RadiosimError(
-            f"integration window {start}–{end} {unit} runs past the scene's last frame (the "
-            f"scene covers 0–{covered} {unit}, {n_frames} frames)")
-    first, stop = math.floor(a), math.ceil(b)
-    k = np.arange(first, stop)
-    overlap = np.minimum(b, k + 1) - np.maximum(a, k)
-    keep = overlap > 0
-    if not keep[0]:
-        first += 1
-    return first, overlap[keep] / (b - a)
 
 
 @dataclass(frozen=True)
@@ -474,8 +420,7 @@ class _Accumulator:
 
     def __init__(self, job: Job, scene: Scene):
         self.job = job
-        self.first, self.weights = frame_weights(job.window.start, job.window.duration,
-                                                 scene.dt, scene.n_frames)
+        self.first, self.weights = scene.window_frames(job.window)
         self.stop = self.first + self.weights.size
         self.reference = None
         self.signal_is_temperature = True

@@ -260,7 +260,7 @@ def test_fea_a_window_before_the_first_time_stamp_is_refused(tmp_path):
     scene = read_fea_nodes(ramp_csv(tmp_path, (5, 6, 7)), dx=1e-6)
     with pytest.raises(RadiosimError) as info:
         Camera.linear_ideal(2e-6).measure(scene, 1e-6, t_start=4e-6)
-    one_line_naming(info, "nodes.csv", "first time stamp 5 µs", "frame 4 covers 4–5 µs")
+    one_line_naming(info, "nodes.csv", "t_start = 4 µs", "start at 5 µs", "first time stamp")
     # No start given: the window starts at the data's first time stamp (the file's own time),
     # not at t = 0 before it, and reads the first snapshot.
     m = Camera.linear_ideal(2e-6).measure(scene, 1e-6)
@@ -301,14 +301,17 @@ def test_fea_linear_interpolation_gives_the_exact_window_average(tmp_path):
     np.testing.assert_allclose(m.apparent_temperature, (ramp(5.0) + ramp(6.0)) / 2, rtol=1e-12)
 
 
-def test_fea_hold_with_an_origin_between_frame_edges_averages_the_held_field(tmp_path):
-    """Snapshots at 0.5, 1.5, 2.5 µs, frames of 1 µs on the file's time: frame 1 ([1, 2) µs)
-    holds the 0.5 µs snapshot for half of it and the 1.5 µs one for the other half."""
+def test_fea_hold_with_an_origin_between_frame_edges_keeps_each_snapshot_whole(tmp_path):
+    """Snapshots at 0.5, 1.5, 2.5 µs, steps of 1 µs: the frames are aligned to them (frame 0
+    covers [0.5, 1.5) µs and is the 0.5 µs snapshot). Issue 40 changed this: frame 1 covered
+    [1, 2) µs and mixed two snapshots half and half."""
     scene = read_fea_nodes(ramp_csv(tmp_path, (0.5, 1.5, 2.5)), dx=1e-6)
-    assert scene.first_frame == 1 and scene.n_frames == 3
-    np.testing.assert_allclose(scene.frame(1), (ramp(0.5) + ramp(1.5)) / 2, rtol=1e-12)
-    with pytest.raises(RadiosimError, match="before .*first time stamp 0.5 µs"):
-        scene.frame(0)
+    assert scene.first_frame == 0 and scene.n_frames == 3
+    assert scene.frame_origin == pytest.approx(0.5e-6)
+    for k, t in enumerate((0.5, 1.5, 2.5)):
+        np.testing.assert_allclose(scene.frame(k), ramp(t), rtol=1e-12)
+    with pytest.raises(RadiosimError, match="before the scene's data, which start at 0.5 µs .the first time stamp of .*nodes.csv"):
+        Camera.linear_ideal(2e-6).measure(scene, 1e-6, t_start=0.2e-6)
 
 
 @pytest.mark.parametrize("call, name", [

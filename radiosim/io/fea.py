@@ -252,6 +252,25 @@ def _canonical(key: str, unit: str) -> str:
     return unit
 
 
+def _refuse_split_steps(path, time: np.ndarray) -> None:
+    """Refuse a time stamp given to two separate blocks of rows (two node sets labelled with
+    one time: a copied or mistyped step), in one pass. A file grouped by node (each row
+    another time than the last) is fine: its runs of one time are single rows."""
+    edges = np.flatnonzero(np.diff(time) != 0) + 1
+    starts = np.concatenate([[0], edges])
+    lengths = np.diff(np.concatenate([starts, [time.size]]))
+    blocks = starts[lengths >= 3]  # runs that could be a node set of their own
+    seen: dict[float, int] = {}
+    for start in blocks:
+        t = float(time[start])
+        if t in seen:
+            raise RadiosimError(
+                f"{path}: time stamp {readable_time(t)} is given to two separate blocks of "
+                f"rows (data rows {seen[t] + 1} and {start + 1} on): two node sets with one "
+                "time; each step needs its own time stamp")
+        seen[t] = int(start)
+
+
 def read_fea_nodes(path, dx, dt=None, units=None, fill=AMBIENT_TEMPERATURE, bounds=None,
                    max_edge=None, emissivity=1.0, columns=None, interpolation="hold") -> FeaNodes:
     """
@@ -324,6 +343,7 @@ def read_fea_nodes(path, dx, dt=None, units=None, fill=AMBIENT_TEMPERATURE, boun
         raise RadiosimError(f"{path}: data row {line + 1} has temperature "
                             f"{temperature[line]:g} K ≤ 0 (wrong unit?)")
 
+    _refuse_split_steps(path, time)
     times, inverse = np.unique(time, return_inverse=True)
     steps = []
     for k in range(times.size):
@@ -557,6 +577,10 @@ def read_fea_mesh(source, dx, times=None, field: str = "temperature", units=None
                                 "them) or correct them")
     if step_times.size > 1:
         step = np.diff(step_times)
+        if np.any(step == 0):
+            k = int(np.argmax(step == 0))
+            raise RadiosimError(f"{where}: time stamp {readable_time(step_times[k])} twice "
+                                f"(steps {k} and {k + 1}); one time stamp per step")
         if np.any(step <= 0) or np.any(np.abs(step - step.mean()) > 1e-6 * step.mean()):
             raise RadiosimError(f"{where}: the steps are not evenly spaced and increasing in "
                                 f"time ({step_times.tolist()} s)")

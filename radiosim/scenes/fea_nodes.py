@@ -11,13 +11,24 @@ Scenes resampled from FEA output, one frame per simulation step.
 
 Samples outside the mesh get the stated ``fill`` temperature.
 
-Time: the scenes keep the file's own time origin. Frame k covers [k·dt, (k+1)·dt) in the
-file's time, so a window's ``t_start`` is in the data's time (a file whose first time stamp is
-5 µs is measured from ``t_start=5e-6``); the first time stamp is the scene's ``t0`` [s], and
-frames before it (``k < first_frame``) are refused when read. Between snapshots the field is
-held (``interpolation="hold"``, sample-and-hold: each snapshot holds until the next) or
-interpolated linearly in time (``interpolation="linear"``: each frame is the field at its
-mid-time, linear between the two snapshots around it).
+Time: the scenes keep the file's own time origin, and their frames are aligned to its time
+stamps: frame k covers [o + k·dt, o + (k+1)·dt) of the file's time, the origin o ∈ [0, dt)
+the first time stamp's phase (``frame_origin``: a file whose first time stamp is 5.5 µs, in
+frames of 1 µs, has o = 0.5 µs and frame 5 starting at 5.5 µs). A window's ``t_start`` is in
+the data's time, the first time stamp is the scene's ``t0`` [s] and the first frame
+(``first_frame``) starts there; frames before it are refused when read. Between snapshots the
+field is held (``interpolation="hold"``, sample-and-hold: each snapshot holds until the next;
+``dt`` is the snapshots' step, so frame k is one snapshot and a window's mean is the exact
+sample-and-hold average whatever the file's origin) or linear in time
+(``interpolation="linear"``: each frame is the exact mean over its interval of the field
+linear between the snapshots around it, any ``dt``).
+
+In linear mode a window's mean is exact for the piecewise-linear field when the window starts
+and ends on frame edges, and for a field linear in time also when the window lasts a whole
+number of frames; otherwise each partial frame at its ends is taken at the frame's mean, and
+the error is at most max|∂T/∂t| · dt² / (4 · t_int) [K] (each end's piece p of a frame
+contributes at most |∂T/∂t| · p (dt − p) / 2 ≤ |∂T/∂t| · dt² / 8 to the integral): a finer
+``dt`` bounds it (``dt`` = step / 4 with a window of one step: ≤ 1/64 of the step's change).
 """
 
 from __future__ import annotations
@@ -35,7 +46,7 @@ __all__ = ["FeaNodes", "FeaMesh", "triangulate", "INTERPOLATIONS"]
 
 #: How the field varies between snapshots: held until the next, or linear in time.
 INTERPOLATIONS = ("hold", "linear")
-_SNAP = 1e-9  # times within this many frame intervals of a frame edge are on it
+_SNAP = 1e-9  # times within this many frame intervals (or steps) of an edge are on it
 #: A first time stamp more frame intervals than this from t = 0 is a unit slip.
 _MAX_FRAMES = 2**40
 
@@ -56,8 +67,11 @@ class _Snapshots(Scene):
         The snapshots' times [s], as the file states them (not moved to 0).
     t0 : float
         The first snapshot's time [s]: the data's time origin.
+    frame_origin : float
+        Start of frame 0 [s], in [0, dt): the first time stamp's phase on the frame grid.
     first_frame : int
-        The first frame holding data; frame k covers [k·dt, (k+1)·dt) [s].
+        The first frame holding data, starting at ``t0``; frame k covers
+        [frame_origin + k·dt, frame_origin + (k+1)·dt) [s].
     interpolation : str
         ``"hold"`` or ``"linear"``.
     """
@@ -81,38 +95,48 @@ class _Snapshots(Scene):
             raise RadiosimError(f"{source}: its times run {self.t0:g}–{end:g} s, more than "
                                 f"{_MAX_FRAMES} frames of {self.dt:g} s from t = 0; is the time "
                                 "unit right?")
-        self.first_frame = max(0, math.ceil(_snap(self.t0 / self.dt)))
-        self.n_frames = math.floor(_snap(end / self.dt))
+        # Frames aligned to the first time stamp: frame first_frame starts at t0 (o ∈ [0, dt)).
+        whole = math.floor(_snap(self.t0 / self.dt))
+        self.frame_origin = max(0.0, self.t0 - whole * self.dt)
+        if self.frame_origin < _SNAP * self.dt:
+            self.frame_origin = 0.0
+        self.first_frame = max(0, math.ceil(_snap((self.t0 - self.frame_origin) / self.dt)))
+        self.n_frames = math.floor(_snap((end - self.frame_origin) / self.dt))
         if self.n_frames <= self.first_frame:
             raise RadiosimError(f"{source}: no whole frame of dt = {self.dt:g} s lies within its "
                                 f"times {self.t0:g}–{end:g} s at t ≥ 0 (a scene's windows start "
                                 "at t ≥ 0 of the file's time)")
 
     def _weights(self, k: int) -> list[tuple[int, float]]:
-        """Frame ``k`` as (snapshot, weight) pairs."""
-        a, b = k * self.dt, (k + 1) * self.dt
+        """Frame ``k`` as (snapshot, weight) pairs: the snapshots' shares of the field's exact
+        mean over the frame's interval."""
+        a = self.frame_start(k)
         if k < self.first_frame:
-            (low, high), unit = readable_times(a, b)
+            (low, high), unit = readable_times(a, a + self.dt)
             span = f"{low}–{high} {unit}"
             raise RadiosimError(
                 f"frame {k} covers {span}, before {self._source}'s first time stamp "
                 f"{readable_time(self.t0)}; windows are in the file's own time: start them at "
-                f"t_start ≥ {readable_time(self.first_frame * self.dt)}")
+                f"t_start ≥ {readable_time(self.t0)}")
         n = self.times.size
+        step = self.step or self.dt
+        ua = _snap((a - self.t0) / step)  # the frame in steps from the first snapshot
+        ub = _snap((a + self.dt - self.t0) / step)
+        weights: dict[int, float] = {}
         if self.interpolation == "linear":
-            u = _snap(((a + b) / 2 - self.t0) / self.step)
-            j = min(max(int(math.floor(u)), 0), n - 2)
-            w = u - j
-            return [(j, 1.0)] if w == 0 else [(j + 1, 1.0)] if w == 1 else \
-                [(j, 1.0 - w), (j + 1, w)]
-        step = self.step or self.dt  # each snapshot holds over [t_j, t_j + step)
-        ua, ub = _snap((a - self.t0) / step), _snap((b - self.t0) / step)
-        out = []
-        for j in range(max(int(math.floor(ua)), 0), min(int(math.ceil(ub)), n)):
-            overlap = min(ub, j + 1) - max(ua, j)
-            if overlap > 0:
-                out.append((j, overlap * step / self.dt))
-        return out
+            # ∫ of the hat functions of the snapshots j, j + 1 over each segment's part [p, q]
+            for j in range(max(int(math.floor(ua)), 0), min(int(math.ceil(ub)), n - 1)):
+                p, q = max(ua, j), min(ub, j + 1.0)
+                if q > p:
+                    weights[j] = weights.get(j, 0.0) + ((j + 1 - p) ** 2 - (j + 1 - q) ** 2) / 2
+                    weights[j + 1] = weights.get(j + 1, 0.0) + ((q - j) ** 2 - (p - j) ** 2) / 2
+        else:  # each snapshot holds over [t_j, t_j + step)
+            for j in range(max(int(math.floor(ua)), 0), min(int(math.ceil(ub)), n)):
+                overlap = min(ub, j + 1.0) - max(ua, j)
+                if overlap > 0:
+                    weights[j] = overlap
+        total = ub - ua
+        return [(j, w / total) for j, w in weights.items() if w > 0]
 
     def _read(self, k: int, region: Region) -> np.ndarray:
         weights = self._weights(k)
@@ -122,7 +146,7 @@ class _Snapshots(Scene):
 
     def _describe_time(self) -> dict:
         return {"t0_s": self.t0, "first_frame": self.first_frame,
-                "interpolation": self.interpolation}
+                "frame_origin_s": self.frame_origin, "interpolation": self.interpolation}
 
 
 def triangulate(points: np.ndarray, where: str):
