@@ -8,6 +8,8 @@ calibrate`` does, through :func:`radiosim.calibration.fit_calibration`).
 from __future__ import annotations
 
 import collections
+import dataclasses
+import os
 from dataclasses import dataclass
 
 import numpy as np
@@ -18,7 +20,7 @@ from radiosim.errors import RadiosimError
 from radiosim.units import to_celsius, to_kelvin
 
 __all__ = ["CalibrationTable", "read_calibration_table", "calibrate_from_table",
-           "fitted_camera_toml"]
+           "check_tables_per_channel", "fitted_camera_toml"]
 
 
 @dataclass(frozen=True)
@@ -180,6 +182,26 @@ def read_calibration_table(path, monotonic: bool = True) -> CalibrationTable:
     return CalibrationTable(temperature, counts, instrument)
 
 
+def check_tables_per_channel(camera, path) -> list:
+    """The calibration tables ``path`` (one, or a list) as a list, one per channel of
+    ``camera`` in order; a count that does not match is refused in one line naming the
+    channels without a table."""
+    paths = [path] if isinstance(path, (str, os.PathLike)) else list(path)
+    cameras = camera.channel_cameras
+    if len(paths) == len(cameras):
+        return paths
+    if camera.channels is None:
+        raise RadiosimError(f"{camera.name} has one band: give one calibration table, got "
+                            f"{len(paths)} ({', '.join(str(p) for p in paths)})")
+    missing = ", ".join(f"channel {k + 1} ({lo * 1e6:g}–{hi * 1e6:g} µm)"
+                        for k, (lo, hi) in enumerate(c.band for c in camera.channels)
+                        if k >= len(paths))
+    raise RadiosimError(
+        f"{camera.name} has {len(cameras)} channels: give one calibration table per channel, "
+        f"in order; got {len(paths)}"
+        + (f", none for {missing}" if missing else f": {len(paths) - len(cameras)} too many"))
+
+
 def calibrate_from_table(camera, path, integration_time: float, frames: int = 1,
                          exclude_unusable: bool = False, fit_full_well: bool = False,
                          progress=None):
@@ -189,33 +211,56 @@ def calibrate_from_table(camera, path, integration_time: float, frames: int = 1,
     number ≥ 1 of read-outs averaged in each counts value), and fit the camera
     (:func:`~radiosim.calibration.fit_calibration`); errors name the file. ``progress``, if
     given, is called as ``progress(done, total, label)`` after each of the three steps (the
-    table read, the camera's response built, the fit).
+    table read, the camera's response built, the fit) of each table.
+
+    A camera of several channels is calibrated channel by channel: ``path`` is then a list of
+    tables, one per channel in order (each blackbody measured through that channel), each
+    fitting its channel's electronics (gain and offset; the channels share the optics, so a
+    channel's table cannot fit their emissivity); a missing table is refused naming its
+    channel.
 
     Returns
     -------
     camera, residuals, table
-        The fitted camera, measured minus fitted counts [DN], the :class:`CalibrationTable`.
+        The fitted camera, measured minus fitted counts [DN], the :class:`CalibrationTable`
+        (for several channels: lists of the residuals and tables, one per channel).
     """
     frames = check_count(frames, "frames (read-outs averaged per counts value)")
     t_int = check_time(integration_time, "integration_time")
+    paths = check_tables_per_channel(camera, path)
+    cameras = camera.channel_cameras
+    total = 3 * len(paths)
 
     def step(done, label):
         if progress is not None:
-            progress(done, 3, label)
+            progress(done, total, label)
 
-    table = read_calibration_table(path, monotonic=False)  # the fit judges dips by their noise
-    step(1, f"read {len(table.temperature)} points")
-    camera.response_model  # the response (for Planck, its radiance table), built once
-    step(2, "the camera's response")
-    try:
-        fitted, residuals = fit_calibration(
-            camera, table.temperature, table.counts, t_int, frames,
-            instrument_temperatures=table.instrument_temperature,
-            exclude_unusable=exclude_unusable, fit_full_well=fit_full_well)
-    except RadiosimError as exc:
-        raise RadiosimError(f"{path}: {exc}") from None
-    step(3, "fitted gain and offset")
-    return fitted, residuals, table
+    fits = []
+    for k, (own, table_path) in enumerate(zip(cameras, paths)):
+        table = read_calibration_table(table_path, monotonic=False)  # the fit judges dips
+        which = f" ({own.name})" if camera.channels is not None else ""
+        if camera.channels is not None and table.instrument_temperature is not None:
+            raise RadiosimError(f"{table_path}: a channel's table cannot fit the optics' "
+                                "emissivity (the channels share the optics): drop its "
+                                "instrument-temperature column, or fit one band")
+        step(3 * k + 1, f"read {len(table.temperature)} points{which}")
+        own.response_model  # the response (for Planck, its radiance table), built once
+        step(3 * k + 2, f"the response{which}")
+        try:
+            fitted, residuals = fit_calibration(
+                own, table.temperature, table.counts, t_int, frames,
+                instrument_temperatures=table.instrument_temperature,
+                exclude_unusable=exclude_unusable, fit_full_well=fit_full_well)
+        except RadiosimError as exc:
+            raise RadiosimError(f"{table_path}: {exc}") from None
+        step(3 * k + 3, f"fitted gain and offset{which}")
+        fits.append((fitted, residuals, table))
+    if camera.channels is None:
+        return fits[0]
+    channels = tuple(dataclasses.replace(channel, electronics=fitted.electronics)
+                     for channel, (fitted, _, _) in zip(camera.channels, fits))
+    return (camera.replace(channels=channels), [r for _, r, _ in fits],
+            [t for _, _, t in fits])
 
 
 def fitted_camera_toml(original, fitted, source, table, integration_time: float) -> str:
@@ -224,7 +269,8 @@ def fitted_camera_toml(original, fitted, source, table, integration_time: float)
     over the text of the camera file it came from (``source``: a TOML path, a preset's name, or
     ``None`` for a camera without a file) so that the file's comments and layout stay and only
     the values the fit changed are replaced; headed by a record of the fit — radiosim's
-    version, the date (UTC), the table's path and SHA-256, the integration time [s].
+    version, the date (UTC), the table's path and SHA-256 (each table's, one per channel),
+    the integration time [s].
     """
     import datetime
     import hashlib
@@ -234,13 +280,17 @@ def fitted_camera_toml(original, fitted, source, table, integration_time: float)
 
     from radiosim._version import __version__
 
-    table = Path(table)
-    digest = hashlib.sha256(table.read_bytes()).hexdigest()
+    tables = ([Path(table)] if isinstance(table, (str, os.PathLike))
+              else [Path(t) for t in table])
     stamp = datetime.datetime.now(datetime.timezone.utc).strftime("%Y-%m-%dT%H:%M:%SZ")
+    header = (f"# Calibrated by radiosim {__version__} on {stamp} at "
+              f"{integration_time * 1e6:g} µs:\n")
+    for k, path in enumerate(tables):
+        digest = hashlib.sha256(path.read_bytes()).hexdigest()
+        which = f"channel {k + 1}: " if len(tables) > 1 else ""
+        header += f"# {which}fitted to {path} (sha256 {digest});\n"
+    header += "# the values the fit changed replace the original's, its comments kept.\n"
     fitted = fitted.replace(name=f"{original.name}-fitted")
-    header = (f"# Calibrated by radiosim {__version__} on {stamp}: fitted to {table}\n"
-              f"# (sha256 {digest}) at {integration_time * 1e6:g} µs;\n"
-              "# the values the fit changed replace the original's, its comments kept.\n")
     if source is not None and not str(source).endswith(".toml"):
         from radiosim.presets import PRESET_DIRECTORY
 

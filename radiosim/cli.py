@@ -160,19 +160,20 @@ def _measure(args) -> int:
     summary = summarise(m)
     print("\n".join(measurement_lines(m, summary)))
     if summary["under_range_fraction"] == 1.0:
-        _explain_under_range(args, camera, summary["peak_scene_C"])
+        _explain_under_range(args, camera, summary["peak_scene_C"], m)
     if args.out:
         print(f"wrote {write_measurement(args.out, m, history=args.command_line)}")
     return 0
 
 
-def _explain_under_range(args, camera: Camera, peak_scene_C: float):
+def _explain_under_range(args, camera: Camera, peak_scene_C: float, measurement):
     """Say why a measurement read nothing: the scene is below what the camera can tell from its
     dark level at this integration time (and, for a scene read as kelvin that would be a
     plausible one in °C, ask whether the file was in °C)."""
     from radiosim.reporting import under_range_lines
 
-    print("\n".join(under_range_lines(camera, args.integration_time, peak_scene_C)))
+    print("\n".join(under_range_lines(camera, args.integration_time, peak_scene_C,
+                                      measurement)))
     peak_K = float(to_kelvin(peak_scene_C, "C"))
     if args.units == "K" and peak_scene_C < 0.0 < peak_K:
         print(f"  were the frames in °C? They were read as kelvin (--units K): a peak of "
@@ -289,38 +290,45 @@ def _uncertainty(args) -> int:
 
 
 def _calibrate(args) -> int:
-    from radiosim.calibration_table import calibrate_from_table, fitted_camera_toml
+    from radiosim.calibration_table import (calibrate_from_table, check_tables_per_channel,
+                                            fitted_camera_toml)
     from radiosim.files import write_text
     from radiosim.reporting import calibration_lines
 
     camera = _camera(args.camera, command="calibrate")
-    from radiosim.characterization import single_band
-
-    single_band(camera, "radiosim calibrate")  # before any work: a table fits one band
     _check_frame_period(camera, args)
     from radiosim.files import why_not_a_file
 
-    path = Path(args.table)
-    why = why_not_a_file(path)
-    if why is not None:
-        raise RadiosimError(f"{path} {why} (expected a CSV of temperature_K or "
-                            "temperature_C, and counts)")
+    paths = check_tables_per_channel(camera, [Path(table) for table in args.table])
+    for path in paths:
+        why = why_not_a_file(path)
+        if why is not None:
+            raise RadiosimError(f"{path} {why} (expected a CSV of temperature_K or "
+                                "temperature_C, and counts)")
     _check_out_file(args, ".toml", "the fitted camera is a TOML file")
     progress = _Progress("step", args.quiet)
     _compiling().announce_compile(args)
-    # The library reads and checks the table (columns, units, BOM, monotonic counts) and
+    # The library reads and checks each table (columns, units, BOM, monotonic counts) and
     # checks each point against the full well and the converter's range.
     try:
-        fitted, residuals, table = calibrate_from_table(
-            camera, path, args.integration_time, frames=args.frames,
+        fitted, residuals, tables = calibrate_from_table(
+            camera, paths if camera.channels is not None else paths[0],
+            args.integration_time, frames=args.frames,
             exclude_unusable=args.exclude_unusable, fit_full_well=args.fit_full_well,
             progress=progress)
     finally:
         progress.close()
-    print("\n".join(calibration_lines(camera, fitted, table, residuals, path.name,
-                                      args.integration_time)))
+    if camera.channels is None:
+        print("\n".join(calibration_lines(camera, fitted, tables, residuals, paths[0].name,
+                                          args.integration_time)))
+    else:
+        for own, fit, table, residual, path in zip(camera.channel_cameras,
+                                                  fitted.channel_cameras, tables, residuals,
+                                                  paths):
+            print("\n".join(calibration_lines(own, fit, table, residual, path.name,
+                                              args.integration_time)))
     if args.out:  # over the camera file's text (its comments kept), with the fit's record
-        write_text(args.out, fitted_camera_toml(camera, fitted, args.camera, path,
+        write_text(args.out, fitted_camera_toml(camera, fitted, args.camera, paths,
                                                 args.integration_time))
         print(f"wrote {args.out}")
     return 0
@@ -493,7 +501,8 @@ def build_parser() -> argparse.ArgumentParser:
                          "counts, through radiosim's radiometry with the camera's curves; with "
                          "an instrument_temperature_K (or _C) column, the optics' emissivity "
                          "too.")
-    cal.add_argument("table", help="CSV with temperature_K (or temperature_C) and counts")
+    cal.add_argument("table", nargs="+", help="CSV with temperature_K (or temperature_C) and "
+                     "counts; a camera of several channels takes one per channel, in order")
     cal.add_argument("--camera", required=True, help="preset name or camera TOML")
     cal.add_argument("--integration-time", type=parse_time, required=True, metavar="T",
                      help="integration time of the table, e.g. 100us")

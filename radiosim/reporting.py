@@ -51,18 +51,57 @@ def measurement_lines(m, summary: dict) -> list[str]:
             f"{100 * summary['over_range_fraction']:.1f} %"]
 
 
-def under_range_lines(camera, integration_time, peak_scene_C: float) -> list[str]:
-    """Why a measurement read nothing: the scene's peak [°C] is below ``camera``'s lowest
-    measurable temperature at ``integration_time`` [s, or a quantity as typed] (below it the
-    counts lie within ``detection_sigma`` σ of the blank reading)."""
-    from radiosim.characterization import measurable_range
+def under_range_lines(camera, integration_time, peak_scene_C: float,
+                      measurement=None) -> list[str]:
+    """Why a measurement read nothing, naming the cause that holds: the scene's peak [°C]
+    below ``camera``'s lowest measurable temperature at ``integration_time`` [s, or a
+    quantity as typed], and whether that limit is the detection limit (counts within
+    ``detection_sigma`` σ of the blank reading) or the start of the calibration range. A
+    camera of several channels gets a line per channel and, from ``measurement`` (its
+    :class:`~radiosim.measurement.Measurement`), how many pixels each cause flags: a channel
+    under range, a ratio outside the ratio curve (the assumed emissivity ratio stated), a
+    ratio too noisy."""
+    t = float(integration_time)
+    if camera.channels is None:
+        return [f"  every pixel is under range: the scene's peak {peak_scene_C:.1f} °C is below "
+                f"{camera.name}'s lowest measurable temperature at {typed(integration_time)} "
+                f"({_lowest_text(camera, t)})"]
+    lines = [f"  every pixel is under range: the scene's peak {peak_scene_C:.1f} °C; "
+             f"{camera.name} reads a ratio where each of its channels reads:"]
+    channels = getattr(measurement, "channels", None) or ()
+    for k, own in enumerate(camera.channel_cameras):
+        lo, hi = camera.channels[k].band
+        flagged = (f"; {int(channels[k].under_range.sum())} of {channels[k].under_range.size} "
+                   "pixels under range" if k < len(channels) else "")
+        lines.append(f"    channel {k} ({lo * 1e6:g}–{hi * 1e6:g} µm): lowest measurable "
+                     f"temperature {_lowest_text(own, t)}{flagged}")
+    if len(channels) >= 2:
+        both = ~channels[0].under_range & ~channels[1].under_range
+        flags = ~measurement.saturated & measurement.under_range & both
+        if flags.any():
+            lines.append(
+                f"    {int(flags.sum())} pixels read in both channels but their ratio (divided "
+                f"by the assumed emissivity ratio {camera.assumed_emissivity_ratio:g}) lies "
+                "outside the ratio curve's calibration range or is noisier than "
+                f"ratio_noise_limit {camera.ratio_noise_limit}: is the emissivity ratio right?")
+    return lines
 
-    low, _ = measurable_range(camera, float(integration_time))
-    low_text = "nothing" if math.isnan(low) else f"{to_celsius(low):.1f} °C"
-    return [f"  every pixel is under range: the scene's peak {peak_scene_C:.1f} °C is below "
-            f"{camera.name}'s lowest measurable temperature at {typed(integration_time)} "
-            f"({low_text}: below it the counts lie within {camera.detection_sigma:g} σ of the "
-            "blank reading)"]
+
+def _lowest_text(camera, integration_time: float) -> str:
+    """The lowest measurable temperature in °C and what sets it: the detection limit or the
+    calibration range's start."""
+    calibration = camera.calibration(integration_time)
+    low = calibration.lowest_measurable_temperature()
+    if math.isnan(low):
+        return ("nothing: no temperature of the calibration range reaches "
+                f"{camera.detection_sigma:g} σ above the blank reading")
+    start = calibration.temperature_range[0]
+    if low == start and float(calibration.counts(start)) > calibration.detection_limit_counts:
+        return (f"{to_celsius(low):.1f} °C: the calibration range starts there "
+                f"(calibration_range_K from {start:g} K); the detection limit alone would "
+                "reach lower")
+    return (f"{to_celsius(low):.1f} °C: below it the counts lie within "
+            f"{camera.detection_sigma:g} σ of the blank reading")
 
 
 #: The reader's message for a bad temperature sample (radiosim.checks.bad_sample_message).

@@ -123,3 +123,64 @@ def test_a_dip_within_the_counts_noise_is_fitted_and_one_beyond_it_refused(tmp_p
     with pytest.raises(RadiosimError, match="counts fall as the temperature rises") as info:
         calibrate_from_table(camera, path, 100e-6)
     assert str(path) in one_line_message(info)
+
+
+# -- a camera of several channels: a table per channel (issue 40) ----------------------------------
+
+
+def _channel_tables(folder, scales):
+    """Tables of two-colour's channels at 100 µs, channel k's counts × a + b (its gain × a,
+    its offset × a + b): the fit must find those, channel by channel."""
+    from radiosim import Camera
+
+    camera = Camera.preset("two-colour")
+    t = np.linspace(500.0, 900.0, 6)  # [K]
+    paths = []
+    for k, (own, (a, b)) in enumerate(zip(camera.channel_cameras, scales)):
+        counts = own.calibration(100e-6).counts(t) * a + b
+        path = folder / f"channel{k + 1}.csv"
+        path.write_text("temperature_K,counts\n"
+                        + "".join(f"{x},{c}\n" for x, c in zip(t, counts)))
+        paths.append(path)
+    return camera, paths
+
+
+def test_a_two_colour_camera_is_calibrated_with_a_table_per_channel(tmp_path, capsys):
+    import tomllib
+
+    from radiosim import Camera
+    from radiosim.cli import main
+
+    scales = [(1.03, 20.0), (0.97, -10.0)]
+    camera, paths = _channel_tables(tmp_path, scales)
+    out = tmp_path / "fitted.toml"
+    assert main(["calibrate", *map(str, paths), "--camera", "two-colour", "--integration-time",
+                 "100us", "--out", str(out), "-q"]) == 0
+    printed = capsys.readouterr().out
+    assert "two-colour channel 1 fitted to channel1.csv" in printed
+    assert "two-colour channel 2 fitted to channel2.csv" in printed
+    fitted = Camera.from_toml(out)
+    for own, (a, b) in zip(fitted.channel_cameras, scales):
+        el = camera.electronics
+        assert own.electronics.gain == pytest.approx(a * el.gain, rel=1e-6)
+        assert own.electronics.offset == pytest.approx(a * el.offset + b, abs=1e-3)
+    text = out.read_text(encoding="utf-8")
+    assert "channel 1: fitted to" in text and "channel 2: fitted to" in text
+    assert tomllib.loads(text)["channels"][0]["band_um"] == [3.8, 4.2]
+
+
+def test_a_two_colour_camera_given_one_table_is_refused_naming_the_missing_channel(tmp_path,
+                                                                                   capsys):
+    from radiosim.cli import main
+
+    _, paths = _channel_tables(tmp_path, [(1.0, 0.0), (1.0, 0.0)])
+    code = main(["calibrate", str(paths[0]), "--camera", "two-colour", "--integration-time",
+                 "100us"])
+    captured = capsys.readouterr()
+    assert code == 2 and captured.out == "", captured
+    (line,) = captured.err.strip().splitlines()
+    assert "one calibration table per channel" in line and "channel 2 (4.6–5.1 µm)" in line
+    code = main(["calibrate", *map(str, paths), "--camera", "nist-ir", "--integration-time",
+                 "100us"])
+    (line,) = capsys.readouterr().err.strip().splitlines()
+    assert code == 2 and "nist-ir has one band" in line and "got 2" in line

@@ -296,3 +296,46 @@ def test_a_channels_registration_offset_is_y_then_x():
     # Each pixel averages 10 sample rows: row i of channel 1 is 600 + 10 (10 i + 4.5) K.
     np.testing.assert_allclose(a.tensor_mean[:, 0], 645.0 + 100.0 * np.arange(5), rtol=1e-12)
     np.testing.assert_allclose(b.tensor_mean[:, 0], 745.0 + 100.0 * np.arange(5), rtol=1e-12)
+
+
+# -- why a two-colour measurement read nothing, cause by cause (issue 40) -------------------------
+
+
+def test_an_under_range_two_colour_reading_names_each_channel_and_the_ratio():
+    """A 330 K scene: channel 0 (3.8–4.2 µm) reads nothing, channel 1 part of it; each line
+    names its channel's own lowest temperature (the full band's 36.7 °C was quoted before).
+    With an assumed emissivity ratio of 50 at 1000 K both channels read but the ratio falls
+    off the curve: the line says so instead of blaming the noise."""
+    from radiosim.characterization import measurable_range
+    from radiosim.reporting import under_range_lines
+    from radiosim.scenes import UniformBlackbody
+
+    camera = Camera.preset("two-colour")
+    m = camera.measure(UniformBlackbody(330.0, shape=(40, 40)), 10e-6)
+    assert m.under_range.all()
+    lines = under_range_lines(camera, 10e-6, 56.85, m)
+    for k, own in enumerate(camera.channel_cameras):
+        low = measurable_range(own, 10e-6)[0] - 273.15
+        assert f"channel {k}" in lines[k + 1] and f"{low:.1f} °C" in lines[k + 1], lines
+    full_band = measurable_range(Camera.preset("nist-ir"), 10e-6)[0] - 273.15
+    assert f"{full_band:.1f} °C" not in "\n".join(lines)
+    absurd = camera.replace(assumed_emissivity_ratio=50.0)
+    m = absurd.measure(UniformBlackbody(1000.0, shape=(40, 40)), 10e-6)
+    assert m.under_range.all() and not m.channels[0].under_range.any()
+    lines = under_range_lines(absurd, 10e-6, 726.85, m)
+    assert "0 of 36 pixels under range" in lines[1] and "emissivity ratio 50" in lines[-1]
+
+
+def test_an_under_range_reading_below_the_calibration_range_names_the_range():
+    """A camera calibrated from 700 K on, a 500 K scene: the limit is the range's start
+    (426.9 °C), not the 3 σ detection limit (nist-ir's reaches 310 K)."""
+    from radiosim.characterization import measurable_range
+    from radiosim.reporting import under_range_lines
+    from radiosim.scenes import UniformBlackbody
+
+    camera = Camera.preset("nist-ir").replace(calibration_range=(700.0, 3000.0))
+    assert measurable_range(Camera.preset("nist-ir"), 10e-6)[0] < 500.0
+    m = camera.measure(UniformBlackbody(500.0, shape=(40, 40)), 10e-6)
+    assert m.under_range.all()
+    (line,) = under_range_lines(camera, 10e-6, 226.85, m)
+    assert "426.9 °C: the calibration range starts there" in line and "σ" not in line
