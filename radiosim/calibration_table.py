@@ -158,8 +158,11 @@ def read_calibration_table(path, monotonic: bool = True) -> CalibrationTable:
     temperature = _temperature(path, rows, columns, "temperature", line_of,
                                stated.get("temperature"))
     if temperature is None or "counts" not in columns:
+        other = next((name for sep, name in ((";", "semicolons"), ("\t", "tabs"))
+                      if len(header) == 1 and sep in header[0]), None)
+        hint = f" (its columns are separated by {other}; radiosim reads commas)" if other else ""
         raise RadiosimError(f"{path}: needs columns temperature_K (or temperature_C) and "
-                            f"counts, found {', '.join(header)}")
+                            f"counts, found {', '.join(header)}{hint}")
     if not rows:
         raise RadiosimError(f"{path}: the table has a header but no rows")
     counts = _column(path, rows, "counts", line_of)
@@ -167,8 +170,12 @@ def read_calibration_table(path, monotonic: bool = True) -> CalibrationTable:
                               stated.get("instrument_temperature"))
     if np.any(temperature <= 0):
         k = int(np.argmax(temperature <= 0))
-        raise RadiosimError(f"{path}: line {line_of[k]}: temperature {temperature[k]:g} K is not "
-                            "above 0 K (°C in a temperature_K column?)")
+        if "temperature_K" in columns:
+            raise RadiosimError(f"{path}: line {line_of[k]}: temperature {temperature[k]:g} K "
+                                "is not above 0 K (°C in a temperature_K column?)")
+        raise RadiosimError(f"{path}: line {line_of[k]}: temperature_C "
+                            f"{to_celsius(temperature[k]):g} °C is below absolute zero "
+                            "(-273.15 °C)")
     if instrument is None and monotonic:
         order = np.argsort(temperature, kind="stable")
         ts, ys = temperature[order], counts[order]

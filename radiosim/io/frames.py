@@ -39,10 +39,15 @@ def _npz_member(path: Path, key: str | None):
         info = archive.getinfo(key + ".npy")
         if info.compress_type == zipfile.ZIP_STORED:
             with archive.open(info) as member:
-                version = np.lib.format.read_magic(member)
-                read_header = (np.lib.format.read_array_header_1_0 if version == (1, 0)
-                               else np.lib.format.read_array_header_2_0)
-                shape, fortran, dtype = read_header(member)
+                try:
+                    version = np.lib.format.read_magic(member)
+                    read_header = (np.lib.format.read_array_header_1_0 if version == (1, 0)
+                                   else np.lib.format.read_array_header_2_0)
+                    shape, fortran, dtype = read_header(member)
+                except Exception as exc:  # tokenize, ast or numpy on a damaged header
+                    first = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
+                    raise RadiosimError(f"{path}: the header of its array {key!r} is "
+                                        f"damaged ({first})") from None
                 header_length = member.tell()
             with open(path, "rb") as raw:  # the member's data start in the archive
                 raw.seek(info.header_offset + 26)
@@ -93,8 +98,12 @@ def _check_length(path: Path) -> None:
                            else np.lib.format.read_array_header_2_0)
             shape, _, dtype = read_header(handle)
             start = handle.tell()
-    except (ValueError, OSError, EOFError):
-        return  # a damaged header: np.load names it
+    except (OSError, EOFError) as exc:
+        raise RadiosimError(f"{path} is truncated or damaged: {exc}") from None
+    except Exception as exc:  # numpy parses the header with tokenize and ast: any error
+        first = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
+        raise RadiosimError(f"{path}: its .npy header is damaged ({first}); save the stack "
+                            "again with numpy.save") from None
     if dtype.hasobject:
         return
     expected = start + int(np.prod(shape, dtype=np.int64)) * dtype.itemsize
