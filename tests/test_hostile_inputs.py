@@ -175,3 +175,56 @@ def test_a_stack_in_celsius_reads_as_kelvin(tmp_path):
     np.save(path, np.full((3, 8, 8), 226.85))
     scene = read_scene(path, dx=1e-6, dt=1e-6, units="C")
     np.testing.assert_allclose(scene.frame(0), 500.0, rtol=0, atol=1e-9)
+
+
+# -- a measurement's NetCDF file whose attributes another tool changed ---------------------------
+
+
+@pytest.fixture(scope="module")
+def dataset():
+    from radiosim.scenes import UniformBlackbody
+
+    m = Camera.preset("nist-ir").measure(UniformBlackbody(800.0, shape=(20, 20)), 10e-6, rng=1)
+    return m, m.to_xarray()
+
+
+@pytest.mark.parametrize("change, said", [
+    (lambda d: d.attrs.update(integration_time_s="10us"), "'10us'; expected a number"),
+    (lambda d: d.attrs.update(integration_time_s=float("nan")), "expected a finite number > 0"),
+    (lambda d: d.attrs.update(integration_time_s=float("inf")), "expected a finite number > 0"),
+    (lambda d: d.attrs.update(integration_time_s=0.0), "is 0.0; expected a finite number > 0"),
+    (lambda d: d.attrs.update(n_frames=0), "n_frames is 0; expected a whole number ≥ 1"),
+    (lambda d: d.attrs.update(n_frames="3"), "n_frames is '3'; expected a number"),
+    (lambda d: d.attrs.update(t_start_s=-1.0), "t_start_s is -1.0; expected a finite number ≥ 0"),
+    (lambda d: d.__delitem__("counts"), "missing counts"),
+    (lambda d: d.__setitem__("apparent_temperature",
+                             d["apparent_temperature"].rename({"x": "col"})),
+     "dimensions ('y', 'col'); expected ('y', 'x')"),
+], ids=["time as text", "time nan", "time inf", "time zero", "no frames", "frames as text",
+        "negative start", "no counts", "a dimension renamed"])
+def test_a_netcdf_attribute_changed_by_another_tool_is_refused(tmp_path, dataset, change,
+                                                                said):
+    from radiosim.io.netcdf import read_netcdf, write_netcdf
+
+    changed = dataset[1].copy(deep=True)
+    change(changed)
+    path = write_netcdf(tmp_path / "m.nc", changed)
+    with pytest.raises(RadiosimError) as info:
+        read_netcdf(path)
+    one_line_naming(info, "m.nc", said)
+
+
+@pytest.mark.parametrize("unit, scale, offset", [
+    ("degF", 5 / 9, 459.67 * 5 / 9), ("mK", 1e-3, 0.0), ("degree_Celsius", 1.0, 273.15),
+])
+def test_a_netcdf_temperature_in_another_cf_unit_is_converted(tmp_path, dataset, unit, scale,
+                                                              offset):
+    """The value v stored in ``unit`` is v·scale + offset kelvin (CF's own definitions of the
+    degree Fahrenheit, the millikelvin and the degree Celsius)."""
+    from radiosim.io.netcdf import read_netcdf, write_netcdf
+
+    m, original = dataset
+    changed = original.copy(deep=True)
+    changed["tensor_max"].attrs.update(units=unit)
+    back = read_netcdf(write_netcdf(tmp_path / "m.nc", changed))
+    np.testing.assert_allclose(back.tensor_max, m.tensor_max * scale + offset, rtol=1e-12)

@@ -101,7 +101,7 @@ def from_xarray(dataset) -> Measurement:
     extra = _channels_from(dataset, camera, scene) if "channel" in dataset.dims else {}
     return Measurement(**arrays, signal_unit=signal_unit, camera=camera,
                        integration_time=_attribute(dataset, "integration_time_s", "positive"),
-                       t_start=_attribute(dataset, "t_start_s", "finite"),
+                       t_start=_attribute(dataset, "t_start_s", "time"),
                        n_frames=_attribute(dataset, "n_frames", "count"),
                        scene=scene, alignment=_attribute(dataset, "alignment", str), **extra)
 
@@ -156,8 +156,9 @@ def _converted(values: np.ndarray, name: str, stated: str, expected: str,
 
 
 def _attribute(dataset, key: str, kind):
-    """Global attribute ``key``: a ``str``, or a number that is ``"positive"`` (finite, > 0),
-    ``"finite"``, or a ``"count"`` (a whole number ≥ 1); else one line naming it."""
+    """Global attribute ``key``: a ``str``, or a number (not text) that is ``"positive"``
+    (finite, > 0), a ``"time"`` (finite, ≥ 0), ``"finite"``, or a ``"count"`` (a whole number
+    ≥ 1); else one line naming it."""
     if key not in dataset.attrs:
         raise RadiosimError(f"attribute {key} is missing")
     value = dataset.attrs[key]
@@ -167,12 +168,15 @@ def _attribute(dataset, key: str, kind):
             raise RadiosimError(f"attribute {key} is {value!r}; expected text")
         return value
     try:
+        if isinstance(value, (str, bytes)):  # a number written as text is no CF number
+            raise TypeError
         number = float(np.asarray(value).item())
     except (TypeError, ValueError):
         raise RadiosimError(f"attribute {key} is {value!r}; expected a number") from None
-    if not math.isfinite(number) or (kind == "positive" and number <= 0):
+    if (not math.isfinite(number) or (kind == "positive" and number <= 0)
+            or (kind == "time" and number < 0)):
         raise RadiosimError(f"attribute {key} is {value!r}; expected a finite number"
-                            + (" > 0" if kind == "positive" else ""))
+                            + {"positive": " > 0", "time": " ≥ 0"}.get(kind, ""))
     if kind == "count":
         if number != int(number) or number < 1:
             raise RadiosimError(f"attribute {key} is {value!r}; expected a whole number ≥ 1")
