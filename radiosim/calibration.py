@@ -441,14 +441,18 @@ def fit_calibration(camera, temperatures, counts, integration_time: float, frame
                     exclude_unusable: bool = False, fit_full_well: bool = False):
     """
     Fit a camera's free electrical parameters — system gain K [DN/e⁻] and offset [DN], and,
-    with several ``instrument_temperatures`` [K], the optics' emissivity — to a measured
+    with several ``instrument_temperatures`` [K], the instrument factor (the share of a black
+    cone's radiance at the instrument temperature that reaches the detector,
+    :attr:`Optics.instrument_factor <radiosim.optics.Optics.instrument_factor>`) — to a measured
     calibration table: blackbody ``temperatures`` [K] against mean ``counts`` [DN] at
     ``integration_time`` [s], each the mean of ``frames`` read-outs, through radiosim's own
     radiometry with the camera's spectral curves and geometry.
 
-    The model counts = K · (e(T) + ε_o·E(T_i) + dark) + offset is linear in (K, K·ε_o,
-    offset) for the charge e(T) the radiometry predicts from the blackbody and E(T_i) that a
-    black lens at the instrument temperature would emit into the pixel, so the fit is weighted
+    The model counts = K · (e(T) + f·E(T_i) + dark) + offset is linear in (K, K·f, offset)
+    for the charge e(T) the radiometry predicts from the blackbody and E(T_i) that a black
+    body at the instrument temperature filling the cold stop's cone would give the pixel; f,
+    the instrument factor, is not bounded by 1: a detector that sees warm housing beyond the
+    cone needs more (a Cedip Jade LWIR camera's tables need about 6.5). The fit is weighted
     linear least squares, the weights the counts' temporal noise
     (:meth:`Electronics.temporal_noise`, over √frames). Without instrument temperatures the
     optics' emission at the camera's own instrument temperature is part of e(T) (and of the
@@ -465,7 +469,7 @@ def fit_calibration(camera, temperatures, counts, integration_time: float, frame
     Returns
     -------
     camera : Camera
-        The camera with the fitted gain and offset (and optics emissivity, and well).
+        The camera with the fitted gain and offset (and instrument factor, and well).
     residuals : numpy.ndarray
         Measured minus fitted counts [DN]; NaN at excluded points.
     """
@@ -528,7 +532,7 @@ def fit_calibration(camera, temperatures, counts, integration_time: float, frame
             raise RadiosimError("the optics' emission needs at least two different "
                                 "instrument temperatures (and 4 rows) to be told from the "
                                 "offset")
-        black = dataclasses.replace(optics, emissivity=1.0)
+        black = dataclasses.replace(optics, emissivity=1.0, instrument_factor=None)
         emission = np.array([black.emitted_radiance(camera.fpa.quantum_efficiency, v)
                              for v in ti]) * camera.rate_per_signal * t_int  # [e⁻]
         columns.append(emission)
@@ -570,13 +574,14 @@ def fit_calibration(camera, temperatures, counts, integration_time: float, frame
                             f"fitted gain is {gain:.3g} ± {spread:.2g} DN/e⁻ (a table of dark "
                             "frames, or of the wrong camera?)")
     changes = {"electronics": dataclasses.replace(el_model, gain=gain, offset=offset)}
-    if columns:
-        optics_emissivity = float(solution[1]) / gain
-        if not 0 <= optics_emissivity <= 1:
-            warnings.warn(f"{camera.name}: the fitted optics emissivity {optics_emissivity:.3g}"
-                          " lies outside [0, 1]; it is clipped", RadiosimWarning, stacklevel=3)
-        changes["optics"] = dataclasses.replace(
-            camera.optics, emissivity=float(np.clip(optics_emissivity, 0.0, 1.0)))
+    if columns:  # the instrument's radiation, as the tables measure it: not bounded by 1
+        factor = float(solution[1]) / gain
+        if factor < 0:
+            warnings.warn(f"{camera.name}: the fitted instrument factor {factor:.3g} is "
+                          "negative (the counts fall as the instrument warms): it is set to "
+                          "0, no radiation from the instrument", RadiosimWarning, stacklevel=3)
+        changes["optics"] = dataclasses.replace(camera.optics,
+                                                instrument_factor=max(factor, 0.0))
     fitted = camera.replace(**changes)
     residuals_kept = yk - design @ solution
     chi2 = float(np.sum((residuals_kept / (gain / el.gain * noise)) ** 2)) / max(

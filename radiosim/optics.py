@@ -113,9 +113,17 @@ class Optics:
         Temperature of the lens and windows [K], which emit (1 − transmission); ``None``: cold
         optics, no emission.
     emissivity : float or None
-        The optics' grey emissivity as seen by the pixel [1], where it is measured
-        (:func:`radiosim.calibration.fit_calibration` with several instrument temperatures);
-        ``None``: 1 − transmission (Kirchhoff's law for a non-scattering lens).
+        The optics' grey emissivity as seen by the pixel [1], where it is known; ``None``:
+        1 − transmission (Kirchhoff's law for a non-scattering lens).
+    instrument_factor : float or None
+        The factor [1], ≥ 0, by which radiation at the instrument temperature reaches the
+        detector, relative to a blackbody filling the cold stop's cone, as a calibration at
+        several instrument temperatures measures it
+        (:func:`radiosim.calibration.fit_calibration`): the lens's own emission and whatever
+        warm parts (housing, barrel, window mounts) the detector sees inside and beyond that
+        cone. It may exceed 1 (a detector that sees warm parts over more than the cone).
+        When given it replaces the lens's emission (``emissivity``); ``None``: the lens's
+        emission alone.
 
     Examples
     --------
@@ -140,6 +148,9 @@ class Optics:
         None, "instrument_temperature_K", doc="temperature of the emitting lens and windows [K]")
     emissivity: float | None = edge_field(None, "emissivity",
                                           doc="the optics' grey emissivity (default 1 − τ)")
+    instrument_factor: float | None = edge_field(
+        None, "instrument_factor",
+        doc="share of a black cone's radiance at the instrument temperature the detector sees")
 
     def __post_init__(self):
         try:
@@ -166,6 +177,12 @@ class Optics:
                 self.instrument_temperature, "instrument_temperature", "K"))
         if self.emissivity is not None and not 0 <= self.emissivity <= 1:
             raise RadiosimError(f"optics emissivity must be in [0, 1], got {self.emissivity!r}")
+        if self.instrument_factor is not None:
+            factor = float(self.instrument_factor)
+            if not (math.isfinite(factor) and factor >= 0):
+                raise RadiosimError(f"instrument_factor must be finite and ≥ 0, got "
+                                    f"{self.instrument_factor!r}")
+            object.__setattr__(self, "instrument_factor", factor)
 
     def __repr__(self) -> str:
         """One line: f-number, band, objective, PSFs (the curves by name, not their values)."""
@@ -203,9 +220,9 @@ class Optics:
     def emitted_radiance(self, quantum_efficiency, temperature: float | None = None) -> float:
         """
         In-band photon radiance the optics emit into a pixel [photons s⁻¹ m⁻² sr⁻¹]:
-        ∫ ε_o(λ) · filter(λ) · QE(λ) · L_q(λ, T_i) dλ with ε_o = 1 − τ(λ) (or the measured
-        grey :attr:`emissivity`), at ``temperature`` [K] (default the instrument temperature;
-        0 for cold optics).
+        ∫ ε_o(λ) · filter(λ) · QE(λ) · L_q(λ, T_i) dλ with ε_o = 1 − τ(λ) (or the grey
+        :attr:`emissivity`, or the measured :attr:`instrument_factor`, which may exceed 1), at
+        ``temperature`` [K] (default the instrument temperature; 0 for cold optics).
 
         Examples
         --------
@@ -215,8 +232,9 @@ class Optics:
         t = self.instrument_temperature if temperature is None else temperature
         if t is None:
             return 0.0
-        emissivity = reflectance(self.transmission) if self.emissivity is None else \
-            self.emissivity
+        emissivity = (self.instrument_factor if self.instrument_factor is not None
+                      else reflectance(self.transmission) if self.emissivity is None
+                      else self.emissivity)
         return float(band_radiance(check_positive(t, "instrument temperature", "K"), self.band,
                                    "photon", [self.spectral_filter, quantum_efficiency],
                                    emissivity))

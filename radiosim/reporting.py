@@ -298,7 +298,7 @@ def calibration_lines(camera, fitted, table, residuals, source: str,
              f"{integration_time * 1e6:g} µs): gain {el.gain:.6g} DN/e⁻ (was "
              f"{camera.electronics.gain:.6g}), offset {el.offset:.6g} DN (was "
              f"{camera.electronics.offset:.6g})"
-             + (f", optics emissivity {fitted.optics.emissivity:.4g}"
+             + (f", instrument factor {fitted.optics.instrument_factor:.4g}"
                 if table.instrument_temperature is not None else ""),
              f"{'T [K]':>10}{'counts':>12}{'residual':>10}"]
     lines += [f"{t:>10.2f}{c:>12.1f}" + (f"{'excluded':>10}" if math.isnan(r) else f"{r:>10.2f}")

@@ -536,7 +536,8 @@ def test_fit_calibration_measures_the_optics_emission_from_several_instrument_te
     fitted, residuals = fit_calibration(camera, t, counts, 200e-6, frames=64,
                                                instrument_temperatures=t_i)
     assert fitted.electronics.gain == pytest.approx(1.5e-3, rel=2e-3)
-    assert fitted.optics.emissivity == pytest.approx(0.06, abs=0.01)
+    assert fitted.optics.instrument_factor == pytest.approx(0.06, abs=0.01)
+    assert fitted.optics.emissivity is None  # the lens's own emission is not what was fitted
     with pytest.raises(RadiosimError, match="two different instrument temperatures"):
         fit_calibration(camera, t, counts, 200e-6, instrument_temperatures=np.full(18, 300.0))
 
@@ -826,3 +827,23 @@ def test_the_share_reported_at_the_lowest_measurable_temperature_is_the_document
     share = float(np.mean(~m.under_range))
     assert abs(share - expected) < 4 * math.sqrt(expected * (1 - expected) / m.counts.size)
     assert abs(expected - 0.5) > 4 * math.sqrt(0.25 / m.counts.size)  # the effect is seen
+
+
+def test_an_instrument_factor_above_one_is_fitted_not_clipped():
+    """A camera whose detector sees 6.5 × a black cone's radiance at the housing temperature
+    (warm parts beyond the cone): tables at 290 and 310 K give back 6.5 (it was clipped at 1,
+    and the fitted camera then read a 150 °C blackbody at 281 °C); the fitted camera's counts
+    at a third housing temperature are the truth's, and its file keeps the factor."""
+    camera = Camera.preset("nist-ir").replace(name="lab")
+    truth = camera.replace(optics=replace(camera.optics, instrument_factor=6.5))
+    t = np.tile(np.linspace(350.0, 600.0, 5), 2)
+    t_i = np.repeat([290.0, 310.0], 5)
+    counts = [float(truth.replace(optics=replace(truth.optics, instrument_temperature=ti))
+                    .calibration(100e-6).counts(x)) for x, ti in zip(t, t_i)]
+    fitted, _ = fit_calibration(camera, t, counts, 100e-6, instrument_temperatures=t_i)
+    assert fitted.optics.instrument_factor == pytest.approx(6.5, rel=1e-6)
+    at = {c: c.replace(optics=replace(c.optics, instrument_temperature=300.0))
+          for c in (truth, fitted)}
+    assert float(at[fitted].calibration(100e-6).counts(450.0)) == pytest.approx(
+        float(at[truth].calibration(100e-6).counts(450.0)), rel=1e-9)
+    assert Camera.from_dict(fitted.to_dict()).optics.instrument_factor == pytest.approx(6.5)
