@@ -232,12 +232,14 @@ class Optics:
         t = self.instrument_temperature if temperature is None else temperature
         if t is None:
             return 0.0
-        emissivity = (self.instrument_factor if self.instrument_factor is not None
-                      else reflectance(self.transmission) if self.emissivity is None
-                      else self.emissivity)
-        return float(band_radiance(check_positive(t, "instrument temperature", "K"), self.band,
-                                   "photon", [self.spectral_filter, quantum_efficiency],
-                                   emissivity))
+        t = check_positive(t, "instrument temperature", "K")
+        curves = [self.spectral_filter, quantum_efficiency]
+        if self.instrument_factor is not None:  # measured: may exceed a black lens's 1
+            return self.instrument_factor * float(band_radiance(t, self.band, "photon",
+                                                                curves, 1.0))
+        emissivity = reflectance(self.transmission) if self.emissivity is None else \
+            self.emissivity
+        return float(band_radiance(t, self.band, "photon", curves, emissivity))
 
 
 def collect(signal_mean, rate_per_signal: float, integration_time: float):
