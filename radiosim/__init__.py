@@ -12,11 +12,13 @@ The chain, one module per stage, imports flowing one way (:data:`CHAIN`):
 :mod:`radiosim.frame_reading`; every hot pass through an engine of :mod:`radiosim.kernels`) →
 :mod:`radiosim.optics` (its
 point-spread functions in :mod:`radiosim.psf`; the image they form in :mod:`radiosim.imaging`) →
-:mod:`radiosim.electronics` → :mod:`radiosim.calibration` → :mod:`radiosim.measurement`
+:mod:`radiosim.electronics` → :mod:`radiosim.calibration` (a camera maker's own curve in
+:mod:`radiosim.flir`) → :mod:`radiosim.measurement`
 (several spectral channels and their ratio temperature in :mod:`radiosim.ratio`),
 orchestrated by :class:`radiosim.camera.Camera` (its acquisition modes in
 :mod:`radiosim.acquisition`, its laboratory procedures in :mod:`radiosim.characterization` and
-:mod:`radiosim.calibration_table`). Files in and out are in :mod:`radiosim.io`,
+:mod:`radiosim.calibration_table`). Files in and out are in :mod:`radiosim.io` (a camera's
+recordings in :mod:`radiosim.io.recordings`),
 studies in :mod:`radiosim.study`, everything specific to the paper in :mod:`radiosim.paper`,
 and the ``radiosim`` command in :mod:`radiosim.cli` (its signal handling in
 :mod:`radiosim.cli_signals`; the interrupt the library's loops poll in
@@ -69,7 +71,7 @@ CHAIN = (
     "_version", "errors", "interrupts", "units", "checks", "config", "files", "spectral", "radiometry",
     "kernels", "scenes", "response", "fpa", "frame_reading", "integrator",
     "psf", "optics",
-    "imaging", "electronics", "calibration", "measurement", "ratio", "presets", "acquisition",
+    "imaging", "electronics", "calibration", "flir", "measurement", "ratio", "presets", "acquisition",
     "camera", "characterization", "calibration_table", "scheduling", "moments", "budget_reuse",
     "uncertainty", "io", "study_spec", "study", "plotting", "reporting", "paper",
     "example_data", "console", "warmup", "cli_checks", "cli_signals", "cli",

@@ -12,7 +12,7 @@ window-mean signal is linear in its emissivity and in the reflected term,
 (Ē at unit emissivity, emission only, per spectral sub-band), so a draw needs no pass over the
 frames. :class:`FrameSums` keeps, per sample and sub-band, the running sums
 P(j) = Σ L(T_k) for origin ≤ k < j, over the frames any draw's window can touch, and a window with
-the frame weights of :func:`radiosim.integrator.frame_weights` (a fractional first frame f and
+the frame weights of :func:`radiosim.scenes.base.frame_weights` (a fractional first frame f and
 last frame l, equal weights c between) is
 
     Ē = w_f (P(f+1) − P(f)) + c (P(l) − P(f+1)) + w_l (P(l+1) − P(l)).

@@ -42,8 +42,9 @@ from radiosim.frame_reading import frame_blocks, prefetched
 from radiosim.kernels.engines import get_engine, using_engine
 from radiosim.kernels.merging import FootprintGroup, crop
 from radiosim.response import Response
-from radiosim.scenes.base import Region, Scene, SceneFrame, frame_weights
-from radiosim.units import readable_time, readable_times
+from radiosim.scenes.base import Region, Scene, SceneFrame
+from radiosim.scenes.base import frame_weights  # noqa: F401 - its former home
+from radiosim.units import readable_time
 
 __all__ = [
     "EnginePass",
@@ -51,7 +52,6 @@ __all__ = [
     "integration_window",
     "AxisFootprints",
     "axis_footprints",
-    "frame_weights",
     "FootprintIntegrator",
     "TensorStatistics",
     "integrate",

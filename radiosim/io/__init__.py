@@ -1,7 +1,8 @@
 """
 Files in and out: scenes from NumPy stacks, EXR frame sequences and FEA nodal exports (by
 suffix: :func:`read_scene`, with the registry of scene types :data:`SCENE_TYPES`);
-measurements to and from multi-channel EXR, and to and from labelled xarray datasets and NetCDF.
+measurements to and from multi-channel EXR, and to and from labelled xarray datasets and NetCDF;
+a camera's recordings by file type (:func:`read_recording`, :data:`RECORDING_READERS`).
 
 Every reader states units explicitly (from the file's header or the caller) and rejects what it
 cannot read with an error naming the file, the line or frame, and the problem.
@@ -20,10 +21,11 @@ _LAZY = {
     "results_to_xarray": "netcdf", "to_xarray": "netcdf", "write_netcdf": "netcdf",
     "SCENE_TYPES": "scenes", "SceneArgumentError": "scenes", "SceneType": "scenes",
     "read_scene": "scenes",
+    "Recording": "recordings", "RECORDING_READERS": "recordings", "read_recording": "recordings",
 }
 
 
-_SUBMODULES = frozenset({"exr", "fea", "frames", "netcdf", "scenes"})
+_SUBMODULES = frozenset({"exr", "fea", "frames", "netcdf", "recordings", "scenes"})
 
 
 def __getattr__(name):
@@ -43,6 +45,9 @@ def __dir__():
 
 __all__ = [
     "read_scene",
+    "read_recording",
+    "Recording",
+    "RECORDING_READERS",
     "SCENE_TYPES",
     "SceneType",
     "SceneArgumentError",

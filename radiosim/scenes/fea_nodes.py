@@ -26,8 +26,8 @@ linear between the snapshots around it, any ``dt``).
 In linear mode a window's mean is exact for the piecewise-linear field when the window starts
 and ends on frame edges, and for a field linear in time also when the window lasts a whole
 number of frames; otherwise each partial frame at its ends is taken at the frame's mean, and
-the error is at most max|∂T/∂t| · dt² / (4 · t_int) [K] (each end's piece p of a frame
-contributes at most |∂T/∂t| · p (dt − p) / 2 ≤ |∂T/∂t| · dt² / 8 to the integral): a finer
+the error is at most max abs(∂T/∂t) · dt² / (4 · t_int) [K] (each end's piece p of a frame
+contributes at most abs(∂T/∂t) · p (dt − p) / 2 ≤ abs(∂T/∂t) · dt² / 8 to the integral): a finer
 ``dt`` bounds it (``dt`` = step / 4 with a window of one step: ≤ 1/64 of the step's change).
 """
 

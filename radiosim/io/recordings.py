@@ -1,0 +1,289 @@
+"""
+What a camera recorded: counts frames with their metadata, read by file type
+(:data:`RECORDING_READERS`, :func:`read_recording`), and turned into temperatures by the
+file's own calibration or by a radiosim camera's (:meth:`Recording.temperature`).
+
+Formats
+-------
+-   FLIR ResearchIR / Altair ``.ptw`` (Cedip, FLIR Titanium, Jade, Silver): a main header
+    (signature ``CED``, its size at byte 11, the frame header's size [bytes] at 15, a
+    frame's size with and without its header [16-bit words] at 19 and 23, the number of
+    frames at 27, the camera's name at 44, its housing temperatures [K] at 212, the columns
+    and rows at 377 and 379, the acquisition period [s] at 403 and the integration time [s]
+    at 407; little-endian, as the Altair reference guide DL002U lays it out), then per frame
+    a header (its time of day at bytes 80–83 and 160) and rows × columns unsigned 16-bit
+    counts, row by row. Read as a memory map: a recording of any length is never loaded
+    whole. A PTW file holds no temperature calibration: :meth:`Recording.temperature` needs
+    a camera.
+
+Every check names the file and the field: a truncated file, a foreign one, sizes that
+contradict each other, a frame index out of range.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+import struct
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from radiosim.errors import RadiosimError
+
+__all__ = ["Recording", "RECORDING_READERS", "read_recording", "read_ptw"]
+
+
+@dataclass(frozen=True, eq=False)
+class Recording:
+    """
+    A camera's recording.
+
+    Attributes
+    ----------
+    path : pathlib.Path
+        The file.
+    counts : numpy.ndarray
+        Raw counts [DN], (frames, rows, columns); memory-mapped where the format allows.
+    frame_times : numpy.ndarray
+        Each frame's time from the first [s].
+    integration_time : float or None
+        [s], as the file states it.
+    housing_temperature : float or None
+        The camera's housing (instrument) temperature [K], as the file states it.
+    camera_name : str
+        The camera's name as the file gives it.
+    metadata : dict
+        The file's fields, named as the file's documentation names them.
+    curve : radiosim.flir.PlanckCurve or None
+        The camera maker's own calibration curve, where the file holds one (FLIR files).
+    """
+
+    path: Path
+    counts: np.ndarray
+    frame_times: np.ndarray
+    integration_time: float | None
+    housing_temperature: float | None
+    camera_name: str
+    metadata: dict = field(default_factory=dict)
+    curve: object = None
+
+    @property
+    def shape(self) -> tuple[int, int, int]:
+        """(frames, rows, columns)."""
+        return tuple(self.counts.shape)
+
+    def frames(self, frames=None) -> np.ndarray:
+        """The counts [DN] of ``frames`` (an index, a slice or a sequence of indices; ``None``:
+        all), as float64, (frames, rows, columns); an index out of range is refused naming
+        the file and its number of frames."""
+        n = self.counts.shape[0]
+        if frames is None:
+            index = slice(None)
+        elif isinstance(frames, slice):
+            index = frames
+        else:
+            index = np.atleast_1d(np.asarray(frames))
+            if index.dtype.kind not in "iu" or index.size == 0:
+                raise RadiosimError(f"{self.path}: frames must be whole frame indices, got "
+                                    f"{frames!r}")
+            bad = (index < -n) | (index >= n)
+            if bad.any():
+                raise RadiosimError(f"{self.path}: frame {int(index[bad][0])} is out of range; "
+                                    f"the recording has {n} frames (0–{n - 1})")
+        return np.asarray(self.counts[index], dtype=float)
+
+    def temperature(self, camera=None, frames=None, **object_parameters) -> np.ndarray:
+        """
+        Temperatures [K] of ``frames`` (see :meth:`frames`), (frames, rows, columns).
+
+        Without ``camera``: the file's own calibration (a FLIR file's Planck curve, through
+        :func:`radiosim.flir.raw_to_temperature` with the file's object parameters, each
+        overridable in SI: ``emissivity``, ``reflected_temperature`` [K],
+        ``atmospheric_temperature`` [K], ``distance`` [m], ``relative_humidity`` (0–1),
+        ``window_temperature`` [K], ``window_transmission``). A file without one (PTW) is
+        refused in one line.
+
+        With a radiosim ``camera``: that camera's calibration at the recording's integration
+        time and housing temperature (its ``instrument_temperature``), NaN outside its
+        calibration range. For a long recording pass ``frames`` in chunks: memory then holds
+        a chunk, not the recording.
+        """
+        counts = self.frames(frames)
+        if camera is None:
+            if self.curve is None:
+                raise RadiosimError(
+                    f"{self.path}: the file holds no temperature calibration of its own (a "
+                    f"{self.path.suffix} file stores counts); pass camera= a radiosim camera "
+                    "fitted to this camera's calibration tables")
+            from radiosim.flir import ObjectParameters, raw_to_temperature
+
+            stated = self.metadata.get("object_parameters", {})
+            unknown = sorted(set(object_parameters) - {f.name for f in
+                                                       dataclasses.fields(ObjectParameters)})
+            if unknown:
+                raise RadiosimError(f"{self.path}: unknown object parameter {unknown[0]!r}")
+            parameters = ObjectParameters(**(stated | object_parameters))
+            return raw_to_temperature(counts, self.curve, parameters)
+        if object_parameters:
+            raise RadiosimError(f"{self.path}: object parameters "
+                                f"({', '.join(sorted(object_parameters))}) apply to the file's "
+                                "own calibration; a radiosim camera states its own")
+        if self.integration_time is None:
+            raise RadiosimError(f"{self.path}: the file states no integration time; a "
+                                "camera's calibration needs one")
+        if self.housing_temperature is not None:
+            camera = camera.replace(optics=dataclasses.replace(
+                camera.optics, instrument_temperature=self.housing_temperature))
+        return camera.calibration(self.integration_time).temperature(counts)
+
+
+# -- FLIR ResearchIR / Altair .ptw ----------------------------------------------------------------
+
+_PTW_MAIN = 381  # bytes of the main header this reader reads (it is larger: its size at 11)
+_PTW_FRAME_HEADER = 236  # bytes of a frame header this reader reads
+
+
+def _field(path, data: bytes, fmt: str, offset: int, name: str):
+    try:
+        return struct.unpack_from("<" + fmt, data, offset)[0]
+    except struct.error:
+        raise RadiosimError(f"{path}: truncated before the header field {name} (byte "
+                            f"{offset})") from None
+
+
+def _text(data: bytes, start: int, stop: int) -> str:
+    return data[start:stop].split(b"\0")[0].decode("latin-1").strip()
+
+
+def read_ptw(path) -> Recording:
+    """
+    A FLIR ResearchIR / Altair ``.ptw`` recording (module docstring), memory-mapped.
+
+    Raises
+    ------
+    RadiosimError
+        Naming the file and the field: not a PTW file, a header whose sizes contradict each
+        other or the file's length, no frames, a compressed or lock-in recording.
+    """
+    path = Path(path)
+    from radiosim.files import why_not_a_file
+
+    why = why_not_a_file(path)
+    if why is not None:
+        raise RadiosimError(f"{path} {why} (expected a FLIR ResearchIR .ptw recording)")
+    size = path.stat().st_size
+    with open(path, "rb") as handle:
+        head = handle.read(4096)
+    if not head:
+        raise RadiosimError(f"{path} is empty (0 bytes); expected a FLIR ResearchIR .ptw "
+                            "recording")
+    if head[:3] != b"CED":
+        raise RadiosimError(f"{path} is not a FLIR ResearchIR / Altair .ptw file: it starts "
+                            f"with {head[:5]!r}, not the signature b'CED'")
+    if len(head) < _PTW_MAIN:
+        raise RadiosimError(f"{path}: truncated in its main header ({len(head)} bytes; the "
+                            f"fields read reach byte {_PTW_MAIN})")
+    main = _field(path, head, "i", 11, "MainHeaderSize")
+    frame_header = _field(path, head, "i", 15, "FrameHeaderSize")
+    frame_and_header = _field(path, head, "i", 19, "SizeOfOneFrameAndHeader")
+    n = _field(path, head, "i", 27, "NumberOfFieldInFile")
+    cols = _field(path, head, "H", 377, "PixelsPerLine")
+    rows = _field(path, head, "H", 379, "LinesPerField")
+    if not (_PTW_MAIN <= main <= size):
+        raise RadiosimError(f"{path}: header field MainHeaderSize is {main}; expected "
+                            f"{_PTW_MAIN}–{size} (the file's length)")
+    if frame_header < 0 or rows < 1 or cols < 1:
+        raise RadiosimError(f"{path}: header fields FrameHeaderSize {frame_header}, "
+                            f"LinesPerField {rows}, PixelsPerLine {cols}; expected ≥ 0, ≥ 1, "
+                            "≥ 1")
+    frame_size = frame_header + rows * cols * 2  # [bytes]
+    words = _field(path, head, "i", 23, "SizeOfOneFrame")
+    if words != rows * cols or frame_and_header * 2 != frame_size:  # sizes in 16-bit words
+        raise RadiosimError(
+            f"{path}: header fields SizeOfOneFrame {words} and SizeOfOneFrameAndHeader "
+            f"{frame_and_header} (16-bit words) contradict a frame header of {frame_header} "
+            f"bytes and {rows} × {cols} pixels ({rows * cols} and {frame_size // 2}; a "
+            "compressed or lock-in recording is not read)")
+    if n < 1:
+        raise RadiosimError(f"{path}: header field NumberOfFieldInFile is {n}; the file holds "
+                            "no frames")
+    expected = main + n * frame_size
+    if size < expected:
+        raise RadiosimError(f"{path} is truncated: {n} frames of {frame_size} bytes after a "
+                            f"{main}-byte header need {expected} bytes, the file has {size}")
+    record = np.dtype([("header", f"V{frame_header}"), ("counts", "<u2", (rows, cols))])
+    mapped = np.memmap(path, dtype=record, mode="r", offset=main, shape=(n,))
+    counts = mapped["counts"]
+    integration = _field(path, head, "f", 407, "CEDIPIntegrationTime")
+    period = _field(path, head, "f", 403, "CEDIPAquisitionPeriod")
+    housing = _field(path, head, "f", 212, "HousingTemperature1")
+    frame_times = _frame_times(mapped, frame_header, period)
+    metadata = {
+        "Signature": _text(head, 0, 5), "Version": _text(head, 5, 10),
+        "CameraName": _text(head, 44, 64), "LensName": _text(head, 64, 84),
+        "FilterName": _text(head, 84, 104),
+        "Emissivity": _field(path, head, "f", 141, "Emissivity"),
+        "Ambiant": _field(path, head, "f", 145, "Ambiant"),
+        "Distance": _field(path, head, "f", 149, "Distance"),
+        "AtmosphereTemp": _field(path, head, "f", 184, "AtmosphereTemp"),
+        "CutOnWavelength": _field(path, head, "f", 188, "CutOnWavelength"),
+        "CutOffWavelength": _field(path, head, "f", 192, "CutOffWavelength"),
+        "PixelSize": _field(path, head, "f", 196, "PixelSize"),
+        "PixelPitch": _field(path, head, "f", 200, "PixelPitch"),
+        "HousingTemperature1": housing,
+        "HousingTemperature2": _field(path, head, "f", 216, "HousingTemperature2"),
+        "CEDIPAquisitionPeriod": period, "CEDIPIntegrationTime": integration,
+        "PixelsPerLine": cols, "LinesPerField": rows, "NumberOfFieldInFile": n,
+    }
+    return Recording(path, counts, frame_times,
+                     float(integration) if math.isfinite(integration) and integration > 0
+                     else None,
+                     float(housing) if math.isfinite(housing) and housing > 0 else None,
+                     metadata["CameraName"], metadata)
+
+
+def _frame_times(mapped, frame_header: int, period: float) -> np.ndarray:
+    """Each frame's time from the first [s]: from the frame headers' time of day (hour,
+    minute, second, hundredths and thousandths) where they hold one, else n × the
+    acquisition period (0 where neither is stated)."""
+    n = mapped.shape[0]
+    if frame_header >= 161 and n > 1:
+        heads = mapped["header"]
+        times = np.array([_time_of_day(bytes(heads[k])) for k in range(n)])
+        if np.all(np.diff(times) > 0):
+            return times - times[0]
+    step = float(period) if math.isfinite(period) and period > 0 else 0.0
+    return np.arange(n) * step
+
+
+def _time_of_day(header: bytes) -> float:
+    """A PTW frame header's time of day [s]: hour (81), minute (80), second (83), hundredths
+    (82) and thousandths (160)."""
+    return (header[81] * 3600.0 + header[80] * 60.0 + header[83]
+            + (header[82] * 10 + header[160]) / 1000)
+
+
+#: The readers of recordings by file suffix (lower case).
+RECORDING_READERS: dict[str, Callable[[Path], Recording]] = {".ptw": read_ptw}
+
+
+def read_recording(path) -> Recording:
+    """
+    Read a camera's recording by its suffix (:data:`RECORDING_READERS`).
+
+    Examples
+    --------
+    >>> read_recording("frames.xyz")
+    Traceback (most recent call last):
+    ...
+    radiosim.errors.RadiosimError: frames.xyz: no reader for '.xyz' recordings; radiosim reads .ptw
+    """
+    path = Path(path)
+    reader = RECORDING_READERS.get(path.suffix.lower())
+    if reader is None:
+        raise RadiosimError(f"{path}: no reader for {path.suffix!r} recordings; radiosim reads "
+                            + ", ".join(sorted(RECORDING_READERS)))
+    return reader(path)

@@ -1,0 +1,234 @@
+"""Camera recordings: the FLIR ResearchIR / Altair .ptw reader on a real Jade recording and on
+files written here in the format's header variants, and the FLIR Planck calibration with its
+object parameters against an implementation written here from the published formula."""
+
+import math
+import struct
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from conftest import one_line_naming
+from radiosim.errors import RadiosimError
+from radiosim.flir import (ObjectParameters, PlanckCurve, atmospheric_transmission,
+                           raw_to_temperature, temperature_to_raw)
+from radiosim.io.recordings import read_ptw, read_recording
+
+JADE = Path(__file__).parent / "data" / "ptw" / "LWIR-BBref-150C-150us.ptw"
+
+
+# -- the real recording ----------------------------------------------------------------------------
+
+
+def _naive_pixel(path, frame, row, col):
+    """A pixel read with struct from the layout the Altair guide gives (independent of the
+    reader's memory map): main header, then per frame a header and row-major uint16."""
+    data = path.read_bytes()
+    main, frame_header = struct.unpack_from("<ii", data, 11)
+    cols, rows = struct.unpack_from("<HH", data, 377)
+    start = main + frame * (frame_header + rows * cols * 2) + frame_header
+    return struct.unpack_from("<H", data, start + 2 * (row * cols + col))[0]
+
+
+def test_a_real_jade_recording_reads_its_header_and_counts():
+    r = read_recording(JADE)
+    assert r.shape == (2, 240, 320) and r.camera_name == "Jade"
+    assert r.integration_time == pytest.approx(150e-6, rel=1e-6)
+    assert r.housing_temperature - 273.15 == pytest.approx(31.18, abs=0.01)  # the issue's 31.2
+    assert r.metadata["FilterName"] == "NE_010%"
+    for frame, row, col in ((0, 0, 0), (1, 239, 319), (0, 120, 160), (1, 17, 301)):
+        assert r.counts[frame, row, col] == _naive_pixel(JADE, frame, row, col)
+    # About fifteen hot pixels near 10 870 DN (the rest of the frame is below 6 800 DN).
+    hot = r.frames(0)[0] > 10_000
+    assert 10 <= hot.sum() <= 20 and np.all(r.frames(0)[0][~hot] < 9_900)
+    assert isinstance(r.counts, np.memmap) or isinstance(r.counts.base, np.memmap)
+
+
+def test_a_ptw_file_has_no_calibration_of_its_own():
+    r = read_recording(JADE)
+    with pytest.raises(RadiosimError) as info:
+        r.temperature()
+    one_line_naming(info, "LWIR-BBref-150C-150us.ptw", "no temperature calibration",
+                    "pass camera=")
+    with pytest.raises(RadiosimError) as info:
+        r.frames([2])
+    one_line_naming(info, "frame 2 is out of range", "2 frames (0–1)")
+
+
+# -- files written here: the header's variants -------------------------------------------------
+
+
+def write_ptw(path, frames, main=3476, frame_header=1016, signature=b"CED\0\0", period=0.01,
+              integration=150e-6, housing=300.0, times=None, **override):
+    """A PTW file as the Altair guide lays it out, from (frames, rows, cols) uint16 counts."""
+    n, rows, cols = frames.shape
+    head = bytearray(max(main, 420))
+    head[0:5] = signature
+    head[5:10] = b"5.60\0"
+    fields = {"main": main, "frame_header": frame_header,
+              "frame_and_header": frame_header // 2 + rows * cols,
+              "frame": rows * cols, "n": n, "cols": cols, "rows": rows} | override
+    struct.pack_into("<iiiii", head, 11, fields["main"], fields["frame_header"],
+                     fields["frame_and_header"], fields["frame"], fields["n"])
+    head[44:49] = b"Test\0"
+    struct.pack_into("<f", head, 212, housing)
+    struct.pack_into("<HH", head, 377, fields["cols"], fields["rows"])
+    struct.pack_into("<ff", head, 403, period, integration)
+    body = bytearray()
+    for k in range(n):
+        frame_head = bytearray(frame_header)
+        if times is not None and frame_header >= 161:
+            t = times[k]  # [s] of the day
+            frame_head[81], frame_head[80] = int(t // 3600), int(t % 3600 // 60)
+            frame_head[83] = int(t % 60)
+            ms = round((t % 1) * 1000)
+            frame_head[82], frame_head[160] = ms // 10, ms % 10
+        body += frame_head + frames[k].astype("<u2").tobytes()
+    path.write_bytes(bytes(head) + bytes(body))
+    return path
+
+
+@pytest.mark.parametrize("n, rows, cols, frame_header", [
+    (1, 4, 6, 1016), (3, 5, 7, 1016), (2, 8, 3, 0), (4, 2, 2, 200),
+])
+def test_written_ptw_files_read_back_exactly(tmp_path, n, rows, cols, frame_header):
+    rng = np.random.default_rng(n * 100 + rows)
+    frames = rng.integers(0, 65535, (n, rows, cols), dtype=np.uint16)
+    r = read_ptw(write_ptw(tmp_path / "r.ptw", frames, frame_header=frame_header))
+    np.testing.assert_array_equal(r.counts, frames)
+    assert r.integration_time == pytest.approx(150e-6) and r.housing_temperature == 300.0
+
+
+def test_frame_times_come_from_the_frame_headers_or_the_period(tmp_path):
+    frames = np.zeros((3, 2, 2), np.uint16)
+    times = [11 * 3600 + 51 * 60 + 36.845, 11 * 3600 + 51 * 60 + 36.905,
+             11 * 3600 + 51 * 60 + 37.005]
+    r = read_ptw(write_ptw(tmp_path / "a.ptw", frames, times=times))
+    np.testing.assert_allclose(r.frame_times, [0.0, 0.06, 0.16], atol=1e-9)
+    r = read_ptw(write_ptw(tmp_path / "b.ptw", frames, period=0.02))  # headers hold no time
+    np.testing.assert_allclose(r.frame_times, [0.0, 0.02, 0.04], atol=1e-9)
+
+
+@pytest.mark.parametrize("change, said", [
+    (lambda p: p.write_bytes(p.read_bytes()[:-10]), "is truncated"),
+    (lambda p: p.write_bytes(p.read_bytes()[:200]), "truncated in its main header"),
+    (lambda p: p.write_bytes(b"AIO" + p.read_bytes()[3:]), "not the signature b'CED'"),
+    (lambda p: p.write_bytes(b""), "is empty"),
+], ids=["a frame cut short", "a header cut short", "another signature", "empty"])
+def test_a_damaged_ptw_file_is_named(tmp_path, change, said):
+    path = write_ptw(tmp_path / "r.ptw", np.zeros((2, 4, 4), np.uint16))
+    change(path)
+    with pytest.raises(RadiosimError) as info:
+        read_recording(path)
+    one_line_naming(info, "r.ptw", said)
+
+
+@pytest.mark.parametrize("override, said", [
+    ({"n": 0}, "NumberOfFieldInFile is 0"),
+    ({"frame": 17}, "SizeOfOneFrame 17"),
+    ({"frame_and_header": 99}, "SizeOfOneFrameAndHeader 99"),
+    ({"main": 10}, "MainHeaderSize is 10"),
+    ({"rows": 0}, "LinesPerField 0"),
+])
+def test_header_fields_that_contradict_each_other_are_named(tmp_path, override, said):
+    path = write_ptw(tmp_path / "r.ptw", np.zeros((2, 4, 4), np.uint16), **override)
+    with pytest.raises(RadiosimError) as info:
+        read_recording(path)
+    one_line_naming(info, "r.ptw", said)
+
+
+def test_an_unknown_suffix_names_the_readers(tmp_path):
+    with pytest.raises(RadiosimError) as info:
+        read_recording(tmp_path / "movie.avi")
+    one_line_naming(info, "movie.avi", "'.avi'", ".ptw")
+
+
+# -- FLIR's Planck calibration and object parameters --------------------------------------------
+
+# A FLIR camera's curve as its files state it (the order of magnitude of an E-series camera's).
+CURVE = dict(R1=21106.77, R2=0.012545258, B=1501.0, F=1.0, O=-7340.0)
+
+
+def reference_raw2temp(raw, E, OD, RTemp_C, ATemp_C, IRWTemp_C, IRT, RH_percent, PR1, PB, PF,
+                       PO, PR2, ATA1, ATA2, ATB1, ATB2, ATX):
+    """The measurement equation written out step by step from Minkina & Dudzik and
+    ThermImage's published raw2temp (temperatures in °C, humidity in %), as a reader would
+    implement it from the documentation."""
+    emiss_wind = 1 - IRT
+    refl_wind = 0
+    h2o = (RH_percent / 100) * math.exp(1.5587 + 0.06939 * ATemp_C - 0.00027816 * ATemp_C**2
+                                        + 0.00000068455 * ATemp_C**3)
+    tau1 = (ATX * math.exp(-math.sqrt(OD / 2) * (ATA1 + ATB1 * math.sqrt(h2o)))
+            + (1 - ATX) * math.exp(-math.sqrt(OD / 2) * (ATA2 + ATB2 * math.sqrt(h2o))))
+    tau2 = tau1
+
+    def planck(t_c):
+        return PR1 / (PR2 * (math.exp(PB / (t_c + 273.15)) - PF)) - PO
+
+    raw_refl1_attn = (1 - E) / E * planck(RTemp_C)
+    raw_atm1_attn = (1 - tau1) / E / tau1 * planck(ATemp_C)
+    raw_wind_attn = emiss_wind / E / tau1 / IRT * planck(IRWTemp_C)
+    raw_refl2_attn = refl_wind / E / tau1 / IRT * planck(RTemp_C)
+    raw_atm2_attn = (1 - tau2) / E / tau1 / IRT / tau2 * planck(ATemp_C)
+    raw_obj = (raw / E / tau1 / IRT / tau2 - raw_atm1_attn - raw_atm2_attn - raw_wind_attn
+               - raw_refl1_attn - raw_refl2_attn)
+    argument = PR1 / (PR2 * (raw_obj + PO)) + PF
+    return PB / math.log(argument) if argument > 0 and argument != 1 else math.nan  # [K]
+
+
+def test_the_flir_formula_equals_an_implementation_written_from_the_publication():
+    """Random object parameters and raw counts: radiosim's temperatures equal the reference's
+    to 0.01 K (the requirement; they agree to rounding)."""
+    rng = np.random.default_rng(41)
+    curve = PlanckCurve(**CURVE)
+    compared = 0
+    for _ in range(200):
+        e = rng.uniform(0.3, 1.0)
+        p = ObjectParameters(emissivity=e, distance=rng.uniform(0, 30),
+                             reflected_temperature=rng.uniform(250, 330),
+                             atmospheric_temperature=rng.uniform(260, 320),
+                             relative_humidity=rng.uniform(0, 1),
+                             window_temperature=rng.uniform(270, 320),
+                             window_transmission=rng.uniform(0.6, 1.0))
+        raw = rng.uniform(12_000, 20_000)
+        expected = reference_raw2temp(
+            raw, p.emissivity, p.distance, p.reflected_temperature - 273.15,
+            p.atmospheric_temperature - 273.15, p.window_temperature - 273.15,
+            p.window_transmission, 100 * p.relative_humidity, CURVE["R1"], CURVE["B"],
+            CURVE["F"], CURVE["O"], CURVE["R2"], p.alpha1, p.alpha2, p.beta1, p.beta2, p.x)
+        got = float(raw_to_temperature(raw, curve, p))
+        if math.isfinite(expected):
+            assert got == pytest.approx(expected, abs=0.01)
+            compared += 1
+        # and the forward model returns the counts
+        if math.isfinite(got):
+            assert float(temperature_to_raw(got, curve, p)) == pytest.approx(raw, rel=1e-9)
+    assert compared > 150  # most draws give a temperature on the curve
+
+
+def test_a_black_object_at_no_distance_is_the_curve_itself():
+    """ε = 1, d = 0 (τ = 1), no window: T = B / ln(R1 / (R2 (raw + O)) + F), the curve's own
+    inverse, written out here."""
+    curve = PlanckCurve(**CURVE)
+    raw = 15_000.0
+    expected = CURVE["B"] / math.log(CURVE["R1"] / (CURVE["R2"] * (raw + CURVE["O"]))
+                                     + CURVE["F"])
+    got = raw_to_temperature(raw, curve, ObjectParameters(distance=0.0))
+    assert float(got) == pytest.approx(expected, rel=1e-12)
+    assert atmospheric_transmission(ObjectParameters(distance=0.0)) == pytest.approx(1.0)
+
+
+@pytest.mark.parametrize("kwargs, said", [
+    ({"relative_humidity": 30}, "a percentage? 30 % is 0.3"),
+    ({"relative_humidity": float("nan")}, "relative_humidity must be a finite number"),
+    ({"emissivity": 0.0}, "emissivity must be in (0, 1]"),
+    ({"distance": -1.0}, "distance must be ≥ 0"),
+    ({"reflected_temperature": 20.0 - 300.0}, "reflected_temperature must be > 0 K"),
+    ({"window_transmission": 1.5}, "window_transmission must be in (0, 1]"),
+    ({"emissivity": "0.9"}, "emissivity must be a finite number"),
+])
+def test_bad_object_parameters_are_named(kwargs, said):
+    with pytest.raises(RadiosimError) as info:
+        ObjectParameters(**kwargs)
+    one_line_naming(info, said)
