@@ -310,3 +310,116 @@ def test_a_real_blackbody_recording_reads_its_temperature_through_the_cameras_ow
     clipped = fitted.replace(optics=replace(fitted.optics, instrument_factor=1.0))
     misread = recording.temperature(clipped, frames=[0])[0][disc] - 273.15
     assert abs(np.nanmedian(misread) - 150.0) > 20.0
+
+
+# -- FLIR's own files: real frames against exiftool's reading and the published formula --------
+
+FLIR = Path(__file__).parent / "data" / "flir"
+
+
+def exiftool_fields():
+    """exiftool's reading of frame_000000.fff (its text dump): name → value as printed."""
+    out = {}
+    for line in (FLIR / "frame_000000.exiftool.txt").read_text().splitlines():
+        name, _, value = line.partition(":")
+        out[name.strip()] = value.strip()
+    return out
+
+
+def test_a_flir_fff_frame_reads_what_exiftool_reads():
+    r = read_recording(FLIR / "frame_000000.fff")
+    e = exiftool_fields()
+    assert r.shape == (1, int(e["Raw Thermal Image Height"]), int(e["Raw Thermal Image Width"]))
+    assert r.camera_name == e["Camera Model"]
+    m, p = r.metadata, r.metadata["object_parameters"]
+    assert p["emissivity"] == pytest.approx(float(e["Emissivity"]), abs=5e-3)
+    assert p["distance"] == pytest.approx(float(e["Object Distance"].split()[0]))
+    for key, name in (("reflected_temperature", "Reflected Apparent Temperature"),
+                      ("atmospheric_temperature", "Atmospheric Temperature"),
+                      ("window_temperature", "IR Window Temperature")):
+        assert p[key] - 273.15 == pytest.approx(float(e[name].split()[0]), abs=0.05)
+    assert p["window_transmission"] == pytest.approx(float(e["IR Window Transmission"]))
+    assert 100 * p["relative_humidity"] == pytest.approx(float(e["Relative Humidity"].split()[0]))
+    curve = r.curve
+    for name, value in (("R1", "Planck R1"), ("B", "Planck B"), ("F", "Planck F"),
+                        ("O", "Planck O"), ("R2", "Planck R2")):
+        assert getattr(curve, name) == pytest.approx(float(e[value]))
+    for key, name in (("alpha1", "Atmospheric Trans Alpha 1"), ("beta2", "Atmospheric Trans Beta 2"),
+                      ("x", "Atmospheric Trans X")):
+        assert p[key] == pytest.approx(float(e[name]), abs=1e-6)
+    assert m["FieldOfView"] == pytest.approx(float(e["Field Of View"].split()[0]))
+    assert m["FrameRate"] == int(e["Frame Rate"])
+    assert m["CameraSerialNumber"] == e["Camera Serial Number"]
+    assert m["DateTimeOriginal"].replace("T", " ").startswith(
+        e["Date/Time Original"].replace(":", "-", 2)[:23])
+    counts = r.frames(0)[0]
+    assert counts.max() - counts.min() == int(e["Raw Value Range"])
+
+
+@pytest.mark.parametrize("name", ["frame_000000.fff", "frame_000000_le.fff"])
+def test_a_flir_frames_temperatures_equal_the_published_formula(name):
+    """Every pixel through the file's own curve and object parameters, against the reference
+    written above from the publication: within 0.01 K (the requirement)."""
+    r = read_recording(FLIR / name)
+    p = ObjectParameters(**r.metadata["object_parameters"])
+    c = r.curve
+    got = r.temperature()[0]
+    raw = r.frames(0)[0]
+    rng = np.random.default_rng(0)
+    for i, j in zip(rng.integers(0, raw.shape[0], 300), rng.integers(0, raw.shape[1], 300)):
+        expected = reference_raw2temp(
+            raw[i, j], p.emissivity, p.distance, p.reflected_temperature - 273.15,
+            p.atmospheric_temperature - 273.15, p.window_temperature - 273.15,
+            p.window_transmission, 100 * p.relative_humidity, c.R1, c.B, c.F, c.O, c.R2,
+            p.alpha1, p.alpha2, p.beta1, p.beta2, p.x)
+        assert got[i, j] == pytest.approx(expected, abs=0.01)
+
+
+def test_a_humidity_of_30_meant_as_30_percent_is_refused_not_read_23_k_low():
+    """flirpy 0.6.2 passed the file's 30 % as 30: at 50 m that reads its own test frame about
+    23 K low (the reference formula, here, with h = 30 against h = 0.30). radiosim refuses
+    a humidity above 1, naming it as a percentage."""
+    r = read_recording(FLIR / "frame_000000.fff")
+    p = ObjectParameters(**r.metadata["object_parameters"])
+    c = r.curve
+    raw = float(np.median(r.frames(0)[0]))
+    args = (p.emissivity, p.distance, 20.0, 20.0, 22.0, 1.0)
+    right = reference_raw2temp(raw, *args, 30.0, c.R1, c.B, c.F, c.O, c.R2, p.alpha1,
+                               p.alpha2, p.beta1, p.beta2, p.x)
+    wrong = reference_raw2temp(raw, *args, 3000.0, c.R1, c.B, c.F, c.O, c.R2, p.alpha1,
+                               p.alpha2, p.beta1, p.beta2, p.x)
+    assert 15.0 < right - wrong < 35.0
+    assert float(np.median(r.temperature())) == pytest.approx(right, abs=0.01)
+    with pytest.raises(RadiosimError) as info:
+        r.temperature(relative_humidity=30)
+    one_line_naming(info, "relative_humidity", "30 % is 0.3")
+
+
+def test_a_seq_of_frames_is_memory_mapped_frame_by_frame(tmp_path):
+    one = (FLIR / "frame_000000_le.fff").read_bytes()
+    path = tmp_path / "three.seq"
+    path.write_bytes(one * 3)
+    r = read_recording(path)
+    assert r.shape == (3, 240, 320) and isinstance(r.counts, np.memmap)  # not loaded whole
+    np.testing.assert_array_equal(r.frames(2)[0], read_recording(FLIR / "frame_000000_le.fff")
+                                  .frames(0)[0])
+    np.testing.assert_allclose(r.frame_times, np.arange(3) / 30.0)
+    path.write_bytes(one * 2 + one[:1000])
+    with pytest.raises(RadiosimError) as info:
+        read_recording(path)
+    one_line_naming(info, "three.seq", "truncated")
+
+
+@pytest.mark.parametrize("damage, said", [
+    (lambda b: b[:40], "truncated in its 64-byte FFF header"),
+    (lambda b: b[:100_000], "is truncated: its record of type"),
+    (lambda b: b"GIF8" + b[4:], "not a FLIR FFF frame"),
+    (lambda b: b[:20] + b"\0\0\0\x07" + b[24:], "version is 7"),
+    (lambda b: b"", "is empty"),
+], ids=["header cut", "records cut", "another magic", "a version", "empty"])
+def test_a_damaged_fff_file_is_named(tmp_path, damage, said):
+    path = tmp_path / "f.fff"
+    path.write_bytes(damage((FLIR / "frame_000000.fff").read_bytes()))
+    with pytest.raises(RadiosimError) as info:
+        read_recording(path)
+    one_line_naming(info, "f.fff", said)

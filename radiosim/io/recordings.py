@@ -5,6 +5,8 @@ file's own calibration or by a radiosim camera's (:meth:`Recording.temperature`)
 
 Formats
 -------
+-   FLIR ``.fff`` frames and ``.seq`` sequences (:mod:`radiosim.io.flir_files`): raw counts
+    with the camera's Planck curve and object parameters.
 -   FLIR ResearchIR / Altair ``.ptw`` (Cedip, FLIR Titanium, Jade, Silver): a main header
     (signature ``CED``, its size at byte 11, the frame header's size [bytes] at 15, a
     frame's size with and without its header [16-bit words] at 19 and 23, the number of
@@ -266,8 +268,21 @@ def _time_of_day(header: bytes) -> float:
             + (header[82] * 10 + header[160]) / 1000)
 
 
+def _read_fff(path) -> Recording:
+    from radiosim.io.flir_files import read_fff
+
+    return read_fff(path)
+
+
+def _read_seq(path) -> Recording:
+    from radiosim.io.flir_files import read_seq
+
+    return read_seq(path)
+
+
 #: The readers of recordings by file suffix (lower case).
-RECORDING_READERS: dict[str, Callable[[Path], Recording]] = {".ptw": read_ptw}
+RECORDING_READERS: dict[str, Callable[[Path], Recording]] = {
+    ".ptw": read_ptw, ".fff": _read_fff, ".seq": _read_seq}
 
 
 def read_recording(path) -> Recording:
@@ -279,7 +294,7 @@ def read_recording(path) -> Recording:
     >>> read_recording("frames.xyz")
     Traceback (most recent call last):
     ...
-    radiosim.errors.RadiosimError: frames.xyz: no reader for '.xyz' recordings; radiosim reads .ptw
+    radiosim.errors.RadiosimError: frames.xyz: no reader for '.xyz' recordings; radiosim reads .fff, .ptw, .seq
     """
     path = Path(path)
     reader = RECORDING_READERS.get(path.suffix.lower())
