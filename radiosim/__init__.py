@@ -74,7 +74,8 @@ CHAIN = (
     "imaging", "electronics", "calibration", "flir", "measurement", "ratio", "presets", "acquisition",
     "camera", "characterization", "calibration_table", "scheduling", "moments", "budget_reuse",
     "uncertainty", "io", "study_spec", "study", "plotting", "reporting", "paper",
-    "example_data", "console", "warmup", "cli_checks", "cli_signals", "cli",
+    "example_data", "console", "warmup", "cli_checks", "cli_signals", "cli_recording",
+    "cli",
 )
 
 __all__ = [

@@ -50,7 +50,7 @@ def test_a_ptw_file_has_no_calibration_of_its_own():
     with pytest.raises(RadiosimError) as info:
         r.temperature()
     one_line_naming(info, "LWIR-BBref-150C-150us.ptw", "no temperature calibration",
-                    "pass camera=")
+                    "camera=, or --camera")
     with pytest.raises(RadiosimError) as info:
         r.frames([2])
     one_line_naming(info, "frame 2 is out of range", "2 frames (0–1)")
@@ -423,3 +423,73 @@ def test_a_damaged_fff_file_is_named(tmp_path, damage, said):
     with pytest.raises(RadiosimError) as info:
         read_recording(path)
     one_line_naming(info, "f.fff", said)
+
+
+# -- the command: radiosim recording info / export ---------------------------------------------
+
+
+def test_recording_info_prints_the_files_fields(capsys):
+    from radiosim.cli import main
+
+    assert main(["recording", "info", str(FLIR / "frame_000000.fff")]) == 0
+    out = capsys.readouterr().out
+    assert "Duo Pro R, 1 frame(s) of 640 × 512 px" in out and "PlanckR1" in out
+    assert main(["recording", "info", str(JADE)]) == 0
+    out = capsys.readouterr().out
+    assert "housing temperature: 304.33 K (31.18 °C)" in out and "give a camera" in out
+
+
+def test_recording_export_writes_cf_netcdf_and_exr_with_provenance(tmp_path, capsys):
+    import hashlib
+
+    import xarray as xr
+
+    from radiosim.cli import main
+
+    source = FLIR / "frame_000000.fff"
+    out = tmp_path / "t.nc"
+    assert main(["recording", "export", str(source), "--out", str(out)]) == 0
+    with xr.open_dataset(out, engine="h5netcdf") as d:
+        assert d.temperature.attrs["units"] == "K" and d.temperature.shape == (1, 512, 640)
+        assert hashlib.sha256(source.read_bytes()).hexdigest() in d.attrs["source"]
+        np.testing.assert_allclose(d.temperature.values[0],
+                                   read_recording(source).temperature()[0], rtol=1e-12)
+    import OpenEXR
+
+    exr = tmp_path / "t.exr"
+    assert main(["recording", "export", str(FLIR / "frame_000000_le.fff"), "--out",
+                 str(exr)]) == 0
+    with OpenEXR.File(str(exr)) as f:
+        temperature = f.channels()["temperature"].pixels
+    np.testing.assert_allclose(temperature, read_recording(FLIR / "frame_000000_le.fff")
+                               .temperature()[0], rtol=1e-6)  # float32 in the EXR
+    capsys.readouterr()
+    # A PTW without --camera, an existing --out, a frame out of range: one line, exit 2.
+    for argv, said in (([str(JADE), "--out", str(tmp_path / "p.nc")], "--camera"),
+                       ([str(source), "--out", str(out)], "exists"),
+                       ([str(JADE), "--out", str(tmp_path / "q.exr"), "--frames", "5"],
+                        "out of range")):
+        code = main(["recording", "export", *argv])
+        err = capsys.readouterr().err.strip().splitlines()
+        assert code == 2 and len(err) == 1 and said in err[0], err
+    assert not (tmp_path / "p.nc").exists() and not (tmp_path / "q.exr").exists()
+
+
+def test_a_long_recording_exports_a_chunk_at_a_time(tmp_path):
+    """300 frames of 64 × 80 through the file's own calibration: the dataset's arrays are
+    Dask arrays of 16 frames, so writing holds a chunk, not the recording; values equal the
+    frame-by-frame conversion."""
+    one = (FLIR / "frame_000000_le.fff").read_bytes()
+    path = tmp_path / "long.seq"
+    path.write_bytes(one * 40)
+    r = read_recording(path)
+    d = r.to_xarray()
+    assert d.temperature.data.chunks[0][0] == 16 and len(d.temperature.data.chunks[0]) == 3
+    from radiosim.io.recordings import export_recording
+
+    export_recording(r, tmp_path / "long.nc", frames=slice(5, 40))
+    import xarray as xr
+
+    with xr.open_dataset(tmp_path / "long.nc", engine="h5netcdf") as back:
+        assert back.temperature.shape == (35, 240, 320)
+        np.testing.assert_allclose(back.temperature.values[-1], r.temperature(frames=[39])[0])

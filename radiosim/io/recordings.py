@@ -35,7 +35,8 @@ import numpy as np
 
 from radiosim.errors import RadiosimError
 
-__all__ = ["Recording", "RECORDING_READERS", "read_recording", "read_ptw"]
+__all__ = ["Recording", "RECORDING_READERS", "read_recording", "read_ptw", "export_recording",
+           "info_lines"]
 
 
 @dataclass(frozen=True, eq=False)
@@ -77,25 +78,29 @@ class Recording:
         """(frames, rows, columns)."""
         return tuple(self.counts.shape)
 
-    def frames(self, frames=None) -> np.ndarray:
-        """The counts [DN] of ``frames`` (an index, a slice or a sequence of indices; ``None``:
-        all), as float64, (frames, rows, columns); an index out of range is refused naming
-        the file and its number of frames."""
+    def frame_indices(self, frames=None) -> np.ndarray:
+        """The indices of ``frames`` (an index, a slice or a sequence of indices; ``None``:
+        all); an index out of range is refused naming the file and its number of frames."""
         n = self.counts.shape[0]
-        if frames is None:
-            index = slice(None)
-        elif isinstance(frames, slice):
-            index = frames
-        else:
-            index = np.atleast_1d(np.asarray(frames))
-            if index.dtype.kind not in "iu" or index.size == 0:
-                raise RadiosimError(f"{self.path}: frames must be whole frame indices, got "
-                                    f"{frames!r}")
-            bad = (index < -n) | (index >= n)
-            if bad.any():
-                raise RadiosimError(f"{self.path}: frame {int(index[bad][0])} is out of range; "
-                                    f"the recording has {n} frames (0–{n - 1})")
-        return np.asarray(self.counts[index], dtype=float)
+        if frames is None or isinstance(frames, slice):
+            return np.arange(n)[slice(None) if frames is None else frames]
+        index = np.atleast_1d(np.asarray(frames))
+        if index.dtype.kind not in "iu" or index.size == 0 or index.ndim != 1:
+            raise RadiosimError(f"{self.path}: frames must be whole frame indices, got "
+                                f"{frames!r}")
+        bad = (index < -n) | (index >= n)
+        if bad.any():
+            raise RadiosimError(f"{self.path}: frame {int(index[bad][0])} is out of range; "
+                                f"the recording has {n} frames (0–{n - 1})")
+        return np.where(index < 0, index + n, index)
+
+    def frames(self, frames=None) -> np.ndarray:
+        """The counts [DN] of ``frames`` (see :meth:`frame_indices`) as float64, (frames,
+        rows, columns)."""
+        if isinstance(frames, slice) or frames is None:
+            return np.asarray(self.counts[frames if frames is not None else slice(None)],
+                              dtype=float)
+        return np.asarray(self.counts[self.frame_indices(frames)], dtype=float)
 
     def temperature(self, camera=None, frames=None, **object_parameters) -> np.ndarray:
         """
@@ -118,8 +123,8 @@ class Recording:
             if self.curve is None:
                 raise RadiosimError(
                     f"{self.path}: the file holds no temperature calibration of its own (a "
-                    f"{self.path.suffix} file stores counts); pass camera= a radiosim camera "
-                    "fitted to this camera's calibration tables")
+                    f"{self.path.suffix} file stores counts); give a radiosim camera fitted to "
+                    "this camera's calibration tables (camera=, or --camera)")
             from radiosim.flir import ObjectParameters, raw_to_temperature
 
             stated = self.metadata.get("object_parameters", {})
@@ -140,6 +145,112 @@ class Recording:
             camera = camera.replace(optics=dataclasses.replace(
                 camera.optics, instrument_temperature=self.housing_temperature))
         return camera.calibration(self.integration_time).temperature(counts)
+
+
+    def to_xarray(self, camera=None, frames=None, chunk: int = 16, **object_parameters):
+        """
+        The recording as a CF dataset: ``counts`` [DN] and ``temperature`` [K] (through
+        :meth:`temperature`, when the file or ``camera`` calibrates it) on (time, y, x), the
+        frame times [s] as the time coordinate, the file's provenance (path, SHA-256,
+        camera, integration time, housing temperature) in the attributes. The arrays are
+        Dask arrays of ``chunk`` frames: writing the dataset streams the recording through
+        memory a chunk at a time.
+        """
+        import hashlib
+
+        import dask.array as da
+        import xarray as xr
+
+        from radiosim._version import __version__
+
+        index = self.frame_indices(frames)
+        if index.size == 0:
+            raise RadiosimError(f"{self.path}: frames {frames!r} select no frame of its "
+                                f"{self.counts.shape[0]}")
+        counts = da.from_array(self.counts, chunks=(chunk, *self.counts.shape[1:]))[index]
+        dims = ("time", "y", "x")
+        data = {"counts": (dims, counts, {"units": "1", "long_name": "raw counts [DN]"})}
+        calibrated = camera is not None or self.curve is not None
+        if calibrated:
+            self.temperature(camera, index[:1], **object_parameters)  # checked before any work
+
+            def convert(block, block_info=None):
+                where = block_info[0]["array-location"][0]
+                return self.temperature(camera, index[where[0]:where[1]], **object_parameters)
+
+            temperature = counts.map_blocks(convert, dtype=np.float64)
+            data["temperature"] = (dims, temperature, {
+                "units": "K", "standard_name": "surface_temperature",
+                "long_name": "temperature through " + (
+                    f"radiosim camera {camera.name}" if camera is not None
+                    else "the file's own calibration")})
+        digest = hashlib.sha256()
+        with open(self.path, "rb") as handle:
+            for block in iter(lambda: handle.read(1 << 20), b""):
+                digest.update(block)
+        attrs = {"Conventions": "CF-1.10", "title": f"recording {self.path.name}",
+                 "source": f"{self.path} (sha256 {digest.hexdigest()})",
+                 "history": f"read by radiosim {__version__}",
+                 "camera_name": self.camera_name}
+        if self.integration_time is not None:
+            attrs["integration_time_s"] = self.integration_time
+        if self.housing_temperature is not None:
+            attrs["housing_temperature_K"] = self.housing_temperature
+        coords = {"time": ("time", np.asarray(self.frame_times)[index],
+                           {"units": "s", "long_name": "time from the first frame"})}
+        return xr.Dataset(data, coords=coords, attrs=attrs)
+
+
+def export_recording(recording: Recording, path, camera=None, frames=None,
+                     **object_parameters) -> Path:
+    """
+    Write ``recording``'s temperatures (and counts) to ``path``, atomically: a CF NetCDF
+    ``.nc`` (:meth:`Recording.to_xarray`, streamed a chunk of frames at a time) or an
+    ``.exr`` of one frame (``frames`` one index, default 0: channels ``temperature`` [K]
+    and ``counts``, the provenance in the header).
+    """
+    path = Path(path)
+    dataset = recording.to_xarray(camera, frames if path.suffix.lower() != ".exr" else
+                                  [0 if frames is None else frames], **object_parameters)
+    if "temperature" not in dataset:
+        recording.temperature(camera)  # says, in one line, that a camera is needed
+    if path.suffix.lower() == ".nc":
+        from radiosim.io.netcdf import write_netcdf
+
+        return write_netcdf(path, dataset)
+    if path.suffix.lower() == ".exr":
+        from radiosim.io.exr import _typed, write_channels
+
+        frame = dataset.isel(time=0).compute()
+        header = {key: _typed(value) for key, value in dataset.attrs.items()}
+        return write_channels(path, {"temperature": frame["temperature"].values,
+                                     "counts": frame["counts"].values}, header)
+    raise RadiosimError(f"{path}: radiosim exports recordings to .nc or .exr, not "
+                        f"{path.suffix!r}")
+
+
+def info_lines(recording: Recording) -> list[str]:
+    """The recording's metadata as a table of lines (what ``radiosim recording info``
+    prints): frames, size, times, and each field of the file as the file names it."""
+    n, rows, cols = recording.shape
+    lines = [f"{recording.path.name}: {recording.camera_name}, {n} frame(s) of {cols} × {rows} "
+             f"px, {recording.frame_times[-1]:.6g} s",
+             "  integration time: " + (f"{recording.integration_time * 1e6:g} µs"
+                                        if recording.integration_time else "not stated"),
+             "  housing temperature: " + (
+                 f"{recording.housing_temperature:.2f} K "
+                 f"({recording.housing_temperature - 273.15:.2f} °C)"
+                 if recording.housing_temperature else "not stated"),
+             "  calibration: " + ("the file's own (FLIR Planck curve)" if recording.curve
+                                  else "none in the file: give a camera")]
+    width = max((len(k) for k in recording.metadata), default=0)
+    for key, value in recording.metadata.items():
+        if isinstance(value, dict):
+            value = ", ".join(f"{k} = {v:.6g}" for k, v in value.items())
+        elif isinstance(value, float):
+            value = f"{value:.6g}"
+        lines.append(f"  {key:<{width}}  {value}")
+    return lines
 
 
 # -- FLIR ResearchIR / Altair .ptw ----------------------------------------------------------------
