@@ -102,6 +102,13 @@ class Recording:
                               dtype=float)
         return np.asarray(self.counts[self.frame_indices(frames)], dtype=float)
 
+    def defect_pixels(self, frames=None, k: float = 6.0):
+        """The defect pixels (hot, cold, dead, noisy) of ``frames`` by the EMVA 1288 rules
+        (:func:`radiosim.defects.find_defect_pixels`, at ``k`` robust σ)."""
+        from radiosim.defects import find_defect_pixels
+
+        return find_defect_pixels(self.frames(frames), k)
+
     def temperature(self, camera=None, frames=None, **object_parameters) -> np.ndarray:
         """
         Temperatures [K] of ``frames`` (see :meth:`frames`), (frames, rows, columns).
