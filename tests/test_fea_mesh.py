@@ -111,9 +111,29 @@ def test_an_xdmf_time_series(tmp_path, monkeypatch):
                                                                  t)})
     scene = read_fea_mesh(path, dx=2e-6, units={"length": "um", "time": "us",
                                                 "temperature": "K"})
-    assert scene.n_frames == 3 and scene.dt == pytest.approx(2e-6)
+    assert scene.n_frames == 3 and scene.dt == pytest.approx(2e-6) and scene.shape == (50, 50)
     m = rs.Camera.linear_ideal(10e-6).measure(scene, 2e-6, t_start=0.0)
-    assert np.all(np.isfinite(m.apparent_temperature)) and m.tensor_max.max() > 600
+    # The window [0, 2) µs is the first step, held: samples at the centres of 2 µm squares
+    # (row 0 at the top, y = 100 µm), each 10 µm pixel a block of 5 × 5 of them. The scene is
+    # the mesh's linear interpolation: scipy's on the same triangles gives each pixel's mean
+    # and maximum exactly (rounding: 1e-12 relative).
+    x = (np.arange(50) + 0.5) * 2.0
+    gx, gy = np.meshgrid(x, 100.0 - x)
+    interpolated = LinearNDInterpolator(Delaunay(points), field(points[:, 0], points[:, 1],
+                                                                0.0))(gx, gy)
+    blocks = interpolated.reshape(10, 5, 10, 5)
+    np.testing.assert_allclose(m.tensor_max, blocks.max(axis=(1, 3)), rtol=1e-12)
+    np.testing.assert_allclose(m.apparent_temperature, blocks.mean(axis=(1, 3)), rtol=1e-12)
+    # And the analytic field itself, within the linear-interpolation bound R²·M/2 of these
+    # 10 µm cells (R ≤ 0.75 · 1.4 · 10 µm, M = 400/σ² K/µm²: 55 K): its hottest sample,
+    # 300 + 400 exp(−2/(2σ²)) = 699.0 K at (39 or 41, 49 or 51) µm, and every pixel's mean.
+    # (Step 1 or 2 instead, the band 10 or 20 µm further, fails the exact check above by
+    # tens of kelvins.)
+    exact = field(gx, gy, 0.0).reshape(10, 5, 10, 5)
+    assert exact.max() == pytest.approx(300 + 400 * np.exp(-1 / SIGMA**2), rel=1e-14)
+    bound = (0.75 * 1.4 * 10.0) ** 2 * (400.0 / SIGMA**2) / 2
+    assert abs(m.tensor_max.max() - exact.max()) < bound
+    assert np.max(np.abs(m.apparent_temperature - exact.mean(axis=(1, 3)))) < bound
 
 
 def test_times_contradicting_an_xdmf_series_own_are_refused(tmp_path, monkeypatch):

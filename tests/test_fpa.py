@@ -853,8 +853,20 @@ def test_report_writes_the_datasheet(tmp_path, capsys):
     assert main(["report", "nist-ir", "--out", str(out)]) == 0
     assert sorted(p.name for p in out.glob("*.png")) == ["netd.png", "photon_transfer.png",
                                                          "range.png"]
+    from matplotlib.image import imread
+
+    from radiosim.plotting import DPI
+
     for png in out.glob("*.png"):
         assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+        # It decodes whole, at the datasheet's figure size (6 × 4 in), and holds data: the axes
+        # and text are black on white, the curves coloured (≈ 1 % of the pixels in each
+        # figure; a figure without its curves has none): at least 0.2 % asserted.
+        rgb = imread(png)[..., :3]
+        assert rgb.shape == (round(4 * DPI), round(6 * DPI), 3), png.name
+        assert np.all(rgb[0] == 1.0) and np.mean(rgb < 0.9) > 0.01, png.name  # white, drawn
+        coloured = rgb.max(axis=-1) - rgb.min(axis=-1) > 0.2
+        assert coloured.mean() > 2e-3, png.name
     with open(out / "datasheet.csv", newline="") as f:
         rows = list(csv.DictReader(f))
     quantities = {r["quantity"] for r in rows}

@@ -13,16 +13,18 @@ checked against references computed here, independently of the FFT blur:
 
 import dataclasses
 import math
+from pathlib import Path
 
 import numpy as np
 import pytest
-from scipy import integrate, special
+import scipy.constants as sc
+from scipy import integrate, optimize, special
 
 import radiosim as rs
 from radiosim.errors import RadiosimError
 from radiosim.imaging import sample_signals, sub_band_count
 from radiosim.integrator import Window
-from radiosim.psf import (Diffraction, GaussianBlur, ScatterHalo, TabulatedPSF,
+from radiosim.psf import (PAD_ENERGY, Diffraction, GaussianBlur, ScatterHalo, TabulatedPSF,
                           airy_encircled_energy, as_psf, blur, halo_encircled_energy)
 from radiosim.scenes import StepEdge, UniformBlackbody
 
@@ -347,33 +349,205 @@ def test_many_sub_bands_work_with_the_preset_band():
     np.testing.assert_allclose(m.apparent_temperature, 800.0, atol=1e-4)
 
 
-#: The fewest sub-bands found to keep every pixel within 0.1 K of 64 sub-bands on the
-#: hot/cold scene below (measured: 4 sub-bands give 0.106 K, 5 give 0.059 K).
-SUB_BANDS_FOR_0_1_K = 5
+# The polychromatic reference of the sub-band test below, computed here from closed forms:
+# Planck's photon radiance, nist-ir's shipped spectral curves (read from their CSV files), the
+# Airy pattern (airy_psf), scipy's adaptive quadrature over the pixel and the spot and
+# Gauss–Legendre over wavelength: not radiosim's tables, sub-band responses or FFT.
+
+SPECTRA = Path(__file__).resolve().parents[1] / "spectra"
+NIST_CURVES = ("filter_mwir_3.8-5.1um", "optics_mwir_lens", "qe_insb_77K")
+FILTER_BAND = (3.78e-6, 5.12e-6)  # [m] the filter's support (0 at both ends)
+
+
+def shipped_curve(name):
+    """A shipped spectral curve as (wavelength [m], value), its CSV file parsed here (comment
+    lines, a header, then µm and the value); linear between nodes, 0 outside (as documented)."""
+    lines = [line for line in (SPECTRA / f"{name}.csv").read_text().splitlines()
+             if line.strip() and not line.startswith("#")]
+    data = np.array([[float(v) for v in line.split(",")] for line in lines[1:]])
+    return data[:, 0] * 1e-6, data[:, 1]
+
+
+def spectral_rule(lo, hi, curves):
+    """Nodes [m] and weights [m] × the curves' product for ∫_lo^hi … dλ: 8-point Gauss–Legendre
+    on each interval between the curves' nodes, where the product is a polynomial of degree ≤ 3
+    and Planck's law smooth: exact to rounding for these 0.01–0.02 µm intervals."""
+    x, w = np.polynomial.legendre.leggauss(8)
+    edges = np.unique(np.concatenate([c[0] for c in curves] + [[lo, hi]]))
+    edges = edges[(edges >= lo) & (edges <= hi)]
+    a, b = edges[:-1, None], edges[1:, None]
+    nodes = (0.5 * (b - a) * x + 0.5 * (a + b)).ravel()
+    weights = (0.5 * (b - a) * w).ravel()
+    for c in curves:
+        weights = weights * np.interp(nodes, *c, left=0.0, right=0.0)
+    return nodes, weights
+
+
+def photon_radiance(wavelength, temperature):
+    """Planck's spectral photon radiance 2c / (λ⁴ (exp(hc/λkT) − 1)) [photons s⁻¹ m⁻² sr⁻¹
+    m⁻¹], temperatures along the first axis."""
+    t = np.asarray(temperature, dtype=float)[..., None]
+    return 2 * sc.c / wavelength**4 / np.expm1(sc.h * sc.c / (wavelength * sc.k * t))
+
+
+def box_overlap(a0, a1, b0, b1):
+    return max(0.0, min(a1, b1) - max(a0, b0))
+
+
+def rectangle_in_pixel(wavelength, na, pixel, rect):
+    """The fraction of a uniform rectangle's excess radiance that a pixel's mean sees through
+    the Airy pattern at ``wavelength`` [m] (boxes ((x0, x1), (y0, y1)) in µm): (1/|P|) ∫∫
+    h(u, v) |R ∩ (P − (u, v))| du dv, the overlap a product of 1-D overlaps, by nested quad."""
+    (px0, px1), (py0, py1) = pixel
+    (rx0, rx1), (ry0, ry1) = rect
+    h, _, _ = airy_psf(na, wavelength * 1e6)  # [µm⁻²] with r in µm
+
+    def across(u):
+        return integrate.quad(lambda v: box_overlap(ry0, ry1, py0 - v, py1 - v)
+                              * h(math.hypot(u, v)), py0 - ry1, py1 - ry0,
+                              points=sorted({py0 - ry0, py1 - ry1}), epsabs=1e-13,
+                              epsrel=1e-11, limit=200)[0]
+
+    value = integrate.quad(lambda u: box_overlap(rx0, rx1, px0 - u, px1 - u) * across(u),
+                           px0 - rx1, px1 - rx0, points=sorted({px0 - rx0, px1 - rx1}),
+                           epsabs=1e-13, epsrel=1e-11, limit=200)[0]
+    return value / ((px1 - px0) * (py1 - py0))
+
+
+def lattice_cubes(pixel, rect, period, m=60):
+    """Σ over the periodic copies (a·period, b·period), (a, b) ≠ 0, of D⁻³ [µm⁻³], D the
+    distance between the pixel and the copy of the rectangle (boxes in µm): the (2m + 1)² block
+    summed, the rest bounded by an integral: a copy beyond the block, at o, is at least
+    |o| − s from the pixel (s the boxes' farthest separation), so at least |x| − c for every x
+    of its p × p cell (c = s + half the cell's diagonal d), and those cells lie at |x| ≥
+    R = (m + 1) p − d: Σ ≤ (1/p²) ∫_{|x| ≥ R} (|x| − c)⁻³ d²x = (2π/p²)(1/(R − c) +
+    c/(2(R − c)²))."""
+    (px0, px1), (py0, py1) = pixel
+    (rx0, rx1), (ry0, ry1) = rect
+    a, b = (k.ravel() for k in np.meshgrid(np.arange(-m, m + 1), np.arange(-m, m + 1)))
+    a, b = a[(a != 0) | (b != 0)], b[(a != 0) | (b != 0)]
+    sx, sy = b * period, a * period
+    gx = np.maximum(0.0, np.maximum(rx0 + sx - px1, px0 - rx1 - sx))
+    gy = np.maximum(0.0, np.maximum(ry0 + sy - py1, py0 - ry1 - sy))
+    block = np.sum(np.hypot(gx, gy) ** -3.0)
+    half_diagonal = period / math.sqrt(2)
+    spread = math.hypot(max(px1, rx1) - min(px0, rx0), max(py1, ry1) - min(py0, ry0))
+    c = half_diagonal + spread
+    r = (m + 1) * period - half_diagonal
+    return block + 2 * math.pi / period**2 * (1 / (r - c) + c / (2 * (r - c) ** 2))
 
 
 def test_polychromatic_diffraction_converges_with_sub_bands():
-    # nist-ir (working NA 0.2 at 5×, 6 µm pixels) with ideal electronics; its band narrowed to
-    # the filter's support (3.78–5.12 µm, the same signal: the filter is 0 outside) so that
-    # all 64 sub-bands carry light (the preset's band would leave its edge sub-bands out).
-    # A 6 µm shear band at 1300 K on a 500 K background, the surroundings at 500 K: the hot light is bluer, so it spreads less
-    # than the cold light. The apparent temperature with n sub-bands against 64; the smallest
-    # n from which every tested count stays below 0.1 K is asserted.
-    stack = np.full((1, 12, 96), 500.0)
-    stack[0, :, 45:51] = 1300.0
+    # nist-ir (working NA 0.2 at 5×, 6 µm pixels) with ideal electronics and a fill factor of
+    # 1 (pixel footprints of whole samples: the reference integrates the exact pixel, and a
+    # partial sample of the blurred field is a sampling error of its own, ~0.8 K here); its
+    # band narrowed to the filter's support (3.78–5.12 µm, the same signal: the filter is 0
+    # outside) so that all 64 sub-bands carry light (the preset's band would leave its edge
+    # sub-bands out). A 6 × 12 µm hot spot of a shear band at 1300 K on a 500 K background,
+    # the surroundings at 500 K: the hot light is bluer, so it spreads less than the cold
+    # light. The scene (132 µm square) is large enough that radiosim's FFT padding is not
+    # capped (at 4 scene lengths; the padding is ≤ 520 µm here), so its periodic copies of the
+    # spot lie beyond the padding.
+    n_side, na = 132, 0.2
+    hot_rows, hot_cols = (60, 72), (63, 69)  # [µm] centred on a pixel corner: (66, 66)
+    stack = np.full((1, n_side, n_side), 500.0)
+    stack[0, slice(*hot_rows), slice(*hot_cols)] = 1300.0
     scene = rs.FrameStack(stack, dt=1e-6, dx=1e-6)
     scene.set_environment(surroundings_temperature=500.0)
-    camera = nist_camera(band=(3.78e-6, 5.12e-6))
-    counts = [1, 2, 3, 4, 5, 6, 8, 12, 16, 32]
+    camera = nist_camera(band=FILTER_BAND)
+    camera = camera.replace(fpa=dataclasses.replace(camera.fpa, fill_factor=1.0))
+    assert camera.optics.object_na(camera.fpa) == pytest.approx(na, rel=1e-13)
+    counts = [1, 2, 3, 4, 5, 6, 8, 12, 16, 32, 64]
 
     def apparent(n):
         return with_psf(camera, Diffraction(n)).measure(scene, 1e-6).apparent_temperature
 
-    reference = apparent(64)
-    assert np.all(np.isfinite(reference))
-    errors = {n: float(np.max(np.abs(apparent(n) - reference))) for n in counts}
+    measured = {n: apparent(n) for n in counts}
+    assert np.all(np.isfinite(measured[64]))
+
+    # -- the reference: the pixels around the spot (a quarter; the rest by symmetry) --------
+    window = [(i, j) for i in range(8, 11) for j in range(7, 11)]
+    pixels = [((6.0 * j, 6.0 * j + 6), (6.0 * i, 6.0 * i + 6)) for i, j in window]
+    rect = (hot_cols, hot_rows)
+    curves = [shipped_curve(name) for name in NIST_CURVES]
+    lo, hi = FILTER_BAND
+    # E_p(λ), the fraction of the spot's excess radiance that pixel p sees, is analytic in λ:
+    # interpolated from 16 Chebyshev nodes (12 nodes give the same temperatures to 1e-6 K).
+    cheb = np.polynomial.chebyshev
+    x = np.cos(math.pi * (np.arange(16) + 0.5) / 16)
+    fractions = np.array([[rectangle_in_pixel(0.5 * (lo + hi) + 0.5 * (hi - lo) * xk, na, p,
+                                              rect) for p in pixels] for xk in x])
+    coefficients = cheb.chebfit(x, fractions, 15)
+
+    def fraction(wavelength):
+        return cheb.chebval((wavelength - 0.5 * (lo + hi)) / (0.5 * (hi - lo)), coefficients)
+
+    full = spectral_rule(lo, hi, curves)
+
+    def radiance(t):  # the in-band photon radiance of the whole band at t [K]
+        return photon_radiance(full[0], t) @ full[1]
+
+    def temperature(signal):
+        return optimize.brentq(lambda t: radiance(t) - signal, 400.0, 1400.0, xtol=1e-10,
+                               rtol=1e-14)
+
+    def excess(nodes, weights):  # ∫ (L_q(1300 K) − L_q(500 K)) × curves over a rule
+        return (photon_radiance(nodes, 1300.0) - photon_radiance(nodes, 500.0)) @ weights
+
+    def sub_band_reference(n):
+        # n equal sub-bands, each's light seen through the Airy pattern of its centre.
+        edges = np.linspace(lo, hi, n + 1)
+        signal = radiance(500.0) + sum(
+            excess(*spectral_rule(a, b, curves)) * fraction(0.5 * (a + b))
+            for a, b in zip(edges[:-1], edges[1:]))
+        return np.array([temperature(s) for s in signal])
+
+    reference = {n: sub_band_reference(n) for n in counts}
+    continuous = radiance(500.0) + (
+        (photon_radiance(full[0], 1300.0) - photon_radiance(full[0], 500.0)) * full[1]
+    ) @ fraction(full[0]).T
+    exact = np.array([temperature(s) for s in continuous])  # every wavelength its own PSF
+
+    # -- 1. radiosim's image, sub-band count by count, against the reference ----------------
+    # Its FFT is periodic: each pixel also sees the spot's copies, at multiples of the FFT
+    # period ≥ the scene plus the padding P, the radius holding 1 − PAD_ENERGY of the Airy
+    # light at the longest sub-band centre (≥ 4.45 µm, one sub-band's centre). Their light
+    # only adds (1300 K > 500 K): the reading is the reference's, plus at most
+    # A·λ/(π³ NA) Σ D⁻³ of the excess (the Airy envelope h ≤ 8 NA²/(λ² v³), v = 2π NA D/λ,
+    # exceeded by < 1 % for v ≥ 10, its peaks falling as v grows; checked below up to twice
+    # the nearest copies' v) over the copies' distances D, taken at
+    # λ = 5.12 µm, through dT = dL / L'(T). Below: 1e-4 K for the radiance tables (1e-7 of L
+    # each, over d ln L/dT ≥ 2.8e-3 K⁻¹).
+    v_pad = optimize.brentq(lambda v: special.j0(v) ** 2 + special.j1(v) ** 2 - PAD_ENERGY,
+                            1.0, 1e4)
+    pad = v_pad * 4.45 / (2 * math.pi * na)  # [µm]
+    assert 4 * n_side >= v_pad * hi * 1e6 / (2 * math.pi * na) + 2  # padding not capped
+    period = n_side + pad
+    v = np.linspace(10.0, 2 * math.pi * na * 2 * period / 3.78, 200_001)
+    assert np.max((2 * special.j1(v) / v) ** 2 * math.pi * v**3 / 8) < 1.01
+    area = (hot_cols[1] - hot_cols[0]) * (hot_rows[1] - hot_rows[0])
+    share = np.array([1.01 * area * hi * 1e6 / (math.pi**3 * na) * lattice_cubes(p, rect, period)
+                      for p in pixels])
+    assert 2 * math.pi * na * pad / (hi * 1e6) > 10  # every copy ≥ P away: v > 10
+    rows, cols = np.array(window).T
+    for n in counts:
+        # L is convex: its slope at the reference bounds the slope up to the reading.
+        slope = np.array([(radiance(t + 1e-3) - radiance(t - 1e-3)) / 2e-3
+                          for t in reference[n]])
+        copies = share * excess(*full) / slope  # [K]
+        difference = measured[n][rows, cols] - reference[n]
+        assert np.all(difference > -1e-4), (n, difference)
+        assert np.all(difference < copies + 1e-4), (n, difference, copies)
+
+    # -- 2. the sub-band count that keeps 0.1 K, derived from the reference -----------------
+    # The reference's own error (n sub-bands against every wavelength its own PSF) gives the
+    # smallest count from which every count tested stays below 0.1 K; radiosim's errors,
+    # against its own 64 sub-bands over every pixel, must need the same count.
+    truth = {n: float(np.max(np.abs(reference[n] - exact))) for n in counts}
+    errors = {n: float(np.max(np.abs(measured[n] - measured[64]))) for n in counts}
+    needed = min(n for n in counts if all(truth[m] < 0.1 for m in counts if m >= n))
     enough = min(n for n in counts if all(errors[m] < 0.1 for m in counts if m >= n))
-    assert enough == SUB_BANDS_FOR_0_1_K, errors
+    assert 1 < needed < 64 and enough == needed, (truth, errors)
     # The error falls steadily (about as 1/n²) and one sub-band is off by kelvins.
     assert errors[1] > 1.0
     assert errors[2] < errors[1] / 3 and errors[4] < errors[2] / 3 and errors[8] < errors[4] / 3

@@ -1,5 +1,7 @@
 """Scenes: validation, streaming, time windows, analytic expectations."""
 
+from pathlib import Path
+
 import numpy as np
 import pytest
 from scipy.integrate import quad
@@ -103,32 +105,87 @@ def test_analytic_scenes_sample_mid_time_and_centres():
     assert band.describe()["velocity_m_per_s"] == 3.0
 
 
+SPECTRA = Path(__file__).resolve().parents[1] / "spectra"
+
+
+def shipped_curve(name):
+    """A shipped spectral curve as (wavelength [m], value): its CSV file read here, not by
+    radiosim (comment lines, a header line, then µm and the value)."""
+    lines = [line for line in (SPECTRA / f"{name}.csv").read_text().splitlines()
+             if line.strip() and not line.startswith("#")]
+    data = np.array([[float(v) for v in line.split(",")] for line in lines[1:]])
+    return data[:, 0] * 1e-6, data[:, 1]
+
+
+def in_band_photon_radiance(temperature, band, curves):
+    """∫ Π curves(λ) · L_q,λ(λ, T) dλ [photons s⁻¹ m⁻² sr⁻¹] by scipy quad: Planck's photon
+    radiance L_q,λ = 2c / (λ⁴ (exp(hc/λkT) − 1)) times the curves, each interpolated linearly
+    and zero outside its table; the curves' nodes are quad's break points."""
+    import scipy.constants as sc
+
+    def integrand(lam):
+        weight = 1.0
+        for x, y in curves:
+            weight *= np.interp(lam, x, y, left=0.0, right=0.0)
+        return weight * 2 * sc.c / lam**4 / np.expm1(sc.h * sc.c / (lam * sc.k * temperature))
+
+    lo, hi = band
+    nodes = np.unique(np.concatenate([x for x, _ in curves]))
+    value, _ = quad(integrand, lo, hi, points=nodes[(nodes > lo) & (nodes < hi)], limit=2000,
+                    epsabs=0.0, epsrel=1e-12)
+    return value
+
+
 def test_step_edge_readings_are_area_fractions_linear_and_planck():
+    from scipy.optimize import brentq
+
     from radiosim import Camera
     from radiosim.scenes import StepEdge
 
     pitch = 4e-6
-    # Linear: exact for any edge position, even inside a sample.
+    # Linear: exact for any edge position, even inside a sample. Pixel j covers
+    # [4j, 4j + 4] µm, the hot side is x < 13.3 µm: pixels 0–2 are wholly hot, pixel 3 holds
+    # 1.3 µm of hot over its 4 µm (f = 0.325), the rest are wholly cold. Rounding only.
     edge = StepEdge(1000.0, 300.0, edge=13.3e-6, shape=(8, 40), dx=1e-6, dt=1e-6)
     m = Camera.linear_ideal(pitch).measure(edge, 1e-6, t_start=0.0)
-    left = np.arange(m.shape[1]) * pitch
-    f = edge.hot_fraction(left, left + pitch)
-    np.testing.assert_allclose(m.apparent_temperature[0], 300.0 + 700.0 * f, rtol=1e-14)
+    expected = np.array([1000.0] * 3 + [300.0 + 700.0 * 1.3 / 4] + [300.0] * 6)
+    np.testing.assert_allclose(m.apparent_temperature[0], expected, rtol=1e-14)
     # Planck, edge on a sample boundary: the temperature of the mean radiance, hotter than
-    # the mean temperature.
-    edge = StepEdge(1000.0, 300.0, edge=13e-6, shape=(8, 40), dx=1e-6, dt=1e-6)
-    m = Camera.linear_ideal(pitch).measure(edge, 1e-6, t_start=0.0)
-    f = edge.hot_fraction(left, left + pitch)
-    camera = Camera.preset("nist-ir").replace(
-        fpa=Camera.preset("nist-ir").fpa.__class__(pixel_pitch=pitch, shape=(2, 10)),
-        electronics=Camera.linear_ideal(pitch).electronics)
-    planck = camera.measure(edge, 1e-6, t_start=0.0)
-    table = camera.response_model.table()
-    expected = table.temperature(f * table(1000.0) + (1 - f) * table(300.0))
-    np.testing.assert_allclose(planck.apparent_temperature[0], expected, rtol=1e-9)
-    straddling = (f > 0) & (f < 1)
-    assert np.all(planck.apparent_temperature[0][straddling] >
-                  m.apparent_temperature[0][straddling])
+    # the mean temperature. nist-ir's band (3.75–5.15 µm) through its filter and lens; the
+    # replaced FPA has a flat quantum efficiency (1), so the QE curve is not in the band.
+    # The in-band radiance L and its inverse are computed here (quad, brentq), not by
+    # radiosim's tables.
+    base = Camera.preset("nist-ir")
+    camera = base.replace(fpa=base.fpa.__class__(pixel_pitch=pitch, shape=(2, 10)),
+                          electronics=Camera.linear_ideal(pitch).electronics)
+    band = (3.75e-6, 5.15e-6)
+    curves = [shipped_curve("filter_mwir_3.8-5.1um"), shipped_curve("optics_mwir_lens")]
+
+    def radiance(t):
+        return in_band_photon_radiance(t, band, curves)
+
+    hot, cold = radiance(1000.0), radiance(300.0)
+    # Tolerance: both sides compute L to ~1e-9 relative or better (quad to 1e-12; radiosim's
+    # radiance table is a cubic spline of a few hundred nodes per octave); a relative radiance
+    # error δ moves a reading by δ / (d ln L/dT), and d ln L/dT ≈ c2/(λT²) ≥ 14388 µm K /
+    # (5.15 µm · (1000 K)²) = 2.8e-3 K⁻¹ here: ≤ 4e-7 K for δ = 1e-9; 1e-6 K asserted. Leaving
+    # the QE curve in the band moves the straddling pixel by 0.09–0.28 K; the mean temperature
+    # instead of the mean radiance, by 96–231 K.
+    for microns in (13, 14, 15):  # pixel 3 (12–16 µm) holds f = 1/4, 1/2, 3/4 of hot
+        f = (microns - 12) / 4
+        edge = StepEdge(1000.0, 300.0, edge=microns * 1e-6, shape=(8, 40), dx=1e-6,
+                        dt=1e-6)
+        m = Camera.linear_ideal(pitch).measure(edge, 1e-6, t_start=0.0)
+        planck = camera.measure(edge, 1e-6, t_start=0.0)
+        mixed = f * hot + (1 - f) * cold
+        straddling = brentq(lambda t: radiance(t) - mixed, 300.0, 1000.0, xtol=1e-10,
+                            rtol=1e-15)
+        expected = np.array([1000.0] * 3 + [straddling] + [300.0] * 6)
+        np.testing.assert_allclose(planck.apparent_temperature[0], expected, rtol=0,
+                                   atol=1e-6)
+        np.testing.assert_allclose(m.apparent_temperature[0][3], 300.0 + 700.0 * f,
+                                   rtol=1e-14)
+        assert planck.apparent_temperature[0][3] > m.apparent_temperature[0][3]
 
 
 def test_frame_stack_blocks_are_views_of_the_stored_frames(tmp_path):

@@ -4,7 +4,6 @@ import csv
 import dataclasses
 import json
 import os
-import time
 import tomllib
 from pathlib import Path
 
@@ -266,39 +265,66 @@ def test_an_exr_file_that_cannot_be_written_fails_the_run_and_drops_its_row(tmp_
     assert listed == files and "_2us_" in files[0] and not any("_4us_" in f for f in files)
 
 
-def test_background_writes_stop_at_the_first_failure_and_skip_the_rest_on_an_error(tmp_path):
+def test_background_writes_stop_at_the_first_failure_and_skip_the_rest_on_an_error(
+        tmp_path, monkeypatch):
     # A failed write is raised by the next write asked for; after the body's error every
     # write asked for is done, after an interrupt those not yet started are not (and are
-    # counted as not written).
+    # counted as not written). Every step waits on a handshake (an Event the other side sets,
+    # with a generous time-out), not on a delay.
+    import concurrent.futures
     import threading
 
     from radiosim.files import BackgroundWrites
 
+    timeout = 30.0  # [s] for a loaded machine; a handshake that never comes fails the test
     gate = threading.Event()
     gate.set()
+    started = threading.Event()  # a write of the text "1" has begun
+    may_fail = threading.Event()
+    failure_known = threading.Event()
 
     def write(path, text):
         if path.name == "bad":
+            assert may_fail.wait(timeout)
             raise OSError(28, "No space left on device", str(path))
-        gate.wait(5)
+        if path.name == "probe":
+            failure_known.set()
+            return
+        if text == "1":
+            started.set()
+        assert gate.wait(timeout)
         path.write_text(text)
 
     writes = BackgroundWrites(write)
     with pytest.raises(OSError, match="No space"):
         with writes:
             writes(tmp_path / "bad", "x")
-            time.sleep(0.2)  # the failure is known by now
+            writes(tmp_path / "probe", "")  # asked for while "bad" still runs: not raised
+            may_fail.set()
+            # The writes run one at a time, in order: the probe starts once "bad" has failed.
+            assert failure_known.wait(timeout)
             writes(tmp_path / "b", "y")  # raises it
     assert writes.failed == [tmp_path / "bad"] and not (tmp_path / "b").exists()
+    # The gate opens while __exit__ waits for the writes: when it calls
+    # concurrent.futures.wait (after an interrupt has cancelled the writes not started).
+    real_wait = concurrent.futures.wait
+
+    def wait_then_open(futures, *args, **kwargs):
+        if threading.current_thread() is threading.main_thread():
+            gate.set()
+        return real_wait(futures, *args, **kwargs)
+
+    monkeypatch.setattr(concurrent.futures, "wait", wait_then_open)
     for error, first, second in ((KeyError, tmp_path / "c", tmp_path / "d"),
                                  (KeyboardInterrupt, tmp_path / "e", tmp_path / "f")):
         gate.clear()
+        started.clear()
         writes = BackgroundWrites(write)
         with pytest.raises(error):
             with writes:
-                writes(first, "1")  # started: waits for the gate, then completes
+                writes(first, "1")
+                assert started.wait(timeout)  # started: waits for the gate, then completes
                 writes(second, "2")  # not started when the body fails
-                threading.Timer(0.3, gate.set).start()  # the gate opens while __exit__ waits
                 raise error("the body's error")
         assert first.read_text() == "1"
         if error is KeyError:  # a failed body's writes are of completed work: done
