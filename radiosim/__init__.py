@@ -18,7 +18,8 @@ point-spread functions in :mod:`radiosim.psf`; the image they form in :mod:`radi
 orchestrated by :class:`radiosim.camera.Camera` (its acquisition modes in
 :mod:`radiosim.acquisition`, its laboratory procedures in :mod:`radiosim.characterization` and
 :mod:`radiosim.calibration_table`). Files in and out are in :mod:`radiosim.io` (a camera's
-recordings in :mod:`radiosim.io.recordings`),
+recordings in :mod:`radiosim.io.recordings`, put beside a simulation by
+:mod:`radiosim.comparison`),
 studies in :mod:`radiosim.study`, everything specific to the paper in :mod:`radiosim.paper`,
 and the ``radiosim`` command in :mod:`radiosim.cli` (its signal handling in
 :mod:`radiosim.cli_signals`; the interrupt the library's loops poll in
@@ -46,6 +47,8 @@ _LAZY = {
     "FrameStack": "radiosim.scenes",
     "MovingGaussianBand": "radiosim.scenes",
     "UniformBlackbody": "radiosim.scenes",
+    "compare": "radiosim.comparison",
+    "read_recording": "radiosim.io.recordings",
 }
 _SUBMODULES = frozenset({"errors", "units", "io", "paper", "scenes", "study", "acquisition",
                          "characterization", "calibration_table", "ratio"})
@@ -73,7 +76,8 @@ CHAIN = (
     "psf", "optics",
     "imaging", "electronics", "calibration", "flir", "measurement", "ratio", "presets", "acquisition",
     "camera", "characterization", "defects", "calibration_table", "scheduling", "moments", "budget_reuse",
-    "uncertainty", "io", "study_spec", "study", "plotting", "reporting", "paper",
+    "uncertainty", "io", "study_spec", "study", "plotting", "comparison", "reporting",
+    "paper",
     "example_data", "console", "warmup", "cli_checks", "cli_signals", "cli_recording",
     "cli",
 )
@@ -91,6 +95,8 @@ __all__ = [
     "RadiosimError",
     "RadiosimWarning",
     "available_presets",
+    "compare",
+    "read_recording",
     "io",
     "scenes",
     "study",

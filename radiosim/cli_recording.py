@@ -5,11 +5,14 @@
 -   ``radiosim recording export FILE --out T.nc|T.exr [--camera C] [--frames A:B]``: its
     temperatures (through the file's own calibration, or a radiosim camera's at the
     recording's integration time and housing temperature) with their provenance, in a new file.
+-   ``radiosim compare RECORDING SIMULATION --out FOLDER``: the recording beside a simulated
+    measurement (:func:`radiosim.comparison.compare`): the statistics printed, the images and
+    their difference in ``comparison.nc``, the figure in ``comparison.png``.
 """
 
 from __future__ import annotations
 
-__all__ = ["add_recording_parser"]
+__all__ = ["add_recording_parser", "add_compare_parser"]
 
 
 def _frames(text: str):
@@ -82,3 +85,84 @@ def add_recording_parser(sub) -> None:
     export.add_argument("--frames", type=_frames, default=None, metavar="A:B",
                         help="frames to export: K or A:B (default all; an EXR: frame 0)")
     export.set_defaults(func=_export)
+
+
+def _shift(text: str):
+    import argparse
+
+    try:
+        rows, columns = (float(v) for v in text.split(","))
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"--shift {text!r}: expected ROWS,COLUMNS in "
+                                         "pixels, e.g. 2.5,-1") from None
+    return rows, columns
+
+
+def _compare(args) -> int:
+    from pathlib import Path
+
+    from radiosim.cli_checks import camera_from_argument
+    from radiosim.comparison import compare
+    from radiosim.errors import RadiosimError
+    from radiosim.files import OutputFolder
+    from radiosim.io.netcdf import write_netcdf
+    from radiosim.io.recordings import read_recording
+    from radiosim.plotting import save_figure
+
+    simulation = Path(args.simulation)
+    if simulation.suffix.lower() == ".nc":
+        from radiosim.io.netcdf import read_netcdf as read
+    elif simulation.suffix.lower() == ".exr":
+        from radiosim.io.exr import read_exr as read
+    else:
+        raise RadiosimError(f"{simulation}: a simulated measurement is a .nc or .exr file "
+                            "(radiosim measure --out)")
+    recording = read_recording(args.recording)
+    measurement = read(simulation)
+    camera = (camera_from_argument(args.camera, command="compare") if args.camera else None)
+    result = compare(recording, measurement, camera, frame=args.frame, shift=args.shift,
+                     scale=args.scale)
+    stats = result.statistics()
+    out = OutputFolder(Path(args.out), overwrite=args.overwrite,
+                       inputs=(args.recording, simulation))
+    completed = False
+    try:
+        write_netcdf(out.staging / "comparison.nc", result.to_xarray(args.command_line))
+        save_figure(result.figure(), out.staging / "comparison.png")
+        out.commit()
+        completed = True
+    finally:
+        if not completed:
+            out.abandon(keep=False)
+    print(f"{recording.path.name} frame {args.frame} beside {simulation.name}: shift "
+          f"{stats['shift_rows']:+.2f}, {stats['shift_columns']:+.2f} px, {stats['pixels']} "
+          "pixels in common")
+    print(f"  recorded − simulated: mean {stats['mean_K']:+.2f} K, σ {stats['std_K']:.2f} K, "
+          f"5–95 % {stats['p5_K']:+.2f} to {stats['p95_K']:+.2f} K; "
+          f"{100 * stats['within_uncertainty']:.1f} % within {result.coverage:g} × the "
+          "simulation's uncertainty")
+    print(f"wrote {out.path / 'comparison.nc'}, comparison.png")
+    return 0
+
+
+def add_compare_parser(sub) -> None:
+    """Add ``compare`` to the command's subparsers."""
+    cmp = sub.add_parser("compare", help="a recording beside a simulated measurement",
+                         description="Register a simulated measurement (a .nc or .exr of "
+                         "radiosim measure) on a frame of a recording (sub-pixel, by phase "
+                         "correlation and least squares), and write the recorded and "
+                         "simulated images, their difference and its statistics "
+                         "(comparison.nc, comparison.png) into a new or empty folder.")
+    cmp.add_argument("recording", help="a .ptw, .fff or .seq recording")
+    cmp.add_argument("simulation", help="a simulated measurement (.nc or .exr)")
+    cmp.add_argument("--out", required=True, help="a new or empty folder")
+    cmp.add_argument("--overwrite", action="store_true",
+                     help="replace the files of radiosim's previous comparison in --out")
+    cmp.add_argument("--camera", help="the camera that calibrates a recording without its own "
+                     "calibration (.ptw)")
+    cmp.add_argument("--frame", type=int, default=0, help="the recording's frame (default 0)")
+    cmp.add_argument("--shift", type=_shift, default=None, metavar="ROWS,COLUMNS",
+                     help="use this shift [pixels] instead of registering")
+    cmp.add_argument("--scale", type=float, default=None,
+                     help="the simulation's pixel over the recording's, in object space")
+    cmp.set_defaults(func=_compare)
