@@ -129,7 +129,7 @@ class Camera:
     optics: Optics = field(default_factory=Optics)
     electronics: Electronics = field(default_factory=Electronics.ideal)
     response: str = edge_field("planck", "response", kind="str",
-                               doc="'planck' or 'linear'")
+                               doc="'planck', 'linear' or 'maker-curve'")
     name: str = edge_field("custom", "name", kind="str", doc="camera name")
     frame_rate: float | None = edge_field(None, "frame_rate_hz", doc="frame rate [Hz]")
     assumed_emissivity: float = edge_field(1.0, "assumed_emissivity",
@@ -158,6 +158,11 @@ class Camera:
     ratio_noise_limit: float | None = edge_field(
         None, "ratio_noise_limit_K", doc="largest noise of a reported ratio temperature [K]")
     channels: tuple[Channel, ...] | None = None
+    maker_curve: tuple[float, ...] | None = edge_field(
+        None, "maker_curve_R1_R2_B_F_O", kind="numbers",
+        doc="the maker's calibration curve (R1, R2, B [K], F, O [DN]) of response 'maker-curve'")
+    maker_curve_time: float | None = edge_field(
+        None, "maker_curve_time_us", 1e-6, doc="the integration time the maker curve holds at")
 
     def __post_init__(self):
         if self.response not in RESPONSES:
@@ -202,6 +207,15 @@ class Camera:
                 self.ratio_noise_limit, "ratio_noise_limit", "K"))
         if self.channels is not None:
             object.__setattr__(self, "channels", check_channels(self.channels, self.response))
+        if self.maker_curve is not None:
+            curve = tuple(float(v) for v in self.maker_curve)
+            if len(curve) != 5 or not all(math.isfinite(v) for v in curve):
+                raise RadiosimError(f"maker_curve must be (R1, R2, B, F, O), five finite "
+                                    f"numbers, got {self.maker_curve!r}")
+            object.__setattr__(self, "maker_curve", curve)
+        if self.maker_curve_time is not None:
+            object.__setattr__(self, "maker_curve_time", check_positive(
+                self.maker_curve_time, "maker_curve_time", "s"))
         check_readout_fits(self)
 
     # -- construction -------------------------------------------------------------------------
@@ -228,6 +242,46 @@ class Camera:
             response="linear",
             name="linear-ideal",
         )
+
+    @classmethod
+    def from_recording(cls, recording, distance: float | None = None) -> Camera:
+        """
+        The camera that made ``recording`` (a :class:`~radiosim.io.recordings.Recording` with
+        its maker's calibration curve, a FLIR file): response ``"maker-curve"`` with the file's
+        Planck R1, R2, B, F and O (the offset, at a gain of 1 DN per unit), noise-free
+        16-bit electronics, the file's frame rate, and its pixel in object space from the
+        horizontal field of view over the object ``distance`` [m] (default the file's):
+        2 d tan(FOV/2) / columns. The curve holds at the file's integration time (or, not
+        stated, one frame period).
+        """
+        curve = getattr(recording, "curve", None)
+        if curve is None:
+            raise RadiosimError(f"{recording.path}: the file holds no maker's calibration "
+                                "curve (a FLIR file does); a PTW recording needs a camera of "
+                                "its own, fitted to the camera's tables")
+        meta = recording.metadata
+        fov = float(meta.get("FieldOfView", 0.0))
+        d = float(meta.get("object_parameters", {}).get("distance", 0.0)
+                  if distance is None else distance)
+        if not (0 < fov < 180 and d > 0):
+            raise RadiosimError(f"{recording.path}: the pixel in object space needs a field "
+                                f"of view in (0, 180)° and an object distance > 0 m; the file "
+                                f"gives {fov:g}° and {d:g} m (pass distance=)")
+        _, rows, cols = recording.shape
+        pitch = 2 * d * math.tan(math.radians(fov) / 2) / cols
+        rate = float(meta.get("FrameRate") or 0) or None
+        t_curve = recording.integration_time or (1 / rate if rate else None)
+        if t_curve is None:
+            raise RadiosimError(f"{recording.path}: states neither an integration time nor a "
+                                "frame rate; the maker curve's time is unknown")
+        electronics = Electronics(full_well=None, dark_current=0.0, read_noise=0.0,
+                                  shot_noise=False, gain=1.0, offset=-curve.O, adc_bits=16)
+        return cls(fpa=FocalPlaneArray(pixel_pitch=pitch, shape=(rows, cols)),
+                   electronics=electronics, response="maker-curve",
+                   name=f"{recording.camera_name or 'camera'} ({recording.path.name})",
+                   frame_rate=rate, maker_curve=(curve.R1, curve.R2, curve.B, curve.F, curve.O),
+                   maker_curve_time=t_curve, calibration_range=(150.0, 2500.0),
+                   assumed_reflected_temperature=None)
 
     @classmethod
     def preset(cls, name: str) -> Camera:

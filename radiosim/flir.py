@@ -41,6 +41,7 @@ from dataclasses import dataclass, fields
 import numpy as np
 
 from radiosim.errors import RadiosimError
+from radiosim.units import to_celsius
 
 __all__ = ["PlanckCurve", "ObjectParameters", "atmospheric_transmission", "raw_to_temperature",
            "temperature_to_raw"]
@@ -133,7 +134,7 @@ class ObjectParameters:
 def atmospheric_transmission(p: ObjectParameters) -> float:
     """The atmosphere's transmission [1] over half of ``p.distance`` (FLIR's model: either
     side of an external window)."""
-    t = p.atmospheric_temperature - 273.15  # [°C]
+    t = float(to_celsius(p.atmospheric_temperature))  # [°C]
     h2o = p.relative_humidity * math.exp(1.5587 + 0.06939 * t - 0.00027816 * t**2
                                          + 0.00000068455 * t**3)
     root = math.sqrt(p.distance / 2)

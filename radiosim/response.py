@@ -23,6 +23,8 @@ calibration inverts a grey body's signal (:meth:`Response.grey_signal`,
 
 from __future__ import annotations
 
+import math
+
 from abc import ABC, abstractmethod
 from typing import TYPE_CHECKING
 
@@ -38,7 +40,7 @@ from radiosim.spectral import is_spectrum
 if TYPE_CHECKING:  # colour-science is imported when a curve is built
     from colour import SpectralDistribution
 
-__all__ = ["Response", "LinearResponse", "PlanckResponse", "RESPONSES",
+__all__ = ["Response", "LinearResponse", "PlanckResponse", "MakerCurveResponse", "RESPONSES",
            "PLANCK_TABLE_RANGE", "observed_signal", "object_signal", "reflectance"]
 
 #: Temperatures the Planck response tabulates [K]: colder samples are integrated exactly,
@@ -364,7 +366,99 @@ class PlanckResponse(Response):
         return float(etendue)
 
 
+class MakerCurveResponse(Response):
+    """
+    A camera maker's calibration curve (FLIR's; the Sakuma–Hattori form): a blackbody at T
+    gives R1 / (R2 (exp(B/T) − F)) counts above the offset −O in the curve's integration time
+    t_c [s], linear in radiance, so a pixel that sees several temperatures averages their
+    curve values (not their temperatures). The signal is that rate, ε · R1 / (R2 (exp(B/T) −
+    F)) / t_c [DN s⁻¹] (reflections add (1 − ε) times the reflected temperature's), and
+    1/gain electrons are one DN: the camera's counts are the curve's at t_c, and scale with
+    the integration time.
+
+    Parameters
+    ----------
+    curve
+        (R1, R2, B, F) as the camera's files state them (B [K]).
+    curve_time
+        t_c, the integration time the curve holds at [s].
+    gain
+        The camera's system gain [DN/e⁻].
+
+    Examples
+    --------
+    >>> r = MakerCurveResponse((21106.77, 0.012545, 1501.0, 1.0), 1e-3, 1.0)
+    >>> round(float(r.temperature(r.grey_signal(310.0))), 9)
+    310.0
+    """
+
+    name = "maker-curve"
+    unit = "DN s⁻¹"
+    radiometric = True
+
+    def __init__(self, curve, curve_time: float, gain: float):
+        values = tuple(float(v) for v in curve)
+        if len(values) != 4 or not all(math.isfinite(v) for v in values) or min(
+                values[0], values[1], values[2]) <= 0:
+            raise RadiosimError(f"a maker curve is (R1, R2, B, F) with R1, R2, B > 0, got "
+                                f"{curve!r}")
+        self.r1, self.r2, self.b, self.f = values
+        self.curve_time = check_positive(curve_time, "maker_curve_time", "s")
+        self.gain = check_positive(gain, "gain", "DN/e⁻")
+
+    @classmethod
+    def for_camera(cls, camera) -> MakerCurveResponse:
+        """The camera's ``maker_curve`` (R1, R2, B, F, O: O is the electronics' offset),
+        ``maker_curve_time`` and gain."""
+        if camera.maker_curve is None or camera.maker_curve_time is None:
+            raise RadiosimError(f"{camera.name}: response 'maker-curve' needs maker_curve "
+                                "(R1, R2, B, F, O) and maker_curve_time [s] (Camera."
+                                "from_recording sets them from a FLIR file)")
+        return cls(camera.maker_curve[:4], camera.maker_curve_time, camera.electronics.gain)
+
+    def _curve(self, temperature) -> np.ndarray:
+        t = np.asarray(temperature, dtype=float)
+        return self.r1 / (self.r2 * (np.exp(self.b / t) - self.f)) / self.curve_time
+
+    def _emissivity(self, frame: SceneFrame):
+        emissivity = frame.emissivity
+        if is_spectrum(emissivity) or (frame.regions is not None and any(
+                is_spectrum(v) for v in frame.region_emissivity.values())):
+            raise RadiosimError("a maker's calibration curve has no spectrum: a spectral "
+                                "emissivity needs response 'planck'")
+        if frame.regions is None:
+            return emissivity
+        out = np.zeros(frame.regions.shape)
+        for code, value in frame.region_emissivity.items():
+            out[frame.regions == code] = value
+        return out
+
+    def signal(self, frame: SceneFrame) -> np.ndarray:
+        """ε·C(T) + (1 − ε)·C(T_refl) of each sample [DN s⁻¹], C the curve over t_c."""
+        e = self._emissivity(frame)
+        out = e * self._curve(frame.temperature)
+        if frame.reflected_temperature is not None:
+            out = out + (1 - e) * self._curve(frame.reflected_temperature)
+        return np.broadcast_to(out, np.shape(frame.temperature)).astype(float)
+
+    def grey_signal(self, temperature, emissivity: float = 1.0) -> np.ndarray:
+        return emissivity * self._curve(temperature)
+
+    def temperature(self, signal, emissivity: float = 1.0) -> np.ndarray:
+        """B / ln(R1 / (R2 S t_c / ε) + F) [K]; NaN where the signal has none."""
+        if not 0 < emissivity <= 1:
+            raise RadiosimError(f"assumed emissivity must be in (0, 1], got {emissivity!r}")
+        s = np.asarray(signal, dtype=float) * self.curve_time / emissivity
+        with np.errstate(divide="ignore", invalid="ignore"):
+            t = self.b / np.log(self.r1 / (self.r2 * s) + self.f)
+        return np.where(np.isfinite(t) & (t > 0), t, np.nan)
+
+    def rate_per_signal(self, etendue: float) -> float:
+        """1/gain [e⁻ per DN]: the curve already holds the camera's optics and detector."""
+        return 1.0 / self.gain
+
+
 #: Response models by name: a camera's ``response`` picks one, which builds itself for the
-#: camera (:meth:`Response.for_camera`). A new response (a camera maker's calibration curve,
-#: say) is one class registered here.
-RESPONSES: dict[str, type[Response]] = {"linear": LinearResponse, "planck": PlanckResponse}
+#: camera (:meth:`Response.for_camera`). A new response is one class registered here.
+RESPONSES: dict[str, type[Response]] = {"linear": LinearResponse, "planck": PlanckResponse,
+                                        "maker-curve": MakerCurveResponse}

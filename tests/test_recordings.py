@@ -493,3 +493,49 @@ def test_a_long_recording_exports_a_chunk_at_a_time(tmp_path):
     with xr.open_dataset(tmp_path / "long.nc", engine="h5netcdf") as back:
         assert back.temperature.shape == (35, 240, 320)
         np.testing.assert_allclose(back.temperature.values[-1], r.temperature(frames=[39])[0])
+
+
+# -- the camera that made a FLIR recording -----------------------------------------------------
+
+
+def test_the_camera_from_a_flir_recording_reads_through_the_files_curve():
+    """Camera.from_recording: the pixel from exiftool's field of view and distance, 2 d
+    tan(FOV/2) / columns; a blackbody's counts are the file's curve R1/(R2(e^(B/T) − F)) − O
+    (written here), rounded by the 16-bit converter; a pixel half at 300 K and half at
+    400 K reads the mean of the two curve values (linear in radiance), not of the
+    temperatures; the curve survives a camera file."""
+    import math
+
+    from radiosim import Camera
+    from radiosim.scenes import StepEdge, UniformBlackbody
+
+    e = exiftool_fields()
+    recording = read_recording(FLIR / "frame_000000.fff")
+    camera = Camera.from_recording(recording)
+    d, fov = float(e["Object Distance"].split()[0]), float(e["Field Of View"].split()[0])
+    assert camera.fpa.pixel_pitch == pytest.approx(
+        2 * d * math.tan(math.radians(fov) / 2) / int(e["Raw Thermal Image Width"]))
+    r1, b, f, o, r2 = (float(e[k]) for k in ("Planck R1", "Planck B", "Planck F", "Planck O",
+                                              "Planck R2"))
+
+    def raw(t):
+        return r1 / (r2 * (math.exp(b / t) - f)) - o
+
+    def temperature(counts):
+        return b / math.log(r1 / (r2 * (counts + o)) + f)
+
+    pitch, t_int = camera.fpa.pixel_pitch, camera.maker_curve_time
+    m = camera.measure(UniformBlackbody(310.0, shape=(8, 8), dx=pitch / 4, dt=t_int), t_int)
+    assert np.all(m.counts == round(raw(310.0)))
+    np.testing.assert_allclose(m.apparent_temperature, temperature(round(raw(310.0))),
+                               rtol=1e-9)
+    edge = StepEdge(hot=400.0, cold=300.0, edge=pitch * 1.5, shape=(8, 8), dx=pitch / 4,
+                    dt=t_int)
+    mixed = camera.measure(edge, t_int).counts[0, 1]
+    assert mixed == round((raw(400.0) + raw(300.0)) / 2)
+    assert temperature(mixed) > 350.0 + 2  # the curve is convex: above the mean temperature
+    back = Camera.from_dict(camera.to_dict())
+    assert back.maker_curve == camera.maker_curve and back.response == "maker-curve"
+    with pytest.raises(RadiosimError) as info:
+        Camera.from_recording(read_recording(JADE))
+    one_line_naming(info, "LWIR-BBref-150C-150us.ptw", "no maker's calibration curve")

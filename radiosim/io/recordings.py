@@ -239,6 +239,8 @@ def export_recording(recording: Recording, path, camera=None, frames=None,
 def info_lines(recording: Recording) -> list[str]:
     """The recording's metadata as a table of lines (what ``radiosim recording info``
     prints): frames, size, times, and each field of the file as the file names it."""
+    from radiosim.units import to_celsius
+
     n, rows, cols = recording.shape
     lines = [f"{recording.path.name}: {recording.camera_name}, {n} frame(s) of {cols} × {rows} "
              f"px, {recording.frame_times[-1]:.6g} s",
@@ -246,7 +248,7 @@ def info_lines(recording: Recording) -> list[str]:
                                         if recording.integration_time else "not stated"),
              "  housing temperature: " + (
                  f"{recording.housing_temperature:.2f} K "
-                 f"({recording.housing_temperature - 273.15:.2f} °C)"
+                 f"({to_celsius(recording.housing_temperature):.2f} °C)"
                  if recording.housing_temperature else "not stated"),
              "  calibration: " + ("the file's own (FLIR Planck curve)" if recording.curve
                                   else "none in the file: give a camera")]
