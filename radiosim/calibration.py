@@ -223,6 +223,11 @@ class Calibration:
         below, above : numpy.ndarray of bool
             Counts under the lowest or over the highest temperature of the range.
         """
+        codes = _integer_codes(counts)
+        if codes is not None:  # a converter's codes: each distinct code inverted once
+            first, index = codes
+            table = self.invert(np.arange(first, first + int(index.max()) + 1, dtype=float))
+            return tuple(part[index] for part in table)
         signal = self.object_signal(counts)
         low, high = (self.response.grey_signal(t, self.emissivity)
                      for t in self.temperature_range)
@@ -598,6 +603,31 @@ def fit_calibration(camera, temperatures, counts, integration_time: float, frame
     residuals = np.full(t.size, np.nan)
     residuals[keep] = residuals_kept
     return fitted, residuals
+
+
+#: Arrays of more values than this, all whole numbers within a span of this many, are
+#: inverted code by code (:meth:`Calibration.invert`).
+_CODE_TABLE = 1 << 16
+
+
+def _integer_codes(counts) -> tuple[int, np.ndarray] | None:
+    """(the lowest code, each value's index from it) when ``counts`` is a large array of
+    whole numbers within :data:`_CODE_TABLE` codes (a converter's output), else ``None``: the
+    inversion of each distinct code then stands for every pixel that reads it, exactly (each
+    value's inversion depends on it alone)."""
+    c = np.asarray(counts)
+    if c.size <= _CODE_TABLE or c.dtype.kind not in "fiu":
+        return None
+    low, high = np.min(c), np.max(c)
+    if not (np.isfinite(low) and np.isfinite(high)) or high - low >= _CODE_TABLE:
+        return None
+    index = c - low
+    if c.dtype.kind == "f":
+        whole = index.astype(np.int32)
+        if not np.array_equal(whole, index):
+            return None
+        index = whole
+    return int(low), index.astype(np.intp, copy=False)
 
 
 def replace_bad_pixels(values: np.ndarray, bad: np.ndarray) -> np.ndarray:

@@ -518,11 +518,16 @@ class BandRadianceTable:
         target = target.reshape(-1)
         t = np.interp(target, self.log_radiance, self.temperatures)
         lo, hi = self.temperatures[0], self.temperatures[-1]
+        active = np.arange(t.size)
         for _ in range(4):  # Newton on ln L(T), smooth and monotonic: quadratic convergence
-            value, slope = self._log_and_slope(t)
-            step = (value - target) / slope
-            t = np.clip(t - step, lo, hi)
-            if np.all(np.abs(step) <= 1e-12 * t):  # the last step was at rounding: done (two
-                break  # steps from the interpolated start on the default grids)
+            value, slope = self._log_and_slope(t[active])
+            step = (value - target[active]) / slope
+            t[active] = np.clip(t[active] - step, lo, hi)
+            # Each value stops when its own step was at rounding (two steps from the
+            # interpolated start on the default grids): a value's result does not depend on
+            # the others inverted with it.
+            active = active[np.abs(step) > 1e-12 * t[active]]
+            if active.size == 0:
+                break
         t = np.clip(t.reshape(radiance.shape), *self.temperature_range)
         return np.where(inside, t, np.nan)

@@ -164,6 +164,7 @@ class Recording:
         memory a chunk at a time.
         """
         import hashlib
+        import uuid
 
         import dask.array as da
         import xarray as xr
@@ -174,18 +175,30 @@ class Recording:
         if index.size == 0:
             raise RadiosimError(f"{self.path}: frames {frames!r} select no frame of its "
                                 f"{self.counts.shape[0]}")
-        counts = da.from_array(self.counts, chunks=(chunk, *self.counts.shape[1:]))[index]
+        sizes = tuple(min(chunk, index.size - k) for k in range(0, index.size, chunk))
+        blocks = (sizes, (self.counts.shape[1],), (self.counts.shape[2],))
+
+        def frames_of(block_info):  # the recording's frames of one block, read when asked
+            start, stop = block_info[None]["array-location"][0]
+            return index[start:stop]
+
+        # Each block reads its own frames from the file when it is computed: nothing here
+        # holds more than a block of the recording. The arrays are named, not tokenised
+        # (Dask would hash the whole memory-mapped recording to name them).
+        token = uuid.uuid4().hex
+        counts = da.map_blocks(lambda block_info=None: np.asarray(
+            self.counts[frames_of(block_info)]), chunks=blocks, dtype=self.counts.dtype,
+            meta=np.empty((0, 0, 0), self.counts.dtype), name=f"counts-{token}")
         dims = ("time", "y", "x")
         data = {"counts": (dims, counts, {"units": "1", "long_name": "raw counts [DN]"})}
         calibrated = camera is not None or self.curve is not None
         if calibrated:
             self.temperature(camera, index[:1], **object_parameters)  # checked before any work
-
-            def convert(block, block_info=None):
-                where = block_info[0]["array-location"][0]
-                return self.temperature(camera, index[where[0]:where[1]], **object_parameters)
-
-            temperature = counts.map_blocks(convert, dtype=np.float64)
+            temperature = da.map_blocks(
+                lambda block_info=None: self.temperature(camera, frames_of(block_info),
+                                                         **object_parameters),
+                chunks=blocks, dtype=np.float64, meta=np.empty((0, 0, 0)),
+                name=f"temperature-{token}")
             data["temperature"] = (dims, temperature, {
                 "units": "K", "standard_name": "surface_temperature",
                 "long_name": "temperature through " + (
