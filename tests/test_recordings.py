@@ -539,3 +539,40 @@ def test_the_camera_from_a_flir_recording_reads_through_the_files_curve():
     with pytest.raises(RadiosimError) as info:
         Camera.from_recording(read_recording(JADE))
     one_line_naming(info, "LWIR-BBref-150C-150us.ptw", "no maker's calibration curve")
+
+
+def test_a_flir_radiometric_jpeg_reads_its_png_compressed_counts():
+    """A real FLIR AX8 JPEG: the FFF frame of its APP1 segments, its counts a PNG whose 16-bit
+    samples FLIR stores little-endian. Decoded right, neighbouring pixels of a thermal image
+    differ by a few DN; with the bytes the other way round they would jump by multiples of
+    256. Its temperatures equal the published formula (written above) to 0.01 K."""
+    r = read_recording(FLIR / "ax8.jpg")
+    assert r.shape == (1, 60, 80) and r.camera_name == "FLIR AX8"
+    counts = r.frames(0)[0]
+    step = np.median(np.abs(np.diff(counts, axis=1)))
+    swapped = counts.astype(np.uint16).byteswap().astype(float)
+    assert step < 20 < np.median(np.abs(np.diff(swapped, axis=1)))
+    p = ObjectParameters(**r.metadata["object_parameters"])
+    c = r.curve
+    got = r.temperature()[0]
+    for i, j in ((0, 0), (30, 40), (59, 79), (12, 70)):
+        expected = reference_raw2temp(
+            counts[i, j], p.emissivity, p.distance, p.reflected_temperature - 273.15,
+            p.atmospheric_temperature - 273.15, p.window_temperature - 273.15,
+            p.window_transmission, 100 * p.relative_humidity, c.R1, c.B, c.F, c.O, c.R2,
+            p.alpha1, p.alpha2, p.beta1, p.beta2, p.x)
+        assert got[i, j] == pytest.approx(expected, abs=0.01)
+
+
+def test_a_plain_jpeg_is_not_a_radiometric_one(tmp_path):
+    from PIL import Image
+
+    path = tmp_path / "holiday.jpg"
+    Image.new("RGB", (16, 16), (200, 100, 50)).save(path)
+    with pytest.raises(RadiosimError) as info:
+        read_recording(path)
+    one_line_naming(info, "holiday.jpg", "without FLIR's APP1 segments")
+    path.write_bytes(b"GIF89a not a jpeg")
+    with pytest.raises(RadiosimError) as info:
+        read_recording(path)
+    one_line_naming(info, "holiday.jpg", "is not a JPEG")

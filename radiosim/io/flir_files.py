@@ -8,7 +8,8 @@ directory of 32-byte records (type, subtype, version, index, offset, length). Tw
 read, each in its own byte order (its first 16-bit word is 2):
 
 -   RawData (type 1): its width and height at bytes 2 and 4, the counts from byte 32, unsigned
-    16-bit, row by row (a PNG-compressed record is refused);
+    16-bit, row by row, or a PNG of them (decoded by Pillow, the samples byte-swapped as FLIR
+    stores them);
 -   CameraInfo (type 32): the object parameters (emissivity at byte 0x20, distance [m] 0x24,
     reflected, atmospheric and window temperatures [K] 0x28, 0x2c, 0x30, window transmission
     0x34, relative humidity 0x3c as a fraction), Planck R1, B, F at 0x58, 0x5c, 0x60, the
@@ -18,7 +19,8 @@ read, each in its own byte order (its first 16-bit word is 2):
     give (Harvey, ``Image::ExifTool::FLIR``).
 
 A ``.seq`` file is FFF frames one after another; frames of one size are memory-mapped as one
-array (a sequence of any length is never loaded whole).
+array (a sequence of any length is never loaded whole). A FLIR radiometric JPEG carries one FFF
+frame in its APP1 segments (``FLIR\0`` and an index each), joined in order.
 """
 
 from __future__ import annotations
@@ -32,7 +34,7 @@ import numpy as np
 from radiosim.errors import RadiosimError
 from radiosim.io.recordings import Recording
 
-__all__ = ["read_fff", "read_seq"]
+__all__ = ["read_fff", "read_seq", "read_flir_jpeg"]
 
 _RAW, _CAMERA_INFO = 1, 32
 _FLOATS = {  # CameraInfo: name → offset (float32)
@@ -86,9 +88,8 @@ def _frame(path, data, start: int) -> tuple[dict, int, int, tuple[int, int], str
     raw_order = "<" if struct.unpack_from("<H", data, raw)[0] == 2 else ">"
     cols, rows = struct.unpack_from(raw_order + "HH", data, raw + 2)
     if bytes(data[raw + 32:raw + 36]).startswith(b"\x89PNG"):
-        raise RadiosimError(f"{where}: its counts are PNG-compressed; radiosim reads raw "
-                            "(uncompressed) FFF records")
-    if rows < 1 or cols < 1 or 32 + 2 * rows * cols > raw_length:
+        raw_order = "png"  # compressed: decoded by _png_counts, not memory-mapped
+    elif rows < 1 or cols < 1 or 32 + 2 * rows * cols > raw_length:
         raise RadiosimError(f"{where}: RawData fields width {cols} and height {rows} do not fit "
                             f"its {raw_length} bytes")
     info, info_length = records[_CAMERA_INFO]
@@ -107,7 +108,28 @@ def _frame(path, data, start: int) -> tuple[dict, int, int, tuple[int, int], str
     meta["DateTimeOriginal"] = (datetime.datetime.fromtimestamp(seconds, tz)
                                 + datetime.timedelta(milliseconds=ms)).isoformat()
     meta["FrameRate"] = struct.unpack_from(order_info + "H", data, info + 0x464)[0]
+    meta["_raw_end"] = raw + raw_length
     return meta, raw + 32, end - start, (rows, cols), raw_order, end
+
+
+def _png_counts(path, data, start: int, stop: int, shape) -> np.ndarray:
+    """A RawData record's PNG-compressed counts: 16-bit samples that FLIR stores
+    little-endian inside the PNG's big-endian container (exiftool's note), so swapped."""
+    import io
+
+    from PIL import Image
+
+    try:
+        with Image.open(io.BytesIO(bytes(data[start:stop]))) as image:
+            image.load()
+            counts = np.array(image)
+    except Exception as exc:  # Pillow's own errors on a damaged stream: one line
+        raise RadiosimError(f"{path}: its PNG-compressed counts cannot be decoded "
+                            f"({type(exc).__name__}: {exc})") from None
+    if counts.shape != tuple(shape) or counts.dtype.itemsize != 2:
+        raise RadiosimError(f"{path}: its PNG holds {counts.shape} {counts.dtype} samples; "
+                            f"the RawData record states {shape[0]} × {shape[1]} 16-bit")
+    return counts.astype(np.uint16).byteswap()
 
 
 def _recording(path, meta, counts, frame_times) -> Recording:
@@ -129,7 +151,8 @@ def _recording(path, meta, counts, frame_times) -> Recording:
         ObjectParameters(**stated)  # checked once, when read
     except RadiosimError as exc:
         raise RadiosimError(f"{path}: CameraInfo: {exc}") from None
-    meta = meta | {"object_parameters": stated}
+    meta = {k: v for k, v in meta.items() if not k.startswith("_")} | {
+        "object_parameters": stated}
     return Recording(Path(path), counts, frame_times, None, None, meta["CameraModel"], meta,
                      curve)
 
@@ -140,8 +163,44 @@ def read_fff(path) -> Recording:
     path = Path(path)
     data = _bytes(path)
     meta, start, _, shape, order, _ = _frame(path, data, 0)
-    counts = np.frombuffer(data, order + "u2", count=shape[0] * shape[1],
-                           offset=start).reshape(1, *shape)
+    if order == "png":
+        counts = _png_counts(path, data, start, meta["_raw_end"], shape)[None]
+    else:
+        counts = np.frombuffer(data, order + "u2", count=shape[0] * shape[1],
+                               offset=start).reshape(1, *shape)
+    return _recording(path, meta, counts, np.zeros(1))
+
+
+def read_flir_jpeg(path) -> Recording:
+    """
+    A FLIR radiometric JPEG: the FFF frame its APP1 segments carry (each begins
+    ``FLIR\0``, then its index; joined in order), read as :func:`read_fff` reads a frame
+    (its counts PNG-compressed or raw). A JPEG without them (a plain picture) is refused.
+    """
+    path = Path(path)
+    data = _bytes(path, "a FLIR radiometric JPEG")
+    if data[:2] != b"\xff\xd8":
+        raise RadiosimError(f"{path} is not a JPEG (it starts with {data[:4]!r})")
+    chunks, pos = {}, 2
+    while pos + 4 <= len(data) and data[pos] == 0xFF:
+        marker = data[pos + 1]
+        if marker in (0xD9, 0xDA):  # end of image, start of scan: no metadata after
+            break
+        length = struct.unpack_from(">H", data, pos + 2)[0]
+        segment = data[pos + 4:pos + 2 + length]
+        if marker == 0xE1 and segment[:5] == b"FLIR\0" and len(segment) > 8:
+            chunks[segment[6]] = segment[8:]
+        pos += 2 + length
+    if not chunks:
+        raise RadiosimError(f"{path}: a JPEG without FLIR's APP1 segments: a picture, not a "
+                            "radiometric FLIR file (saved by FLIR Tools or the camera?)")
+    blob = b"".join(chunks[k] for k in sorted(chunks))
+    meta, start, _, shape, order, _ = _frame(path, blob, 0)
+    if order == "png":
+        counts = _png_counts(path, blob, start, meta["_raw_end"], shape)[None]
+    else:
+        counts = np.frombuffer(blob, order + "u2", count=shape[0] * shape[1],
+                               offset=start).reshape(1, *shape).copy()
     return _recording(path, meta, counts, np.zeros(1))
 
 
@@ -158,6 +217,9 @@ def read_seq(path) -> Recording:
         raise RadiosimError(f"{path} is empty (0 bytes); expected a FLIR .seq sequence")
     data = np.memmap(path, dtype=np.uint8, mode="r")
     meta, start, length, shape, order, _ = _frame(path, data, 0)
+    if order == "png":
+        raise RadiosimError(f"{path}: its frames' counts are PNG-compressed; radiosim "
+                            "memory-maps sequences of raw frames (export them raw)")
     n = len(data) // length
     for k in (1, n - 1):  # the second and the last frame have the first one's layout
         if k < n and _frame(path, data, k * length)[1:5] != (start + k * length, length, shape,
@@ -175,13 +237,13 @@ def read_seq(path) -> Recording:
     return _recording(path, meta, counts, times)
 
 
-def _bytes(path: Path) -> bytes:
+def _bytes(path: Path, what: str = "a FLIR .fff frame") -> bytes:
     from radiosim.files import why_not_a_file
 
     why = why_not_a_file(path)
     if why is not None:
-        raise RadiosimError(f"{path} {why} (expected a FLIR .fff frame)")
+        raise RadiosimError(f"{path} {why} (expected {what})")
     data = path.read_bytes()
     if not data:
-        raise RadiosimError(f"{path} is empty (0 bytes); expected a FLIR .fff frame")
+        raise RadiosimError(f"{path} is empty (0 bytes); expected {what}")
     return data

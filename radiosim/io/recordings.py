@@ -5,8 +5,9 @@ file's own calibration or by a radiosim camera's (:meth:`Recording.temperature`)
 
 Formats
 -------
--   FLIR ``.fff`` frames and ``.seq`` sequences (:mod:`radiosim.io.flir_files`): raw counts
-    with the camera's Planck curve and object parameters.
+-   FLIR ``.fff`` frames, ``.seq`` sequences and radiometric JPEGs
+    (:mod:`radiosim.io.flir_files`): counts with the camera's Planck curve and object
+    parameters.
 -   FLIR ResearchIR / Altair ``.ptw`` (Cedip, FLIR Titanium, Jade, Silver): a main header
     (signature ``CED``, its size at byte 11, the frame header's size [bytes] at 15, a
     frame's size with and without its header [16-bit words] at 19 and 23, the number of
@@ -413,9 +414,16 @@ def _read_seq(path) -> Recording:
     return read_seq(path)
 
 
+def _read_flir_jpeg(path) -> Recording:
+    from radiosim.io.flir_files import read_flir_jpeg
+
+    return read_flir_jpeg(path)
+
+
 #: The readers of recordings by file suffix (lower case).
 RECORDING_READERS: dict[str, Callable[[Path], Recording]] = {
-    ".ptw": read_ptw, ".fff": _read_fff, ".seq": _read_seq}
+    ".ptw": read_ptw, ".fff": _read_fff, ".seq": _read_seq, ".jpg": _read_flir_jpeg,
+    ".jpeg": _read_flir_jpeg}
 
 
 def read_recording(path) -> Recording:
@@ -427,7 +435,7 @@ def read_recording(path) -> Recording:
     >>> read_recording("frames.xyz")
     Traceback (most recent call last):
     ...
-    radiosim.errors.RadiosimError: frames.xyz: no reader for '.xyz' recordings; radiosim reads .fff, .ptw, .seq
+    radiosim.errors.RadiosimError: frames.xyz: no reader for '.xyz' recordings; radiosim reads .fff, .jpeg, .jpg, .ptw, .seq
     """
     path = Path(path)
     reader = RECORDING_READERS.get(path.suffix.lower())
