@@ -576,3 +576,33 @@ def test_a_plain_jpeg_is_not_a_radiometric_one(tmp_path):
     with pytest.raises(RadiosimError) as info:
         read_recording(path)
     one_line_naming(info, "holiday.jpg", "is not a JPEG")
+
+
+def test_a_16_bit_tiff_stack_reads_page_by_page(tmp_path):
+    from PIL import Image
+
+    from radiosim import Camera
+
+    rng = np.random.default_rng(3)
+    frames = rng.integers(1000, 60000, (4, 6, 9), dtype=np.uint16)
+    path = tmp_path / "stack.tif"
+    pages = [Image.fromarray(f) for f in frames]
+    pages[0].save(path, save_all=True, append_images=pages[1:])
+    r = read_recording(path)
+    assert r.shape == (4, 6, 9)
+    np.testing.assert_array_equal(r.frames(slice(1, 3)), frames[1:3])
+    np.testing.assert_array_equal(r.frames([3, 0]), frames[[3, 0]])
+    camera = Camera.preset("nist-ir")
+    with pytest.raises(RadiosimError) as info:
+        r.temperature(camera)
+    one_line_naming(info, "stack.tif", "no integration time")
+    kelvin = r.temperature(camera, [1], integration_time=100e-6)[0]
+    np.testing.assert_array_equal(kelvin, camera.calibration(100e-6).temperature(
+        frames[1].astype(float)))
+    with pytest.raises(RadiosimError) as info:
+        read_recording(JADE).temperature(camera, [0], integration_time=100e-6)
+    one_line_naming(info, "integration_time=0.0001 s contradicts the file's 0.00015 s")
+    Image.new("RGB", (4, 4)).save(tmp_path / "colour.tif")
+    with pytest.raises(RadiosimError) as info:
+        read_recording(tmp_path / "colour.tif")
+    one_line_naming(info, "colour.tif", "'RGB'", "16-bit counts")

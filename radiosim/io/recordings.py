@@ -19,6 +19,9 @@ Formats
     whole. A PTW file holds no temperature calibration: :meth:`Recording.temperature` needs
     a camera.
 
+-   16-bit TIFF stacks (``.tif``, ``.tiff``): a page a frame of counts, each page decoded
+    when asked (:func:`read_tiff_stack`).
+
 Every check names the file and the field: a truncated file, a foreign one, sizes that
 contradict each other, a frame index out of range.
 """
@@ -36,8 +39,8 @@ import numpy as np
 
 from radiosim.errors import RadiosimError
 
-__all__ = ["Recording", "RECORDING_READERS", "read_recording", "read_ptw", "export_recording",
-           "info_lines"]
+__all__ = ["Recording", "RECORDING_READERS", "read_recording", "read_ptw", "read_tiff_stack",
+           "export_recording", "info_lines"]
 
 
 @dataclass(frozen=True, eq=False)
@@ -110,7 +113,8 @@ class Recording:
 
         return find_defect_pixels(self.frames(frames), k)
 
-    def temperature(self, camera=None, frames=None, **object_parameters) -> np.ndarray:
+    def temperature(self, camera=None, frames=None, integration_time: float | None = None,
+                    **object_parameters) -> np.ndarray:
         """
         Temperatures [K] of ``frames`` (see :meth:`frames`), (frames, rows, columns).
 
@@ -122,8 +126,8 @@ class Recording:
         refused in one line.
 
         With a radiosim ``camera``: that camera's calibration at the recording's integration
-        time and housing temperature (its ``instrument_temperature``), NaN outside its
-        calibration range. For a long recording pass ``frames`` in chunks: memory then holds
+        time (or ``integration_time`` [s], for a file that states none) and housing
+        temperature (its ``instrument_temperature``), NaN outside its calibration range. For a long recording pass ``frames`` in chunks: memory then holds
         a chunk, not the recording.
         """
         counts = self.frames(frames)
@@ -146,13 +150,18 @@ class Recording:
             raise RadiosimError(f"{self.path}: object parameters "
                                 f"({', '.join(sorted(object_parameters))}) apply to the file's "
                                 "own calibration; a radiosim camera states its own")
-        if self.integration_time is None:
+        t_int = integration_time if integration_time is not None else self.integration_time
+        if t_int is None:
             raise RadiosimError(f"{self.path}: the file states no integration time; a "
-                                "camera's calibration needs one")
+                                "camera's calibration needs one (integration_time=)")
+        if (integration_time is not None and self.integration_time is not None
+                and abs(integration_time - self.integration_time) > 1e-9 * integration_time):
+            raise RadiosimError(f"{self.path}: integration_time={integration_time:g} s "
+                                f"contradicts the file's {self.integration_time:g} s")
         if self.housing_temperature is not None:
             camera = camera.replace(optics=dataclasses.replace(
                 camera.optics, instrument_temperature=self.housing_temperature))
-        return camera.calibration(self.integration_time).temperature(counts)
+        return camera.calibration(t_int).temperature(counts)
 
 
     def to_xarray(self, camera=None, frames=None, chunk: int = 16, **object_parameters):
@@ -414,6 +423,69 @@ def _read_seq(path) -> Recording:
     return read_seq(path)
 
 
+class _TiffPages:
+    """The pages of a 16-bit TIFF stack as a read-only array (frames, rows, columns), each
+    page decoded (by Pillow) only when indexed: a long stack is never loaded whole."""
+
+    dtype = np.dtype(np.uint16)
+    ndim = 3
+
+    def __init__(self, path: Path, n: int, shape: tuple[int, int]):
+        self.path, self.shape = path, (n, *shape)
+
+    def _page(self, k: int) -> np.ndarray:
+        from PIL import Image
+
+        with Image.open(self.path) as image:
+            image.seek(int(k))
+            page = np.array(image)
+        if page.shape != self.shape[1:] or page.dtype.kind != "u" or page.itemsize != 2:
+            raise RadiosimError(f"{self.path}: page {k} holds {page.shape} {page.dtype} "
+                                f"samples; page 0 holds {self.shape[1:]} uint16")
+        return page
+
+    def __len__(self) -> int:
+        return self.shape[0]
+
+    def __getitem__(self, key):
+        index = np.arange(self.shape[0])[key if isinstance(key, (slice, np.ndarray, list))
+                                          else slice(int(key), int(key) + 1)]
+        pages = np.stack([self._page(k) for k in index]) if index.size else \
+            np.empty((0, *self.shape[1:]), np.uint16)
+        return pages if isinstance(key, (slice, np.ndarray, list)) else pages[0]
+
+    def __array__(self, dtype=None, copy=None):
+        return np.asarray(self[:], dtype=dtype)
+
+
+def read_tiff_stack(path) -> Recording:
+    """
+    A 16-bit radiometric TIFF stack: one page a frame of unsigned 16-bit counts (each page
+    read when asked). It states no times, integration time or calibration: a radiosim camera
+    gives the temperatures, and frame times are the page numbers unless the caller knows
+    the rate.
+    """
+    from PIL import Image, UnidentifiedImageError
+
+    path = Path(path)
+    from radiosim.files import why_not_a_file
+
+    why = why_not_a_file(path)
+    if why is not None:
+        raise RadiosimError(f"{path} {why} (expected a 16-bit TIFF stack)")
+    try:
+        with Image.open(path) as image:
+            n, mode, (cols, rows) = getattr(image, "n_frames", 1), image.mode, image.size
+    except (UnidentifiedImageError, OSError) as exc:
+        raise RadiosimError(f"{path} is not a readable TIFF: {exc}") from None
+    if mode not in ("I;16", "I;16B", "I;16L"):
+        raise RadiosimError(f"{path}: its pages are {mode!r} images; a radiometric stack "
+                            "holds 16-bit counts (mode I;16)")
+    pages = _TiffPages(path, n, (rows, cols))
+    return Recording(path, pages, np.arange(n, dtype=float), None, None, "",
+                     {"pages": n, "mode": mode})
+
+
 def _read_flir_jpeg(path) -> Recording:
     from radiosim.io.flir_files import read_flir_jpeg
 
@@ -423,7 +495,7 @@ def _read_flir_jpeg(path) -> Recording:
 #: The readers of recordings by file suffix (lower case).
 RECORDING_READERS: dict[str, Callable[[Path], Recording]] = {
     ".ptw": read_ptw, ".fff": _read_fff, ".seq": _read_seq, ".jpg": _read_flir_jpeg,
-    ".jpeg": _read_flir_jpeg}
+    ".jpeg": _read_flir_jpeg, ".tif": read_tiff_stack, ".tiff": read_tiff_stack}
 
 
 def read_recording(path) -> Recording:
@@ -435,7 +507,7 @@ def read_recording(path) -> Recording:
     >>> read_recording("frames.xyz")
     Traceback (most recent call last):
     ...
-    radiosim.errors.RadiosimError: frames.xyz: no reader for '.xyz' recordings; radiosim reads .fff, .jpeg, .jpg, .ptw, .seq
+    radiosim.errors.RadiosimError: frames.xyz: no reader for '.xyz' recordings; radiosim reads .fff, .jpeg, .jpg, .ptw, .seq, .tif, .tiff
     """
     path = Path(path)
     reader = RECORDING_READERS.get(path.suffix.lower())
