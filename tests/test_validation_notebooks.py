@@ -12,14 +12,15 @@ sys.path.insert(0, str(VALIDATION))
 from run_notebooks import NOTEBOOKS, conclusion_of, execute, stated_conclusion  # noqa: E402
 
 
-def test_there_are_seven_notebooks():
+def test_there_are_eight_notebooks():
     assert [p.name for p in NOTEBOOKS] == ["01_paper_reproduction.ipynb",
                                            "02_linear_vs_planck.ipynb",
                                            "03_radiometry_checks.ipynb",
                                            "04_optics_and_background.ipynb",
                                            "05_real_fpa.ipynb",
                                            "06_uncertainty_budget.ipynb",
-                                           "07_two_colour.ipynb"]
+                                           "07_two_colour.ipynb",
+                                           "08_real_recording.ipynb"]
 
 
 @pytest.mark.parametrize("path", NOTEBOOKS, ids=lambda p: p.stem)
