@@ -356,23 +356,28 @@ def test_a_flir_fff_frame_reads_what_exiftool_reads():
     assert counts.max() - counts.min() == int(e["Raw Value Range"])
 
 
+def reference_of(recording, raw):
+    """The reference formula's temperature [K] of ``raw`` counts under ``recording``'s own
+    curve and object parameters."""
+    p = ObjectParameters(**recording.metadata["object_parameters"])
+    c = recording.curve
+    return reference_raw2temp(
+        raw, p.emissivity, p.distance, p.reflected_temperature - 273.15,
+        p.atmospheric_temperature - 273.15, p.window_temperature - 273.15,
+        p.window_transmission, 100 * p.relative_humidity, c.R1, c.B, c.F, c.O, c.R2,
+        p.alpha1, p.alpha2, p.beta1, p.beta2, p.x)
+
+
 @pytest.mark.parametrize("name", ["frame_000000.fff", "frame_000000_le.fff"])
 def test_a_flir_frames_temperatures_equal_the_published_formula(name):
     """Every pixel through the file's own curve and object parameters, against the reference
     written above from the publication: within 0.01 K (the requirement)."""
     r = read_recording(FLIR / name)
-    p = ObjectParameters(**r.metadata["object_parameters"])
-    c = r.curve
     got = r.temperature()[0]
     raw = r.frames(0)[0]
     rng = np.random.default_rng(0)
     for i, j in zip(rng.integers(0, raw.shape[0], 300), rng.integers(0, raw.shape[1], 300)):
-        expected = reference_raw2temp(
-            raw[i, j], p.emissivity, p.distance, p.reflected_temperature - 273.15,
-            p.atmospheric_temperature - 273.15, p.window_temperature - 273.15,
-            p.window_transmission, 100 * p.relative_humidity, c.R1, c.B, c.F, c.O, c.R2,
-            p.alpha1, p.alpha2, p.beta1, p.beta2, p.x)
-        assert got[i, j] == pytest.approx(expected, abs=0.01)
+        assert got[i, j] == pytest.approx(reference_of(r, raw[i, j]), abs=0.01)
 
 
 def test_a_humidity_of_30_meant_as_30_percent_is_refused_not_read_23_k_low():
@@ -552,16 +557,9 @@ def test_a_flir_radiometric_jpeg_reads_its_png_compressed_counts():
     step = np.median(np.abs(np.diff(counts, axis=1)))
     swapped = counts.astype(np.uint16).byteswap().astype(float)
     assert step < 20 < np.median(np.abs(np.diff(swapped, axis=1)))
-    p = ObjectParameters(**r.metadata["object_parameters"])
-    c = r.curve
     got = r.temperature()[0]
     for i, j in ((0, 0), (30, 40), (59, 79), (12, 70)):
-        expected = reference_raw2temp(
-            counts[i, j], p.emissivity, p.distance, p.reflected_temperature - 273.15,
-            p.atmospheric_temperature - 273.15, p.window_temperature - 273.15,
-            p.window_transmission, 100 * p.relative_humidity, c.R1, c.B, c.F, c.O, c.R2,
-            p.alpha1, p.alpha2, p.beta1, p.beta2, p.x)
-        assert got[i, j] == pytest.approx(expected, abs=0.01)
+        assert got[i, j] == pytest.approx(reference_of(r, counts[i, j]), abs=0.01)
 
 
 def test_a_plain_jpeg_is_not_a_radiometric_one(tmp_path):
