@@ -143,7 +143,10 @@ class FrameStack(Scene):
         """
         A stack from an xarray variable of dimensions (time, y, x) — lazily loaded from a
         NetCDF file or a zarr store (``xr.open_dataset(..., chunks=…)``, ``xr.open_zarr``):
-        frames are read one at a time over the region the camera sees, never the whole.
+        frames are read over the region the camera sees, never the whole; a Dask-backed
+        variable a time chunk at a time, in the reading thread (never through a cluster's
+        scheduler), and the scene pickles as its variable's recipe (its file), so it can
+        travel to a cluster's workers.
 
         Dimensions named ``time``/``t``, ``y``/``row``/``rows`` and ``x``/``column``/``columns``
         (or a time dimension with datetime64/timedelta64 values) are put in the order (time, y,
@@ -229,12 +232,15 @@ class FrameStack(Scene):
 
     def __reduce__(self):
         """Pickled as a recipe where the frames are a file (a memory map: its path, offset,
-        dtype and shape; another process maps the same file), else with its array."""
+        dtype and shape; another process maps the same file) or an xarray variable (which
+        travels with the graph that reads its file), else with its array."""
         stack = self._stack
         if isinstance(stack, np.memmap) and getattr(stack, "filename", None):
             frames = (_MappedFrames, (str(stack.filename), stack.offset, stack.dtype.str,
                                       stack.shape, "F" if stack.flags.f_contiguous
                                       and not stack.flags.c_contiguous else "C"))
+        elif isinstance(stack, _LazyFrames):  # the variable, not a 0-d object array of it
+            frames = (_LazyFrames, (stack.variable,))
         else:
             frames = (np.asarray, (stack,))
         state = {k: v for k, v in self.__dict__.items() if k != "_stack"}
@@ -316,16 +322,51 @@ def _temperature_unit(stated, name: str) -> str:
 
 
 class _LazyFrames:
-    """An xarray variable seen as an array of frames: indexing loads only what it asks for."""
+    """
+    An xarray variable seen as an array of frames: indexing loads only what it asks for.
+
+    A Dask-backed variable (``xr.open_dataset(..., chunks=…)``, ``xr.open_zarr``) is read a
+    time chunk at a time: the first frame asked of a chunk loads the chunk's frames over the
+    region asked (one read, not one a frame) and the next frames of that chunk come from it;
+    memory holds one chunk over one region. The reads run on Dask's synchronous scheduler, in
+    the calling thread: inside a cluster's worker they never submit work to the cluster (a
+    single-thread worker waiting on itself). Pickled with its variable (a file-backed
+    variable travels as its file's path and the graph that reads it).
+    """
 
     def __init__(self, variable):
         self.variable = variable
         self.ndim = 3
         self.shape = tuple(int(n) for n in variable.shape)
         self.dtype = np.dtype(variable.dtype)
+        chunks = getattr(variable, "chunks", None)
+        self._starts = (np.cumsum((0,) + tuple(chunks[0])) if chunks else None)
+        self._kept = None  # (time chunk, region key, its frames)
+
+    def __getstate__(self):
+        return {"variable": self.variable}
+
+    def __setstate__(self, state):
+        self.__init__(state["variable"])
+
+    def _load(self, key) -> np.ndarray:
+        part = self.variable[key]
+        data = part.data
+        if hasattr(data, "compute") and not isinstance(data, np.ndarray):
+            return np.asarray(data.compute(scheduler="synchronous"))
+        return np.asarray(part.values)
 
     def __getitem__(self, key):
-        return np.asarray(self.variable[key].values)
+        if self._starts is None or not isinstance(key, tuple) or isinstance(key[0], slice):
+            return self._load(key)
+        k, rest = int(key[0]), key[1:]
+        chunk = int(np.searchsorted(self._starts, k, side="right")) - 1
+        region = tuple((r.start, r.stop, r.step) if isinstance(r, slice) else r for r in rest)
+        kept = self._kept
+        if kept is None or kept[0] != chunk or kept[1] != region:
+            first, stop = int(self._starts[chunk]), int(self._starts[chunk + 1])
+            kept = self._kept = (chunk, region, self._load((slice(first, stop), *rest)))
+        return kept[2][k - int(self._starts[chunk])]
 
 
 class _MappedFrames:
