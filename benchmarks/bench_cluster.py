@@ -14,10 +14,11 @@ The constants behind the estimate are measured here, from one run:
   the kernels and building the scene's geometry for its first measurement, closed), minus
   the same study in this process (run a second time: its scene built); with more workers
   than cores this is ``cluster_overhead``, the constant times workers / cores;
-- ``CLUSTER_TASK_FACTOR``: the paper's study on the cluster, minus that start, times the
-  workers sharing it, over the study in this process (each task makes the frames of its own
-  window on one thread, where this process measures the cases of a scene in one pass over
-  their frames on every core).
+- ``STUDY_TASK_FACTOR``: the paper's study on the cluster, minus that start, times the
+  workers sharing it (at most its tasks: one a scene), over the study in this process (a
+  task measures a scene's cases in one pass over its frames on its worker's thread, where
+  this process does the same on every core). Before issue 43 each measurement was a task
+  making its own frames: ``CLUSTER_TASK_FACTOR``, 12, which budgets' draw batches keep.
 
 It prints both runs, the estimate of each and the choice the estimate makes. The numba cache is
 the user's (a warm run); nothing is written to disk but the cache and Dask's scratch folder. Run
@@ -72,16 +73,18 @@ def main(argv=None):
     samples = each * n / scheduling.SECONDS_PER_SAMPLE
     per_sample = alone / samples
     cores = scheduling._cores()
-    share = max(1, min(args.workers, cores, n))
+    tasks = study._tasks(plan)  # one a scene: its cases in one pass on a worker
+    share = max(1, min(args.workers, cores, tasks))
     start = timed["small cluster"] - timed["small alone"]
     factor = (cluster - start) * share / alone
     estimate_alone = each * n
     estimate_cluster = (scheduling.cluster_overhead(args.workers, cores)
-                        + estimate_alone * scheduling.CLUSTER_TASK_FACTOR / share)
-    gain, reason = scheduling.worth_a_cluster(n, each, args.workers, cores)
+                        + estimate_alone * scheduling.STUDY_TASK_FACTOR / share)
+    gain, reason = scheduling.worth_a_cluster(tasks, estimate_alone / tasks, args.workers,
+                                              cores, scheduling.STUDY_TASK_FACTOR, "task")
     probe_after = speed_probe()
 
-    print(f"the paper's study ({n} measurements, {samples:.3g} sample-frames), "
+    print(f"the paper's study ({n} measurements in {tasks} tasks, {samples:.3g} sample-frames), "
           f"{os.cpu_count()} cores, load average "
           f"{', '.join(f'{x:.1f}' for x in os.getloadavg())}")
     print(f"host speed probe, sum(range(10**7)): {probe_before:.3f} s before, "
@@ -96,7 +99,7 @@ def main(argv=None):
     print(f"{'cluster start, shipping, close [s]':<{width}} {start:9.2f} "
           f"{scheduling.cluster_overhead(args.workers, cores):9.2f}")
     print(f"{'work on the cluster / in this process':<{width}} {factor:9.2f} "
-          f"{scheduling.CLUSTER_TASK_FACTOR:9.2f}")
+          f"{scheduling.STUDY_TASK_FACTOR:9.2f}")
     print(f"two one-frame measurements: {timed['small alone']:.2f} s in this process, "
           f"{timed['small cluster']:.2f} s on the cluster; an empty cluster: started in "
           f"{timed['cluster start']:.2f} s, closed in {timed['cluster close']:.2f} s")

@@ -127,6 +127,15 @@ CLUSTER_START_SECONDS = 3.2
 #: cores only, and ``benchmarks/bench_cluster.py`` measures it on the machine at hand.
 CLUSTER_TASK_FACTOR = 12.0
 
+#: The same for a study's tasks since issue 43 — one task per scene, its cases in one pass over
+#: its frames on a worker, as this process measures them — measured by
+#: ``benchmarks/bench_cluster.py`` (2 cores, quiet host, 2026-11-29): the paper's study, 2
+#: tasks (the chip, the pixel sweep's crop), took 7.4 s on 2 workers (3.1 s of it the start)
+#: against 3.2 s here (23.3 s with a task a measurement). Its 2.7 is mostly the tasks' unequal
+#: sizes (the chip's task is nearly all the work, on one worker's one thread, where this
+#: process uses both cores); per task, one thread against this process's two: ~1.3.
+STUDY_TASK_FACTOR = 2.7
+
 #: Seconds [s] a measurement spends per sample it reads and frame of its window in this
 #: process, warm, on 2 cores: the paper's study (44 measurements reading 4.97e9 sample-frames
 #: in all, the field sweeps' whole chip and the pixel sweep's footprints) took 3.3 s
@@ -156,14 +165,17 @@ def _seconds(value: float) -> str:
 
 
 def worth_a_cluster(n_measurements: int, seconds_per_measurement: float, workers: int,
-                    cores: int | None = None) -> tuple[bool, str]:
+                    cores: int | None = None, task_factor: float = CLUSTER_TASK_FACTOR,
+                    unit: str = "measurement") -> tuple[bool, str]:
     """
     Whether a local cluster of ``workers`` processes finishes ``n_measurements`` sooner than
     this process alone, and why, in one line.
 
     In this process the work takes ``n_measurements × seconds_per_measurement`` [s]; on the
-    cluster, :func:`cluster_overhead` plus that work times :data:`CLUSTER_TASK_FACTOR`, shared
-    by ``min(workers, cores, n_measurements)`` processes. The cluster is chosen only if it
+    cluster, :func:`cluster_overhead` plus that work times ``task_factor`` (a task's work
+    there over the same work here: :data:`CLUSTER_TASK_FACTOR` for tasks that each make their
+    own frames, :data:`STUDY_TASK_FACTOR` for a study's tasks, a scene each), shared by
+    ``min(workers, cores, n_measurements)`` processes. The cluster is chosen only if it
     saves at least 10 % of the time.
 
     Parameters
@@ -176,6 +188,8 @@ def worth_a_cluster(n_measurements: int, seconds_per_measurement: float, workers
         Worker processes asked for.
     cores
         Cores to share (default: those this process may run on).
+    task_factor, unit
+        A task's work on the cluster over the same here (above), and what a task is called.
 
     Returns
     -------
@@ -203,9 +217,9 @@ def worth_a_cluster(n_measurements: int, seconds_per_measurement: float, workers
     alone = n * seconds_per_measurement
     share = max(1, min(int(workers), cores, n))
     overhead = cluster_overhead(workers, cores)
-    cluster = overhead + alone * CLUSTER_TASK_FACTOR / share
+    cluster = overhead + alone * float(task_factor) / share
     what = (f"{int(workers)} workers: a local cluster would take about {_seconds(cluster)} s "
-            f"against {_seconds(alone)} s in this process ({n} measurement"
+            f"against {_seconds(alone)} s in this process ({n} {unit}"
             f"{'' if n == 1 else 's'} of about {_seconds(seconds_per_measurement)} s on "
             f"{cores} core{'' if cores == 1 else 's'}; starting it costs "
             f"{_seconds(overhead)} s)")
@@ -215,14 +229,17 @@ def worth_a_cluster(n_measurements: int, seconds_per_measurement: float, workers
 
 
 def local_workers(workers: int | None, n_measurements: int, seconds_per_measurement: float,
-                  cores: int | None = None) -> int | None:
+                  cores: int | None = None, task_factor: float = CLUSTER_TASK_FACTOR,
+                  unit: str = "measurement") -> int | None:
     """
-    ``workers`` if a local cluster of them pays (:func:`worth_a_cluster`), else ``None`` (run
-    in this process), the reason logged as one warning line either way it declines.
+    ``workers`` if a local cluster of them pays (:func:`worth_a_cluster`, with
+    ``task_factor``), else ``None`` (run in this process), the reason logged as one warning
+    line either way it declines.
     """
     if workers is None:
         return None
-    gain, reason = worth_a_cluster(n_measurements, seconds_per_measurement, workers, cores)
+    gain, reason = worth_a_cluster(n_measurements, seconds_per_measurement, workers, cores,
+                                   task_factor, unit)
     if not gain:
         logging.getLogger(__name__).warning(reason)
         return None

@@ -56,8 +56,8 @@ from radiosim.files import OutputFolder, atomic_write, check_name, is_staging, s
 from radiosim.interrupts import raise_if_interrupted
 from radiosim.measurement import Measurement
 from radiosim.scenes.base import CroppedScene, Scene
-from radiosim.scheduling import (SECONDS_PER_SAMPLE, connect, local_workers, recorded_call,
-                                 spawn_seeds)
+from radiosim.scheduling import (SECONDS_PER_SAMPLE, STUDY_TASK_FACTOR, connect, local_workers,
+                                 recorded_call, spawn_seeds)
 from radiosim.study_spec import (ALIGNMENTS, CAMERA_KEYS, ENVIRONMENT_KEYS, HOOKS,
                                  SCENE_KEYS, STUDY_KEYS, SWEEP_KEYS, UNCERTAINTY_KEYS, Sweep,
                                  UncertaintySpec, camera_from_table, exr_name, load_hook,
@@ -363,6 +363,14 @@ class Study:
                 for f, p in zip(footprint, plan)]
         return SECONDS_PER_SAMPLE * float(np.mean(work))
 
+    def _tasks(self, plan) -> int:
+        """The tasks ``plan`` makes on a cluster (at least 1): one per scene its cases
+        measure — the study's scene for its field sweeps, one crop per pixel pitch of its
+        pixel sweeps (:meth:`_measure_all`)."""
+        field = any(p.sweep.kind != "pixel" for p in plan)
+        pitches = {p.camera.fpa.pixel_pitch for p in plan if p.sweep.kind == "pixel"}
+        return max(1, int(field) + len(pitches))
+
     def _window_start(self, t_int: float, alignment: str) -> float | None:
         scene = self.scene
         if alignment == "centred" or scene.event_time is None:
@@ -443,9 +451,9 @@ class Study:
         progress
             Called as ``progress(done, total, label)`` after each measurement.
         scheduler, workers
-            Run on Dask (:func:`radiosim.uncertainty.connect`): every measurement is a task,
-            the scene travels as its recipe. Without them, the measurements of a scene share
-            one pass over its frames in this process.
+            Run on Dask (:func:`radiosim.uncertainty.connect`): the measurements of a scene
+            (the study's scene, or a pixel sweep's crop) are one task, one pass over its
+            frames on a worker, as in this process; the scene travels as its recipe.
         cluster
             With ``workers`` (and no ``scheduler``): ``"auto"`` starts the local cluster only
             where it pays (:func:`radiosim.scheduling.local_workers`: a study too small to gain
@@ -469,7 +477,10 @@ class Study:
         if cluster not in ("auto", "always"):
             raise RadiosimError(f"cluster must be 'auto' or 'always', got {cluster!r}")
         if scheduler is None and workers is not None and cluster == "auto":
-            workers = local_workers(workers, len(plan), self._seconds_per_measurement(plan))
+            tasks = self._tasks(plan)
+            workers = local_workers(workers, tasks,
+                                    self._seconds_per_measurement(plan) * len(plan) / tasks,
+                                    task_factor=STUDY_TASK_FACTOR, unit="task")
         summary, pick_pixel = self.hook("summary"), self.hook("pixel")
         columns = self.columns()
         folder = None
@@ -546,9 +557,9 @@ class Study:
                      progress, run=None):
         """
         Measure every planned case into ``result.rows`` (and ``history``); case ``i`` draws
-        its noise from ``seeds[i]``; ``run``: the Dask engine's (one task per case), else in
-        this process. Consecutive cases on the same scene are measured in one
-        pass over its frames where the camera module offers it; the warnings each case raises
+        its noise from ``seeds[i]``; ``run``: the Dask engine's, else in this process.
+        Consecutive cases on the same scene are measured in one pass over its frames, here
+        or as one task on the engine (the same function: the same bits); the warnings each case raises
         go to its row and are raised again here, in the plan's order.
         """
         from radiosim.files import BackgroundWrites
@@ -612,10 +623,8 @@ class Study:
             group_seeds = seeds[done:done + len(group)]
             triples = [(c.camera, c.integration_time,
                         self._window_start(c.integration_time, c.alignment)) for c in group]
-            if run is not None:  # one task per measurement, the scene shared as a recipe
-                outcomes = run(_measure_task, [
-                    (*triple, seed) for triple, seed in zip(triples, group_seeds)],
-                    shared=(scene,))
+            if run is not None:  # one task per scene: its cases in one pass, as here
+                outcomes = run(_measure_group, [(triples, group_seeds)], shared=(scene,))[0]
             else:
                 outcomes = _measure_group(scene, triples, group_seeds)
             for case, (m, caught) in zip(group, outcomes):
@@ -734,13 +743,6 @@ def _measure_group(scene: Scene, cases, seeds) -> list:
                                  np.random.default_rng(seed))
         out.append((m, caught + texts))
     return out
-
-
-def _measure_task(scene: Scene, camera: Camera, integration_time: float, t_start, seed):
-    """One measurement of a study on Dask, its noise from its own seed: (measurement, the
-    texts of the warnings it raised)."""
-    return recorded_call(camera.measure, scene, integration_time, t_start,
-                         np.random.default_rng(seed))
 
 
 def _moved(result: StudyResult, staging: Path, target: Path) -> StudyResult:

@@ -771,3 +771,29 @@ def test_a_seed_sequence_and_its_integer_agree(tmp_path):
     study = noisy_study(tmp_path)
     columns_equal(study.run(None, rng=9).rows,
                   study.run(None, rng=np.random.SeedSequence(9)).rows)
+
+
+def test_a_studys_cluster_tasks_are_one_a_scene(tmp_path, monkeypatch):
+    """On an engine a study submits one task per scene (its cases in one pass), not one per
+    measurement: the noisy study's cases share its one scene, so one task; the rows are the
+    in-process run's bits."""
+    import radiosim.study as study_module
+    from radiosim.scheduling import connect
+
+    submitted = []
+
+    def spying_connect(scheduler=None, workers=None, timeout=None):
+        run, close = connect("synchronous")
+
+        def spy(function, argument_lists, shared=()):
+            submitted.append((function.__name__, len(argument_lists)))
+            return run(function, argument_lists, shared=shared)
+        return spy, close
+
+    monkeypatch.setattr(study_module, "connect", spying_connect)
+    study = noisy_study(tmp_path)
+    local = study.run(None, rng=5).rows
+    remote = study.run(None, rng=5, scheduler="synchronous").rows
+    columns_equal(local, remote)
+    assert submitted == [("_measure_group", 1)] * len(submitted) and len(submitted) == \
+        study._tasks(list(study.plan()))
