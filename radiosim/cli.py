@@ -545,10 +545,12 @@ def build_parser() -> argparse.ArgumentParser:
                              "table) into a new or empty folder")
     example.add_argument("folder", help="a new or empty folder (. for the current one)")
     example.set_defaults(func=_example_data)
-    from radiosim.cli_recording import add_compare_parser, add_recording_parser
+    from radiosim.cli_recording import (add_compare_parser, add_correct_parser,
+                                        add_recording_parser)
 
     add_recording_parser(sub)
     add_compare_parser(sub)
+    add_correct_parser(sub)
     scene = sub.add_parser("scene", help="the built-in segmented-chip scene")
     scene_sub = scene.add_subparsers(dest="scene_command", required=True, metavar="preview")
     preview = scene_sub.add_parser("preview", help="write a PNG of the scene with the tool, "

@@ -8,11 +8,14 @@
 -   ``radiosim compare RECORDING SIMULATION --out FOLDER``: the recording beside a simulated
     measurement (:func:`radiosim.comparison.compare`): the statistics printed, the images and
     their difference in ``comparison.nc``, the figure in ``comparison.png``.
+-   ``radiosim correct MEASUREMENT --out CORRECTED.nc [--velocity VX,VY]``: a measurement's
+    reading corrected for its camera's blur and a known motion
+    (:func:`radiosim.correction.correct`), with its uncertainty.
 """
 
 from __future__ import annotations
 
-__all__ = ["add_recording_parser", "add_compare_parser"]
+__all__ = ["add_recording_parser", "add_compare_parser", "add_correct_parser"]
 
 
 def _frames(text: str):
@@ -93,8 +96,8 @@ def _shift(text: str):
     try:
         rows, columns = (float(v) for v in text.split(","))
     except ValueError:
-        raise argparse.ArgumentTypeError(f"--shift {text!r}: expected ROWS,COLUMNS in "
-                                         "pixels, e.g. 2.5,-1") from None
+        raise argparse.ArgumentTypeError(f"{text!r}: expected two numbers separated by a "
+                                         "comma, e.g. 2.5,-1") from None
     return rows, columns
 
 
@@ -166,3 +169,74 @@ def add_compare_parser(sub) -> None:
     cmp.add_argument("--scale", type=float, default=None,
                      help="the simulation's pixel over the recording's, in object space")
     cmp.set_defaults(func=_compare)
+
+
+def _read_measurement(path):
+    from pathlib import Path
+
+    from radiosim.errors import RadiosimError
+
+    path = Path(path)
+    if path.suffix.lower() == ".nc":
+        from radiosim.io.netcdf import read_netcdf
+
+        return read_netcdf(path)
+    if path.suffix.lower() == ".exr":
+        from radiosim.io.exr import read_exr
+
+        return read_exr(path)
+    raise RadiosimError(f"{path}: a measurement is a .nc or .exr file (radiosim measure --out)")
+
+
+def _correct(args) -> int:
+    from pathlib import Path
+
+    import numpy as np
+    import xarray as xr
+
+    from radiosim.cli_checks import check_out_file
+    from radiosim.correction import correct
+    from radiosim.io.netcdf import write_netcdf
+
+    check_out_file(args, ".nc", "the corrected reading is a NetCDF file")
+    measurement = _read_measurement(args.measurement)
+    result = correct(measurement, velocity=args.velocity)
+    dims = ("y", "x")
+    dataset = xr.Dataset(
+        {"apparent_temperature": (dims, measurement.apparent_temperature,
+                                  {"units": "K", "long_name": "the camera's reading"}),
+         "corrected_temperature": (dims, result.temperature,
+                                   {"units": "K", "long_name": "reading corrected for the "
+                                    "camera's blur" + (" and motion" if args.velocity else "")}),
+         "uncertainty": (dims, result.uncertainty,
+                         {"units": "K", "long_name": "standard uncertainty of the correction"})},
+        attrs={"Conventions": "CF-1.10", "history": args.command_line,
+               "source": str(Path(args.measurement))})
+    path = write_netcdf(args.out, dataset)
+    trusted = np.isfinite(result.temperature)
+    change = (result.temperature - measurement.apparent_temperature)[trusted]
+    print(f"{Path(args.measurement).name}: {int(trusted.sum())} of {trusted.size} pixels "
+          f"corrected" + (f", by {np.median(change):+.2f} K (median) up to "
+                          f"{change[np.argmax(np.abs(change))]:+.1f} K; median uncertainty "
+                          f"{np.median(result.uncertainty[trusted]):.2f} K" if change.size
+                          else ""))
+    print(f"wrote {path}")
+    return 0
+
+
+def add_correct_parser(sub) -> None:
+    """Add ``correct`` to the command's subparsers."""
+    cor = sub.add_parser("correct", help="a measurement's reading corrected for its camera's "
+                         "blur (and a known motion), with its uncertainty",
+                         description="Correct a simulated or recorded measurement (a .nc or "
+                         ".exr of radiosim measure) for its camera's optical blur and, with "
+                         "--velocity, a uniform motion over its window, in the calibrated "
+                         "object signal (a Wiener filter); write the reading, the corrected "
+                         "temperature and its uncertainty to a new NetCDF file.")
+    cor.add_argument("measurement", help="a measurement (.nc or .exr)")
+    cor.add_argument("--out", required=True, help="a new .nc file")
+    cor.add_argument("--overwrite", action="store_true", help="replace --out if it exists")
+    cor.add_argument("--velocity", type=_shift, default=None, metavar="VX,VY",
+                     help="the scene's uniform velocity in object space [m/s], x along the "
+                     "columns, y down the rows")
+    cor.set_defaults(func=_correct)

@@ -1,0 +1,232 @@
+"""
+Correcting a reading toward the scene: the optics' blur (the size-of-source effect) and a known
+uniform motion over the window, removed where the chain is linear — in the calibrated object
+signal ε·L(T), not in temperature — with the uncertainty the correction leaves.
+
+The measured object signal of a pixel is the scene's signal blurred by the optics' point-spread
+function, averaged over the pixel's footprint and over the window, during which a scene
+translating at ``velocity`` moves by v·t_int. On the pixel grid (pitch p in object space) that
+is, in frequency, S_meas(f) = F(f) · H(f) · S(f): F the footprint's transfer, kept (the target
+is what a perfect lens and an instantaneous exposure would read: the footprint mean), and H
+the optics' transfer function — for a polychromatic PSF the sub-bands' OTFs weighted by their
+shares of the frame's signal — times sinc(f · v·t_int) for the motion. The correction is the
+Wiener filter
+
+    W(f) = H*(f) / (|H(f)|² + σ² / σ_S²),
+
+σ² the white noise variance of a pixel's object signal (the camera's temporal noise at the
+frame's mean charge, in signal units, and the converter's step), σ_S² the scene's (the frame's
+variance less the noise's): where the blur left the signal above the noise, W inverts it;
+where not, W tends to 0 and the frequency is given up rather than invented.
+
+The uncertainty per pixel has two parts: the noise carried through the (linear) filter,
+√(Σ_k |w_k|² σ²) with w the filter's kernel, and the regularisation's bias, estimated from the
+corrected signal as (W·H − 1) applied to it; both are carried to temperature through the
+response's slope dS/dT. It covers the camera's temporal noise and the filter's bias; not a PSF
+or a velocity other than the camera's and the caller's, not the emissivity, not the
+calibration's own error. Pixels are NaN (flagged ``untrusted``) where the measurement has no
+reading (saturated, under or over range), within the PSF's and the motion's reach of the
+frame's edge (the filter sees beyond the frame there), or where the correction is mostly
+regularisation (the bias estimate above a third of the correction).
+
+References
+----------
+Gonzalez, R. C. & Woods, R. E. (2018). *Digital Image Processing*, 4th ed., §5.8 (Wiener
+filtering). Saunders, P. et al. (2008). Size-of-source effect correction of radiation
+thermometers by deconvolution. Int. J. Thermophys. 29, 1066–1083.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from radiosim.errors import RadiosimError
+
+__all__ = ["Correction", "correct"]
+
+
+@dataclass(frozen=True)
+class Correction:
+    """
+    A corrected reading.
+
+    Attributes
+    ----------
+    temperature : numpy.ndarray
+        The corrected temperature [K] per pixel; NaN where it cannot be trusted.
+    uncertainty : numpy.ndarray
+        Its standard uncertainty [K] (noise through the filter and the filter's bias).
+    untrusted : numpy.ndarray of bool
+        The pixels set to NaN (no reading, the frame's edge, regularisation-dominated).
+    noise_uncertainty : numpy.ndarray
+        The part of ``uncertainty`` the camera's temporal noise makes, through the filter [K].
+    transfer : numpy.ndarray
+        H on the pixel grid's frequencies (``numpy.fft.fft2`` order), for inspection.
+    """
+
+    temperature: np.ndarray
+    uncertainty: np.ndarray
+    untrusted: np.ndarray
+    noise_uncertainty: np.ndarray
+    transfer: np.ndarray
+
+
+def _velocity(velocity) -> tuple[float, float] | None:
+    if velocity is None:
+        return None
+    try:
+        v = np.asarray(velocity, dtype=float)
+    except (TypeError, ValueError):
+        raise RadiosimError(f"velocity must be (vx, vy) in m/s, got {velocity!r}") from None
+    if v.shape != (2,) or not np.all(np.isfinite(v)):
+        raise RadiosimError(f"velocity must be two finite numbers (vx, vy) in m/s, got "
+                            f"{velocity!r}")
+    if np.max(np.abs(v)) > 1e4:
+        raise RadiosimError(f"velocity {tuple(v)} m/s is faster than any machined chip (10 km/s): "
+                            "is it in µm/s or mm/s? velocity is in m/s")
+    return float(v[0]), float(v[1])
+
+
+def _transfer(camera, shape, stats_temperature: float, velocity, integration_time: float):
+    """H(fy, fx) on the pixel grid [1], and the reach [pixels] of the blur (the PSF's 99 %
+    energy radius and half the motion)."""
+    pitch = camera.fpa.pixel_pitch
+    fy = np.fft.fftfreq(shape[0], d=pitch)[:, None]  # [cycles/m]
+    fx = np.fft.fftfreq(shape[1], d=pitch)[None, :]
+    psfs = camera.optics.psf or ()
+    h = np.ones(shape, dtype=complex)
+    reach = 0.0
+    if psfs:
+        from radiosim.imaging import sub_band_count
+
+        na = camera.optics.object_na(camera.fpa)
+        bands = camera.response_model.sub_bands(sub_band_count(psfs))
+        shares = np.array([float(np.ravel(r.grey_signal(stats_temperature))[0])
+                           for r, _ in bands])
+        if not (np.all(np.isfinite(shares)) and shares.sum() > 0):
+            shares = np.ones(len(bands))
+        shares = shares / shares.sum()
+        lam_mid = 0.5 * sum(camera.optics.band)
+        total = np.zeros(shape, dtype=complex)
+        for (_, wavelength), share in zip(bands, shares):
+            lam = wavelength if np.isfinite(wavelength) else lam_mid
+            otf = np.ones(shape, dtype=complex)
+            for psf in psfs:
+                otf = otf * psf.otf(fx, fy, lam, na)
+                # the frame's edge feeds a pixel through the PSF's 99 % circle
+                reach = max(reach, psf.radius(0.99, lam, na) / pitch)
+            total += share * otf
+        h = total
+    if velocity is not None:
+        dx, dy = (v * integration_time / pitch for v in velocity)  # [pixels] over the window
+        h = h * np.sinc(fx * pitch * dx) * np.sinc(fy * pitch * dy)
+        reach += math.hypot(dx, dy) / 2
+    return h, reach
+
+
+def correct(measurement, velocity=None, rng=None) -> Correction:
+    """
+    Correct ``measurement``'s reading for its camera's optical blur and, with ``velocity``
+    (vx, vy) [m/s] in object space, a uniform motion over its window (module docstring).
+
+    Parameters
+    ----------
+    measurement
+        A :class:`~radiosim.measurement.Measurement` (its ``camera``, counts, flags and
+        window), simulated or a recording converted through a camera.
+    velocity
+        The scene's uniform velocity (vx, vy) [m/s] in object space, x along the columns and
+        y down the rows; ``None``: a static scene.
+    rng
+        Unused: the correction is deterministic (kept for the interface's stability).
+
+    Returns
+    -------
+    Correction
+    """
+    camera = getattr(measurement, "camera", None)
+    if camera is None or not hasattr(camera, "calibration"):
+        raise RadiosimError("correct needs a Measurement with its camera (measurement.camera)")
+    if getattr(camera, "channels", None) is not None:
+        raise RadiosimError(f"correct works on one band; {camera.name} has "
+                            f"{len(camera.channels)} channels: correct each channel's "
+                            "measurement (measurement.channels[k])")
+    velocity = _velocity(velocity)
+    if not camera.optics.psf and velocity is None:
+        raise RadiosimError(f"{camera.name} has a perfect lens (no PSF) and no velocity was "
+                            "given: there is nothing to correct (give the camera its measured "
+                            "PSF, or velocity=(vx, vy) [m/s])")
+    t_int = measurement.integration_time
+    calibration = camera.calibration(t_int)
+    counts = np.asarray(measurement.counts, dtype=float)
+    valid = np.asarray(measurement.valid, dtype=bool) & np.isfinite(counts)
+    if valid.sum() < 4:
+        raise RadiosimError("correct needs a reading: fewer than 4 pixels of the measurement "
+                            "are valid (saturated or under range)")
+    signal = calibration.object_signal(counts)  # ε·L(T) [signal unit]
+    filled = _filled(signal, valid)
+    typical = float(np.median(measurement.apparent_temperature[valid]))
+    h, reach = _transfer(camera, signal.shape, typical, velocity, t_int)
+    # The noise of one pixel's object signal [signal unit]: temporal noise at the mean charge
+    # (shot, read and the converter's step), through the signal's rate.
+    electrons = float(np.mean(np.asarray(measurement.electrons)[valid]))
+    el = camera.electronics
+    per_signal = calibration.rate_per_signal * t_int  # [e⁻ per signal unit]
+    sigma = float(el.temporal_noise(electrons)) / per_signal  # with the converter's step
+    sigma = max(sigma, 1e-9 * float(np.mean(np.abs(filled))))  # noise-free: a floor
+    spectrum = np.fft.fft2(filled)
+    h2 = np.abs(h) ** 2
+    # The noise-to-signal ratio, one number (the parametric Wiener filter): the noise's
+    # variance over the scene's, whose spectrum the blur and the noise leave unknown per
+    # frequency (estimated per frequency from the measured one, the noise's own fluctuations
+    # would be inverted where H is small).
+    ratio = sigma ** 2 / max(float(np.var(filled)) - sigma ** 2, sigma ** 2 * 1e-6)
+    wiener = np.conj(h) / (h2 + ratio)
+    corrected = np.fft.ifft2(wiener * spectrum).real
+    # Uncertainty: the noise through the filter, each pixel's own variance σ_j² (shot noise
+    # follows the signal) weighted by the filter's kernel: var_i = Σ_j |w_(i−j)|² σ_j²; and the
+    # filter's bias, (W·H − 1) applied to the corrected signal.
+    variance = np.broadcast_to(el.temporal_noise(np.asarray(measurement.electrons,
+                                                            dtype=float)) ** 2,
+                               signal.shape) / per_signal ** 2  # [signal unit²]
+    variance = np.where(valid, variance, sigma ** 2)
+    kernel_power = np.abs(np.fft.ifft2(wiener)) ** 2  # |w|² on the grid (circular)
+    noise = np.sqrt(np.maximum(np.fft.ifft2(np.fft.fft2(variance)
+                                            * np.fft.fft2(kernel_power)).real, 0.0))
+    bias = np.fft.ifft2((wiener * h - 1.0) * np.fft.fft2(corrected)).real
+    change = np.abs(corrected - filled)
+    temperature = calibration.response.temperature(np.clip(corrected, 1e-300, None),
+                                                   calibration.emissivity)  # [K], NaN: none
+    low, high = calibration.temperature_range
+    at = np.clip(np.where(np.isfinite(temperature), temperature, typical), low + 1, high - 1)
+    slope = np.abs(calibration.response.slope(at, calibration.emissivity))  # [unit/K]
+    uncertainty = np.hypot(noise, bias) / np.where(slope > 0, slope, np.nan)
+    edge = math.ceil(reach)
+    near_edge = np.zeros(signal.shape, dtype=bool)
+    if edge:
+        near_edge[:edge, :] = near_edge[-edge:, :] = True
+        near_edge[:, :edge] = near_edge[:, -edge:] = True
+    # a pixel whose flagged neighbours fed the filter is no reading either
+    from scipy.ndimage import binary_dilation
+
+    reach_of_flags = binary_dilation(~valid, iterations=max(edge, 1))
+    # mostly regularisation: the filter's bias above the noise and above the correction made
+    regularised = (np.abs(bias) > 3 * noise) & (np.abs(bias) > change)
+    untrusted = (reach_of_flags | near_edge | regularised | ~np.isfinite(temperature))
+    noise_only = noise / np.where(slope > 0, slope, np.nan)
+    return Correction(np.where(untrusted, np.nan, temperature),
+                      np.where(untrusted, np.nan, uncertainty), untrusted,
+                      np.where(untrusted, np.nan, noise_only), h)
+
+
+def _filled(values: np.ndarray, valid: np.ndarray) -> np.ndarray:
+    """``values`` with each invalid pixel taken from its nearest valid one."""
+    from scipy import ndimage
+
+    if valid.all():
+        return np.asarray(values, dtype=float)
+    index = ndimage.distance_transform_edt(~valid, return_distances=False, return_indices=True)
+    return np.asarray(values, dtype=float)[tuple(index)]
