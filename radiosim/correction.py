@@ -45,7 +45,12 @@ import numpy as np
 
 from radiosim.errors import RadiosimError
 
-__all__ = ["Correction", "correct"]
+__all__ = ["Correction", "correct", "MODEL_FLOOR"]
+
+#: The least noise-to-signal ratio the filter assumes, even for noise-free electronics: the
+#: forward model (a convolution on the pixel grid) leaves out the sampling's aliasing, which
+#: an exact inverse would amplify into ringing near edges.
+MODEL_FLOOR = 1e-4
 
 
 @dataclass(frozen=True)
@@ -183,7 +188,8 @@ def correct(measurement, velocity=None, rng=None) -> Correction:
     # variance over the scene's, whose spectrum the blur and the noise leave unknown per
     # frequency (estimated per frequency from the measured one, the noise's own fluctuations
     # would be inverted where H is small).
-    ratio = sigma ** 2 / max(float(np.var(filled)) - sigma ** 2, sigma ** 2 * 1e-6)
+    ratio = max(sigma ** 2 / max(float(np.var(filled)) - sigma ** 2, sigma ** 2 * 1e-6),
+                MODEL_FLOOR)
     wiener = np.conj(h) / (h2 + ratio)
     corrected = np.fft.ifft2(wiener * spectrum).real
     # Uncertainty: the noise through the filter, each pixel's own variance σ_j² (shot noise

@@ -12,7 +12,7 @@ sys.path.insert(0, str(VALIDATION))
 from run_notebooks import NOTEBOOKS, conclusion_of, execute, stated_conclusion  # noqa: E402
 
 
-def test_there_are_eight_notebooks():
+def test_there_are_nine_notebooks():
     assert [p.name for p in NOTEBOOKS] == ["01_paper_reproduction.ipynb",
                                            "02_linear_vs_planck.ipynb",
                                            "03_radiometry_checks.ipynb",
@@ -20,7 +20,8 @@ def test_there_are_eight_notebooks():
                                            "05_real_fpa.ipynb",
                                            "06_uncertainty_budget.ipynb",
                                            "07_two_colour.ipynb",
-                                           "08_real_recording.ipynb"]
+                                           "08_real_recording.ipynb",
+                                           "09_correction.ipynb"]
 
 
 @pytest.mark.parametrize("path", NOTEBOOKS, ids=lambda p: p.stem)
