@@ -39,16 +39,19 @@ INNER = (slice(21, 27), slice(21, 27))  # the feature's pixels but its outer rin
 
 
 def test_the_size_of_source_bias_of_an_8_pixel_feature_is_cut_over_3_times():
-    """Noise-free electronics: a Gaussian PSF of σ = 1.5 pixels takes up to ~78 K off the
-    feature's pixels; the correction leaves less than a third of it (the requirement)."""
+    """Noise-free electronics: a Gaussian PSF of σ = 1.5 pixels takes ~6 K off the feature's
+    centre and ~35 K off its pixels but the outer ring on average; the correction leaves less
+    than a third of each (the requirement), and its centre pixels are trusted."""
     camera = BASE.replace(fpa=FPA, optics=BLURRED, electronics=IDEAL)
     scene = FrameStack(square(24.0)[None].repeat(2, 0), dt=10e-6, dx=PITCH / SUB)
     m = camera.measure(scene, 10e-6)
     c = correct(m)
-    truth = truth_on_pixels(24.0)
-    raw = np.max(np.abs(m.apparent_temperature[INNER] - truth[INNER]))
-    fixed = np.max(np.abs(c.temperature[INNER] - truth[INNER]))
-    assert raw > 50 and fixed < raw / 3, (raw, fixed)
+    centre = (slice(23, 25), slice(23, 25))
+    assert not np.isnan(c.temperature[centre]).any()
+    for region in (centre, INNER):
+        raw = abs(np.mean(m.apparent_temperature[region]) - 900.0)
+        fixed = abs(np.mean(c.temperature[region]) - 900.0)
+        assert raw > 5 and fixed < raw / 3, (region, raw, fixed)
 
 
 def test_with_the_real_electronics_the_uncertainty_covers_the_truth():
