@@ -21,3 +21,16 @@ def speed_probe(repeat: int = 3) -> float:
         sum(range(10**7))
         best = min(best, time.perf_counter() - began)
     return best
+
+
+def best(function, repeat: int = 5) -> float:
+    """The shortest of ``repeat`` timings of ``function()`` [s] (a shared machine only ever
+    adds time)."""
+    import time
+
+    times = []
+    for _ in range(repeat):
+        start = time.perf_counter()
+        function()
+        times.append(time.perf_counter() - start)
+    return min(times)

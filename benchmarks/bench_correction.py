@@ -10,23 +10,13 @@ of three. Run on demand:
 """
 
 import dataclasses
-import time
 
 import numpy as np
+from _host import best
 
 import radiosim as rs
 from radiosim.correction import correct
 from radiosim.scenes import FrameStack
-
-
-def best(function, repeat: int = 3) -> float:
-    times = []
-    for _ in range(repeat):
-        start = time.perf_counter()
-        function()
-        times.append(time.perf_counter() - start)
-    return min(times)
-
 
 def main():
     base = rs.Camera.preset("nist-ir-psf")
@@ -37,8 +27,8 @@ def main():
     scene = FrameStack(frame[None].repeat(2, 0), dt=10e-6, dx=pitch)
     m = camera.measure(scene, 10e-6, rng=1)  # compiled, tables built
     correct(m)
-    measure = best(lambda: camera.measure(scene, 10e-6, rng=1))
-    fix = best(lambda: correct(m))
+    measure = best(lambda: camera.measure(scene, 10e-6, rng=1), 3)
+    fix = best(lambda: correct(m), 3)
     print(f"nist-ir-psf measurement, 1113 × 1440 pixels  {measure:7.2f} s")
     print(f"its correction                               {fix:7.2f} s  ({fix / measure:.2f} ×)")
 

@@ -26,22 +26,13 @@ import time
 from pathlib import Path
 
 import numpy as np
+from _host import best
 
 import radiosim as rs
 from radiosim.flir import ObjectParameters, PlanckCurve, raw_to_temperature
 from radiosim.scenes import FrameStack
 
 FLIR = Path(__file__).resolve().parents[1] / "tests" / "data" / "flir" / "frame_000000.fff"
-
-
-def best(function, repeat: int = 5) -> float:
-    times = []
-    for _ in range(repeat):
-        start = time.perf_counter()
-        function()
-        times.append(time.perf_counter() - start)
-    return min(times)
-
 
 def peak_mb() -> float:
     return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
