@@ -151,6 +151,9 @@ def register(reference: np.ndarray, moving: np.ndarray) -> tuple[float, float]:
     window = np.outer(np.hanning(a.shape[0]), np.hanning(a.shape[1]))  # no edge wrap-around
     spectrum = np.fft.fft2(a * window) * np.conj(np.fft.fft2(b * window))
     magnitude = np.abs(spectrum)
+    if not magnitude.max() > 0:
+        raise RadiosimError("register: an image without features (uniform) cannot be "
+                            "registered; give shift=")
     # normalised by the square root of its magnitude: between phase correlation (sharp, but
     # led by edges: a hole of flagged pixels, a smooth scene's rounding) and the plain
     # cross-correlation (led by the broad features that a scene and its simulation share)
@@ -170,6 +173,9 @@ def register(reference: np.ndarray, moving: np.ndarray) -> tuple[float, float]:
             return np.inf
         return float(np.var(reference[both] - moved[both]))
 
+    if not np.isfinite(spread(start)):
+        raise RadiosimError("register: the images share fewer than 16 pixels at their "
+                            "correlation's peak; give shift= or images that overlap")
     best = optimize.minimize(spread, start, method="Powell",
                              bounds=[(v - 1.5, v + 1.5) for v in start],
                              options={"xtol": 1e-4, "ftol": 1e-12})
@@ -217,10 +223,23 @@ def compare(recorded, measurement, camera=None, frame: int = 0, shift=None,
     """
     from scipy import ndimage
 
+    if not hasattr(measurement, "apparent_temperature") or not hasattr(measurement, "valid"):
+        raise RadiosimError(f"compare needs a simulated Measurement, got "
+                            f"{type(measurement).__name__}")
+    if isinstance(coverage, bool) or not isinstance(coverage, (int, float)) or \
+            not (np.isfinite(coverage) and coverage > 0):
+        raise RadiosimError(f"coverage must be a finite number > 0, got {coverage!r}")
     if hasattr(recorded, "temperature") and hasattr(recorded, "counts"):
         image = recorded.temperature(camera, [frame], **object_parameters)[0]
     else:
-        image = np.asarray(recorded, dtype=float)
+        if camera is not None or object_parameters or frame != 0:
+            raise RadiosimError("camera=, frame= and object parameters apply to a Recording; "
+                                "the recorded image given is already temperatures [K]")
+        try:
+            image = np.asarray(recorded, dtype=float)
+        except (TypeError, ValueError):
+            raise RadiosimError(f"the recorded image must be 2-D temperatures [K], got "
+                                f"{type(recorded).__name__}") from None
         if image.ndim != 2:
             raise RadiosimError(f"the recorded image must be 2-D temperatures [K], got shape "
                                 f"{image.shape}")
@@ -228,7 +247,8 @@ def compare(recorded, measurement, camera=None, frame: int = 0, shift=None,
     noise = _netd(measurement)
     uncertainty = np.hypot(measurement.uncertainty, noise)
     if scale is not None:
-        if not (np.isfinite(scale) and scale > 0):
+        if isinstance(scale, bool) or not isinstance(scale, (int, float)) or \
+                not (np.isfinite(scale) and scale > 0):
             raise RadiosimError(f"scale must be a finite number > 0, got {scale!r}")
         simulated, uncertainty = (ndimage.zoom(v, scale, order=1, mode="nearest",
                                                prefilter=False) for v in
@@ -241,7 +261,13 @@ def compare(recorded, measurement, camera=None, frame: int = 0, shift=None,
     placed[1, :r, :c] = uncertainty[:r, :c]
     if shift is None:
         shift = register(image, placed[0])
-    shift = (float(shift[0]), float(shift[1]))
+    try:
+        rows_shift, cols_shift = (float(v) for v in shift)
+    except (TypeError, ValueError):
+        raise RadiosimError(f"shift must be (rows, columns) in pixels, got {shift!r}") from None
+    if not (np.isfinite(rows_shift) and np.isfinite(cols_shift)):
+        raise RadiosimError(f"shift must be finite, got {shift!r}")
+    shift = (rows_shift, cols_shift)
     moved = [ndimage.shift(np.nan_to_num(v, nan=0.0), shift, order=1, mode="constant",
                            cval=np.nan) for v in placed]
     inside = ndimage.shift(np.isfinite(placed[0]).astype(float), shift, order=1,

@@ -12,12 +12,13 @@ the optics' transfer function — for a polychromatic PSF the sub-bands' OTFs we
 shares of the frame's signal — times sinc(f · v·t_int) for the motion. The correction is the
 Wiener filter
 
-    W(f) = H*(f) / (|H(f)|² + σ² / σ_S²),
+    W(f) = H*(f) / (|H(f)|² + σ² / σ_S²),   W(0) = 1 / H(0),
 
 σ² the white noise variance of a pixel's object signal (the camera's temporal noise at the
 frame's mean charge, in signal units, and the converter's step), σ_S² the scene's (the frame's
 variance less the noise's): where the blur left the signal above the noise, W inverts it;
-where not, W tends to 0 and the frequency is given up rather than invented.
+where not, W tends to 0 and the frequency is given up rather than invented; the frame's mean
+(f = 0), which every pixel's noise averages down, is kept.
 
 The uncertainty per pixel has two parts: the noise carried through the (linear) filter,
 √(Σ_k |w_k|² σ²) with w the filter's kernel, and the regularisation's bias, estimated from the
@@ -194,6 +195,9 @@ def correct(measurement, velocity=None, rng=None) -> Correction:
     ratio = max(sigma ** 2 / max(float(np.var(filled)) - sigma ** 2, sigma ** 2 * 1e-6),
                 MODEL_FLOOR)
     wiener = np.conj(h) / (h2 + ratio)
+    # The frame's mean is measured through the noise of every pixel at once: never damped
+    # (a low-contrast frame would otherwise lose its level with its detail).
+    wiener[0, 0] = 1.0 / h[0, 0] if abs(h[0, 0]) > 0 else 1.0
     corrected = np.fft.ifft2(wiener * spectrum).real
     # Uncertainty: the noise through the filter, each pixel's own variance σ_j² (shot noise
     # follows the signal) weighted by the filter's kernel: var_i = Σ_j |w_(i−j)|² σ_j²; and the
@@ -206,7 +210,6 @@ def correct(measurement, velocity=None, rng=None) -> Correction:
     noise = np.sqrt(np.maximum(np.fft.ifft2(np.fft.fft2(variance)
                                             * np.fft.fft2(kernel_power)).real, 0.0))
     bias = np.fft.ifft2((wiener * h - 1.0) * np.fft.fft2(corrected)).real
-    change = np.abs(corrected - filled)
     temperature = calibration.response.temperature(np.clip(corrected, 1e-300, None),
                                                    calibration.emissivity)  # [K], NaN: none
     low, high = calibration.temperature_range

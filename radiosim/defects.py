@@ -99,9 +99,12 @@ def find_defect_pixels(frames, k: float = 6.0) -> DefectPixels:
         raise RadiosimError(f"defect pixels need frames (frames, rows, columns) of at least "
                             f"{_NEIGHBOURHOOD} × {_NEIGHBOURHOOD} pixels, got shape "
                             f"{stack.shape}")
+    if stack.shape[0] == 0:
+        raise RadiosimError("defect pixels need at least one frame; got none")
     if not np.all(np.isfinite(stack)):
         raise RadiosimError("defect pixels need finite counts; the frames hold NaN or ∞")
-    if not (np.isfinite(k) and k > 0):
+    if isinstance(k, bool) or not isinstance(k, (int, float, np.integer, np.floating)) or \
+            not (np.isfinite(k) and k > 0):
         raise RadiosimError(f"k must be a finite number > 0, got {k!r}")
     n = stack.shape[0]
     mean = stack.mean(axis=0)

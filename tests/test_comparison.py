@@ -94,3 +94,24 @@ def test_register_on_an_image_with_holes():
     b = spot(80.0 - 7.0, 100.0 + 5.0)
     b[60:70, 90:120] = np.nan
     assert register(a, b) == pytest.approx((7.0, -5.0), abs=0.01)
+
+
+@pytest.mark.parametrize("call, said", [
+    (lambda m: compare(np.pad(m.apparent_temperature[18:21, 23:26], ((18, 19), (23, 24)),
+                              constant_values=np.nan), m), "fewer than 16 pixels"),
+    (lambda m: compare(np.full(m.shape, 650.0), m), "without features"),
+    (lambda m: compare(m.apparent_temperature, m, shift=1.0), "shift must be (rows, columns)"),
+    (lambda m: compare(m.apparent_temperature, m, scale="2"), "scale must be"),
+    (lambda m: compare(m.apparent_temperature, None), "needs a simulated Measurement"),
+    (lambda m: compare(m.apparent_temperature, m, coverage=-1), "coverage must be"),
+    (lambda m: compare(m.apparent_temperature, m, frame=5), "apply to a Recording"),
+])
+def test_bad_comparisons_are_named_in_one_line(call, said):
+    from radiosim.errors import RadiosimError
+
+    from conftest import one_line_naming
+
+    simulation = measured(spot(80.0, 100.0))
+    with pytest.raises(RadiosimError) as info:
+        call(simulation)
+    one_line_naming(info, said)

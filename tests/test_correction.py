@@ -157,3 +157,14 @@ def test_the_noise_part_of_the_uncertainty_matches_monte_carlo_draws():
     spread = np.nanstd(temperatures[:, trusted], axis=0, ddof=1)
     ratio = spread / stated
     assert trusted.sum() > 500 and abs(np.median(ratio) - 1) < 0.25, np.median(ratio)
+
+
+@pytest.mark.parametrize("level", [500.0, 900.0])
+def test_a_uniform_scene_keeps_its_level(level):
+    """A uniform frame (its variance the noise's): the filter gives up the detail but never the
+    mean, which every pixel's noise averages down (a 500 K frame was read 154–311 K)."""
+    camera = BASE.replace(fpa=dataclasses.replace(BASE.fpa, shape=(32, 32)))
+    m = camera.measure(FrameStack(np.full((2, 32, 32), level), dt=10e-6, dx=PITCH), 10e-6,
+                       rng=1)
+    c = correct(m, velocity=(0.0, 0.0))
+    np.testing.assert_allclose(np.nanmean(c.temperature), level, atol=0.1)

@@ -73,3 +73,10 @@ def test_bad_frames_are_refused(frames, said):
     with pytest.raises(RadiosimError, match=None) as info:
         find_defect_pixels(frames)
     assert said in str(info.value)
+
+
+def test_no_frames_or_a_k_as_text_is_refused():
+    with pytest.raises(RadiosimError, match="at least one frame"):
+        find_defect_pixels(np.zeros((0, 10, 10)))
+    with pytest.raises(RadiosimError, match="k must be a finite number"):
+        find_defect_pixels(np.zeros((2, 10, 10)), k="6")

@@ -604,3 +604,68 @@ def test_a_16_bit_tiff_stack_reads_page_by_page(tmp_path):
     with pytest.raises(RadiosimError) as info:
         read_recording(tmp_path / "colour.tif")
     one_line_naming(info, "colour.tif", "'RGB'", "16-bit counts")
+
+
+# -- a reviewer's hostile cases (each once a traceback or a wrong refusal) ------------------------
+
+
+def test_the_files_own_integration_time_given_again_is_accepted():
+    from radiosim import Camera
+
+    r = read_recording(JADE)
+    camera = Camera.preset("nist-ir")
+    np.testing.assert_allclose(r.temperature(camera, [0], integration_time=150e-6),
+                               r.temperature(camera, [0]), rtol=1e-7)  # float32 in the file
+    for bad, said in ((-1, "integration_time must be finite and > 0"),
+                      ("nist-ir", "camera must be a radiosim Camera")):
+        with pytest.raises(RadiosimError) as info:
+            if isinstance(bad, str):
+                r.temperature(bad, [0])
+            else:
+                r.temperature(camera, [0], integration_time=bad)
+        one_line_naming(info, said)
+    with pytest.raises(RadiosimError) as info:
+        r.temperature(Camera.preset("two-colour"), [0])
+    one_line_naming(info, "2 channels", "channel_cameras")
+    with pytest.raises(RadiosimError) as info:
+        r.to_xarray(chunk=0)
+    one_line_naming(info, "chunk must be a whole number")
+
+
+def test_a_flir_file_storing_humidity_as_a_percentage_is_read_as_exiftool_reads_it(tmp_path):
+    """Some cameras store 30 (%) where others store 0.30: exiftool divides values above 2 by
+    100, and so does the reader (the formula itself refuses 30)."""
+    data = bytearray((FLIR / "frame_000000.fff").read_bytes())
+    info = 655904  # the CameraInfo record's offset in this file (its directory says so)
+    struct.pack_into("<f", data, info + 0x3C, 30.0)
+    path = tmp_path / "percent.fff"
+    path.write_bytes(bytes(data))
+    assert read_recording(path).metadata["object_parameters"]["relative_humidity"] == \
+        pytest.approx(0.30, rel=1e-6)
+
+
+def test_damaged_tiff_fff_and_jpeg_files_end_in_one_line(tmp_path):
+    from PIL import Image
+
+    frames = np.arange(3 * 8 * 10, dtype=np.uint16).reshape(3, 8, 10)
+    good = tmp_path / "s.tif"
+    pages = [Image.fromarray(f) for f in frames]
+    pages[0].save(good, save_all=True, append_images=pages[1:])
+    cut = tmp_path / "cut.tif"
+    cut.write_bytes(good.read_bytes()[:300])
+    with pytest.raises(RadiosimError) as info:
+        read_recording(cut).frames()
+    one_line_naming(info, "cut.tif")
+    np.testing.assert_array_equal(read_recording(good).counts[-1], frames[-1])
+    jpeg = tmp_path / "short.jpg"
+    jpeg.write_bytes((FLIR / "ax8.jpg").read_bytes()[:5000])
+    with pytest.raises(RadiosimError) as info:
+        read_recording(jpeg)
+    one_line_naming(info, "short.jpg", "truncated or damaged")
+    data = bytearray((FLIR / "frame_000000_le.fff").read_bytes())
+    struct.pack_into("<II", data, 64 + 32 + 12, len(data) - 2, 2)  # RawData at the very end
+    fff = tmp_path / "end.fff"
+    fff.write_bytes(bytes(data))
+    with pytest.raises(RadiosimError) as info:
+        read_recording(fff)
+    one_line_naming(info, "end.fff")

@@ -52,7 +52,17 @@ _TEXTS = {"CameraModel": (0xD4, 32), "CameraSerialNumber": (0x104, 16),
 
 def _frame(path, data, start: int) -> tuple[dict, int, int, tuple[int, int], str, int]:
     """One FFF frame at ``start`` of ``data``: (metadata, the counts' offset, the frame's
-    length, (rows, cols), the counts' byte order, the frame's end)."""
+    length, (rows, cols), the counts' byte order, the frame's end); a field that lies past
+    the data's end is named as a truncation."""
+    try:
+        return _frame_fields(path, data, start)
+    except struct.error:
+        raise RadiosimError(f"{path}" + (f" (frame at byte {start})" if start else "")
+                            + ": truncated or damaged: a record's fields lie past the end of "
+                            f"its {len(data)} bytes") from None
+
+
+def _frame_fields(path, data, start: int):
     where = f"{path}" + (f" (frame at byte {start})" if start else "")
     if bytes(data[start:start + 4]) != b"FFF\0":
         raise RadiosimError(f"{where} is not a FLIR FFF frame: it starts with "
@@ -99,14 +109,19 @@ def _frame(path, data, start: int) -> tuple[dict, int, int, tuple[int, int], str
     order_info = "<" if struct.unpack_from("<H", data, info)[0] == 2 else ">"
     meta = {name: struct.unpack_from(order_info + "f", data, info + offset)[0]
             for name, offset in _FLOATS.items()}
+    if meta["RelativeHumidity"] > 2:  # some cameras store a percentage (as exiftool reads it)
+        meta["RelativeHumidity"] /= 100.0
     meta["PlanckO"] = struct.unpack_from(order_info + "i", data, info + 0x308)[0]
     for name, (offset, size) in _TEXTS.items():
         meta[name] = bytes(data[info + offset:info + offset + size]).split(b"\0")[0].decode(
             "latin-1").strip()
     seconds, ms, zone = struct.unpack_from(order_info + "IIh", data, info + 0x384)
-    tz = datetime.timezone(datetime.timedelta(minutes=-zone))
-    meta["DateTimeOriginal"] = (datetime.datetime.fromtimestamp(seconds, tz)
-                                + datetime.timedelta(milliseconds=ms)).isoformat()
+    try:
+        tz = datetime.timezone(datetime.timedelta(minutes=-zone))
+        meta["DateTimeOriginal"] = (datetime.datetime.fromtimestamp(seconds, tz)
+                                    + datetime.timedelta(milliseconds=ms)).isoformat()
+    except (ValueError, OverflowError, OSError):  # a date the file garbled: not needed
+        meta["DateTimeOriginal"] = None
     meta["FrameRate"] = struct.unpack_from(order_info + "H", data, info + 0x464)[0]
     meta["_raw_end"] = raw + raw_length
     return meta, raw + 32, end - start, (rows, cols), raw_order, end
@@ -181,16 +196,22 @@ def read_flir_jpeg(path) -> Recording:
     data = _bytes(path, "a FLIR radiometric JPEG")
     if data[:2] != b"\xff\xd8":
         raise RadiosimError(f"{path} is not a JPEG (it starts with {data[:4]!r})")
-    chunks, pos = {}, 2
+    chunks, pos, scan = {}, 2, False
     while pos + 4 <= len(data) and data[pos] == 0xFF:
         marker = data[pos + 1]
         if marker in (0xD9, 0xDA):  # end of image, start of scan: no metadata after
+            scan = True
             break
         length = struct.unpack_from(">H", data, pos + 2)[0]
+        if pos + 2 + length > len(data):
+            break  # a segment cut short
         segment = data[pos + 4:pos + 2 + length]
         if marker == 0xE1 and segment[:5] == b"FLIR\0" and len(segment) > 8:
             chunks[segment[6]] = segment[8:]
         pos += 2 + length
+    if not scan:
+        raise RadiosimError(f"{path} is truncated or damaged: its header segments stop at byte "
+                            f"{pos} of {len(data)}, before the image")
     if not chunks:
         raise RadiosimError(f"{path}: a JPEG without FLIR's APP1 segments: a picture, not a "
                             "radiometric FLIR file (saved by FLIR Tools or the camera?)")

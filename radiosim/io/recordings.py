@@ -146,16 +146,28 @@ class Recording:
                 raise RadiosimError(f"{self.path}: unknown object parameter {unknown[0]!r}")
             parameters = ObjectParameters(**(stated | object_parameters))
             return raw_to_temperature(counts, self.curve, parameters)
+        if not hasattr(camera, "calibration") or not hasattr(camera, "channel_cameras"):
+            raise RadiosimError(f"{self.path}: camera must be a radiosim Camera, got "
+                                f"{type(camera).__name__} {camera!r:.60}")
+        if camera.channels is not None:
+            raise RadiosimError(f"{self.path}: {camera.name} has {len(camera.channels)} "
+                                "channels; a recording's counts are one band's: give the "
+                                "channel's camera (camera.channel_cameras[k])")
         if object_parameters:
             raise RadiosimError(f"{self.path}: object parameters "
                                 f"({', '.join(sorted(object_parameters))}) apply to the file's "
                                 "own calibration; a radiosim camera states its own")
+        if integration_time is not None:
+            from radiosim.checks import check_time
+
+            integration_time = check_time(integration_time, "integration_time")
         t_int = integration_time if integration_time is not None else self.integration_time
         if t_int is None:
             raise RadiosimError(f"{self.path}: the file states no integration time; a "
                                 "camera's calibration needs one (integration_time=)")
+        # files store it as float32: agreement within its precision (1e-6 relative)
         if (integration_time is not None and self.integration_time is not None
-                and abs(integration_time - self.integration_time) > 1e-9 * integration_time):
+                and abs(integration_time - self.integration_time) > 1e-6 * integration_time):
             raise RadiosimError(f"{self.path}: integration_time={integration_time:g} s "
                                 f"contradicts the file's {self.integration_time:g} s")
         if self.housing_temperature is not None:
@@ -181,6 +193,9 @@ class Recording:
 
         from radiosim._version import __version__
 
+        if isinstance(chunk, bool) or not isinstance(chunk, (int, np.integer)) or chunk < 1:
+            raise RadiosimError(f"{self.path}: chunk must be a whole number of frames ≥ 1, "
+                                f"got {chunk!r}")
         index = self.frame_indices(frames)
         if index.size == 0:
             raise RadiosimError(f"{self.path}: frames {frames!r} select no frame of its "
@@ -436,9 +451,13 @@ class _TiffPages:
     def _page(self, k: int) -> np.ndarray:
         from PIL import Image
 
-        with Image.open(self.path) as image:
-            image.seek(int(k))
-            page = np.array(image)
+        try:
+            with Image.open(self.path) as image:
+                image.seek(int(k))
+                page = np.array(image)
+        except (OSError, ValueError, TypeError, EOFError) as exc:  # Pillow on a damaged page
+            raise RadiosimError(f"{self.path}: page {k} cannot be read "
+                                f"({type(exc).__name__}: {exc})") from None
         if page.shape != self.shape[1:] or page.dtype.kind != "u" or page.itemsize != 2:
             raise RadiosimError(f"{self.path}: page {k} holds {page.shape} {page.dtype} "
                                 f"samples; page 0 holds {self.shape[1:]} uint16")
@@ -448,8 +467,9 @@ class _TiffPages:
         return self.shape[0]
 
     def __getitem__(self, key):
-        index = np.arange(self.shape[0])[key if isinstance(key, (slice, np.ndarray, list))
-                                          else slice(int(key), int(key) + 1)]
+        whole = np.arange(self.shape[0])
+        index = whole[key] if isinstance(key, (slice, np.ndarray, list)) else \
+            np.atleast_1d(whole[int(key)])  # a negative index counts from the end
         pages = np.stack([self._page(k) for k in index]) if index.size else \
             np.empty((0, *self.shape[1:]), np.uint16)
         return pages if isinstance(key, (slice, np.ndarray, list)) else pages[0]
@@ -476,8 +496,9 @@ def read_tiff_stack(path) -> Recording:
     try:
         with Image.open(path) as image:
             n, mode, (cols, rows) = getattr(image, "n_frames", 1), image.mode, image.size
-    except (UnidentifiedImageError, OSError) as exc:
-        raise RadiosimError(f"{path} is not a readable TIFF: {exc}") from None
+    except (UnidentifiedImageError, OSError, ValueError, TypeError, EOFError) as exc:
+        raise RadiosimError(f"{path} is not a readable TIFF ({type(exc).__name__}: "
+                            f"{exc})") from None
     if mode not in ("I;16", "I;16B", "I;16L"):
         raise RadiosimError(f"{path}: its pages are {mode!r} images; a radiometric stack "
                             "holds 16-bit counts (mode I;16)")
