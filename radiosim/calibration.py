@@ -62,7 +62,7 @@ from radiosim.response import Response, object_signal, observed_signal
 from radiosim.units import readable_time
 
 __all__ = ["Calibration", "Reading", "MIN_CALIBRATION_SPAN_DN", "NonUniformityCorrection",
-           "replace_bad_pixels", "fit_calibration"]
+           "fill_from_nearest", "replace_bad_pixels", "fit_calibration"]
 
 #: A quantising camera whose calibration spans fewer counts than this over its temperature
 #: range reads in steps of more than 1/this of the range: the calibration warns.
@@ -628,6 +628,28 @@ def _integer_codes(counts) -> tuple[int, np.ndarray] | None:
             return None
         index = whole
     return int(low), index.astype(np.intp, copy=False)
+
+
+def fill_from_nearest(values: np.ndarray, valid: np.ndarray | None = None) -> np.ndarray:
+    """
+    ``values`` with each pixel that is not ``valid`` (default: not finite) taken from its
+    nearest valid pixel — flagged pixels that an FFT-based step must not see as features
+    (a registration's correlation, a deconvolution). Unchanged when every pixel is valid.
+
+    Examples
+    --------
+    >>> fill_from_nearest(np.array([[1.0, np.nan, 3.0]])).tolist()
+    [[1.0, 1.0, 3.0]]
+    """
+    from scipy import ndimage
+
+    values = np.asarray(values, dtype=float)
+    valid = np.isfinite(values) if valid is None else np.asarray(valid, dtype=bool)
+    if valid.all():
+        return values
+    index = ndimage.distance_transform_edt(~valid, return_distances=False,
+                                           return_indices=True)
+    return values[tuple(index)]
 
 
 def replace_bad_pixels(values: np.ndarray, bad: np.ndarray) -> np.ndarray:

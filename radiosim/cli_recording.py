@@ -34,6 +34,12 @@ def _frames(text: str):
                                          "indices)") from None
 
 
+def _out_file(parser, what: str) -> None:
+    """The required ``--out FILE`` and ``--overwrite`` of a command that writes one file."""
+    parser.add_argument("--out", required=True, help=what)
+    parser.add_argument("--overwrite", action="store_true", help="replace --out if it exists")
+
+
 def _info(args) -> int:
     from radiosim.io.recordings import info_lines, read_recording
 
@@ -82,8 +88,7 @@ def add_recording_parser(sub) -> None:
         "whose calibration is taken at the recording's integration time and housing "
         "temperature.")
     export.add_argument("file", help="a .ptw, .fff or .seq recording")
-    export.add_argument("--out", required=True, help="a new .nc or .exr file")
-    export.add_argument("--overwrite", action="store_true", help="replace --out if it exists")
+    _out_file(export, "a new .nc or .exr file")
     export.add_argument("--camera", help="preset name or camera TOML (fitted to this camera)")
     export.add_argument("--frames", type=_frames, default=None, metavar="A:B",
                         help="frames to export: K or A:B (default all; an EXR: frame 0)")
@@ -234,8 +239,7 @@ def add_correct_parser(sub) -> None:
                          "object signal (a Wiener filter); write the reading, the corrected "
                          "temperature and its uncertainty to a new NetCDF file.")
     cor.add_argument("measurement", help="a measurement (.nc or .exr)")
-    cor.add_argument("--out", required=True, help="a new .nc file")
-    cor.add_argument("--overwrite", action="store_true", help="replace --out if it exists")
+    _out_file(cor, "a new .nc file")
     cor.add_argument("--velocity", type=_shift, default=None, metavar="VX,VY",
                      help="the scene's uniform velocity in object space [m/s], x along the "
                      "columns, y down the rows")

@@ -29,6 +29,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from radiosim.calibration import fill_from_nearest
 from radiosim.errors import RadiosimError
 
 __all__ = ["Comparison", "compare", "register"]
@@ -146,7 +147,7 @@ def register(reference: np.ndarray, moving: np.ndarray) -> tuple[float, float]:
     if reference.shape != moving.shape:
         raise RadiosimError(f"register: the images differ in shape: {reference.shape} and "
                             f"{moving.shape}")
-    a, b = (_nearest_filled(v) for v in (reference, moving))
+    a, b = (fill_from_nearest(v) for v in (reference, moving))
     a, b = a - a.mean(), b - b.mean()
     window = np.outer(np.hanning(a.shape[0]), np.hanning(a.shape[1]))  # no edge wrap-around
     spectrum = np.fft.fft2(a * window) * np.conj(np.fft.fft2(b * window))
@@ -161,7 +162,7 @@ def register(reference: np.ndarray, moving: np.ndarray) -> tuple[float, float]:
                                                          1e-12 * magnitude.max()))).real
     peak = np.unravel_index(int(np.argmax(surface)), surface.shape)
     start = [float(p - n if p > n / 2 else p) for p, n in zip(peak, surface.shape)]
-    filled = _nearest_filled(moving)
+    filled = fill_from_nearest(moving)
     holds = np.isfinite(moving).astype(float)
     ref_holds = np.isfinite(reference)
 
@@ -180,19 +181,6 @@ def register(reference: np.ndarray, moving: np.ndarray) -> tuple[float, float]:
                              bounds=[(v - 1.5, v + 1.5) for v in start],
                              options={"xtol": 1e-4, "ftol": 1e-12})
     return float(best.x[0]), float(best.x[1])
-
-
-def _nearest_filled(image: np.ndarray) -> np.ndarray:
-    """``image`` with each NaN replaced by its nearest finite pixel (a hole of flagged
-    pixels must not look like a feature to the correlation)."""
-    from scipy import ndimage
-
-    holes = ~np.isfinite(image)
-    if not holes.any():
-        return image
-    index = ndimage.distance_transform_edt(holes, return_distances=False,
-                                           return_indices=True)
-    return image[tuple(index)]
 
 
 def compare(recorded, measurement, camera=None, frame: int = 0, shift=None,

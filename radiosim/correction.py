@@ -44,6 +44,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from radiosim.calibration import fill_from_nearest
 from radiosim.errors import RadiosimError
 
 __all__ = ["Correction", "correct", "MODEL_FLOOR"]
@@ -176,7 +177,7 @@ def correct(measurement, velocity=None, rng=None) -> Correction:
         raise RadiosimError("correct needs a reading: fewer than 4 pixels of the measurement "
                             "are valid (saturated or under range)")
     signal = calibration.object_signal(counts)  # ε·L(T) [signal unit]
-    filled = _filled(signal, valid)
+    filled = fill_from_nearest(signal, valid)
     typical = float(np.median(measurement.apparent_temperature[valid]))
     h, reach = _transfer(camera, signal.shape, typical, velocity, t_int)
     # The noise of one pixel's object signal [signal unit]: temporal noise at the mean charge
@@ -233,13 +234,3 @@ def correct(measurement, velocity=None, rng=None) -> Correction:
     return Correction(np.where(untrusted, np.nan, temperature),
                       np.where(untrusted, np.nan, uncertainty), untrusted,
                       np.where(untrusted, np.nan, noise_only), h)
-
-
-def _filled(values: np.ndarray, valid: np.ndarray) -> np.ndarray:
-    """``values`` with each invalid pixel taken from its nearest valid one."""
-    from scipy import ndimage
-
-    if valid.all():
-        return np.asarray(values, dtype=float)
-    index = ndimage.distance_transform_edt(~valid, return_distances=False, return_indices=True)
-    return np.asarray(values, dtype=float)[tuple(index)]

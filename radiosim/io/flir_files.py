@@ -177,13 +177,7 @@ def read_fff(path) -> Recording:
     curve and object parameters. Errors name the file and the record or field."""
     path = Path(path)
     data = _bytes(path)
-    meta, start, _, shape, order, _ = _frame(path, data, 0)
-    if order == "png":
-        counts = _png_counts(path, data, start, meta["_raw_end"], shape)[None]
-    else:
-        counts = np.frombuffer(data, order + "u2", count=shape[0] * shape[1],
-                               offset=start).reshape(1, *shape)
-    return _recording(path, meta, counts, np.zeros(1))
+    return _one_frame(path, data)
 
 
 def read_flir_jpeg(path) -> Recording:
@@ -215,14 +209,18 @@ def read_flir_jpeg(path) -> Recording:
     if not chunks:
         raise RadiosimError(f"{path}: a JPEG without FLIR's APP1 segments: a picture, not a "
                             "radiometric FLIR file (saved by FLIR Tools or the camera?)")
-    blob = b"".join(chunks[k] for k in sorted(chunks))
-    meta, start, _, shape, order, _ = _frame(path, blob, 0)
+    return _one_frame(path, b"".join(chunks[k] for k in sorted(chunks)))
+
+
+def _one_frame(path, data: bytes) -> Recording:
+    """The recording of the one FFF frame ``data`` holds (its counts raw or a PNG)."""
+    meta, start, _, shape, order, _ = _frame(path, data, 0)
     if order == "png":
-        counts = _png_counts(path, blob, start, meta["_raw_end"], shape)[None]
+        counts = _png_counts(path, data, start, meta["_raw_end"], shape)
     else:
-        counts = np.frombuffer(blob, order + "u2", count=shape[0] * shape[1],
-                               offset=start).reshape(1, *shape).copy()
-    return _recording(path, meta, counts, np.zeros(1))
+        counts = np.frombuffer(data, order + "u2", count=shape[0] * shape[1],
+                               offset=start).reshape(shape)
+    return _recording(path, meta, counts[None], np.zeros(1))
 
 
 def read_seq(path) -> Recording:

@@ -426,18 +426,6 @@ def _time_of_day(header: bytes) -> float:
             + (header[82] * 10 + header[160]) / 1000)
 
 
-def _read_fff(path) -> Recording:
-    from radiosim.io.flir_files import read_fff
-
-    return read_fff(path)
-
-
-def _read_seq(path) -> Recording:
-    from radiosim.io.flir_files import read_seq
-
-    return read_seq(path)
-
-
 class _TiffPages:
     """The pages of a 16-bit TIFF stack as a read-only array (frames, rows, columns), each
     page decoded (by Pillow) only when indexed: a long stack is never loaded whole."""
@@ -507,16 +495,21 @@ def read_tiff_stack(path) -> Recording:
                      {"pages": n, "mode": mode})
 
 
-def _read_flir_jpeg(path) -> Recording:
-    from radiosim.io.flir_files import read_flir_jpeg
+def _flir(reader: str) -> Callable[[Path], Recording]:
+    """A reader of :mod:`radiosim.io.flir_files`, imported when first used."""
+    def read(path) -> Recording:
+        from radiosim.io import flir_files
 
-    return read_flir_jpeg(path)
+        return getattr(flir_files, reader)(path)
+
+    return read
 
 
 #: The readers of recordings by file suffix (lower case).
 RECORDING_READERS: dict[str, Callable[[Path], Recording]] = {
-    ".ptw": read_ptw, ".fff": _read_fff, ".seq": _read_seq, ".jpg": _read_flir_jpeg,
-    ".jpeg": _read_flir_jpeg, ".tif": read_tiff_stack, ".tiff": read_tiff_stack}
+    ".ptw": read_ptw, ".fff": _flir("read_fff"), ".seq": _flir("read_seq"),
+    ".jpg": _flir("read_flir_jpeg"), ".jpeg": _flir("read_flir_jpeg"),
+    ".tif": read_tiff_stack, ".tiff": read_tiff_stack}
 
 
 def read_recording(path) -> Recording:
