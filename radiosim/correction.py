@@ -43,6 +43,7 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
+from scipy import fft, ndimage
 
 from radiosim.calibration import fill_from_nearest
 from radiosim.errors import RadiosimError
@@ -101,40 +102,82 @@ def _velocity(velocity) -> tuple[float, float] | None:
 
 
 def _transfer(camera, shape, stats_temperature: float, velocity, integration_time: float):
-    """H(fy, fx) on the pixel grid [1], and the reach [pixels] of the blur (the PSF's 99 %
-    energy radius and half the motion)."""
+    """H(fy, fx) on the pixel grid's half spectrum (``scipy.fft.rfft2`` order) [1], and the
+    reach [pixels] of the blur (the PSF's 99 % energy radius and half the motion). A real PSF's
+    transfer is Hermitian, H(−f) = H*(f): the half holds all of it."""
     pitch = camera.fpa.pixel_pitch
     fy = np.fft.fftfreq(shape[0], d=pitch)[:, None]  # [cycles/m]
-    fx = np.fft.fftfreq(shape[1], d=pitch)[None, :]
+    fx = np.fft.rfftfreq(shape[1], d=pitch)[None, :]
     psfs = camera.optics.psf or ()
-    h = np.ones(shape, dtype=complex)
+    h = np.ones((shape[0], fx.size), dtype=complex)
     reach = 0.0
     if psfs:
         from radiosim.imaging import sub_band_count
 
         na = camera.optics.object_na(camera.fpa)
-        bands = camera.response_model.sub_bands(sub_band_count(psfs))
-        shares = np.array([float(np.ravel(r.grey_signal(stats_temperature))[0])
-                           for r, _ in bands])
-        if not (np.all(np.isfinite(shares)) and shares.sum() > 0):
-            shares = np.ones(len(bands))
-        shares = shares / shares.sum()
         lam_mid = 0.5 * sum(camera.optics.band)
-        total = np.zeros(shape, dtype=complex)
-        for (_, wavelength), share in zip(bands, shares):
-            lam = wavelength if np.isfinite(wavelength) else lam_mid
-            otf = np.ones(shape, dtype=complex)
-            for psf in psfs:
-                otf = otf * psf.otf(fx, fy, lam, na)
-                # the frame's edge feeds a pixel through the PSF's 99 % circle
-                reach = max(reach, psf.radius(0.99, lam, na) / pitch)
-            total += share * otf
-        h = total
+        for psf in (p for p in psfs if not p.chromatic):  # one transfer for every sub-band
+            h = h * psf.otf(fx, fy, lam_mid, na)
+            # the frame's edge feeds a pixel through the PSF's 99 % circle
+            reach = max(reach, psf.radius(0.99, lam_mid, na) / pitch)
+        chromatic = [p for p in psfs if p.chromatic]
+        if chromatic:
+            bands = camera.response_model.sub_bands(sub_band_count(psfs))
+            shares = np.array([float(np.ravel(r.grey_signal(stats_temperature))[0])
+                               for r, _ in bands])
+            if not (np.all(np.isfinite(shares)) and shares.sum() > 0):
+                shares = np.ones(len(bands))
+            shares = shares / shares.sum()  # each sub-band's part of the frame's signal
+            total = np.zeros(h.shape, dtype=complex)
+            for (_, wavelength), share in zip(bands, shares):
+                lam = wavelength if np.isfinite(wavelength) else lam_mid
+                otf = share
+                for psf in chromatic:
+                    otf = otf * psf.otf(fx, fy, lam, na)
+                    reach = max(reach, psf.radius(0.99, lam, na) / pitch)
+                total += otf
+            h = h * total
     if velocity is not None:
         dx, dy = (v * integration_time / pitch for v in velocity)  # [pixels] over the window
         h = h * np.sinc(fx * pitch * dx) * np.sinc(fy * pitch * dy)
         reach += math.hypot(dx, dy) / 2
     return h, reach
+
+
+#: Nodes of the table through which corrected signals are turned into temperatures: linear
+#: interpolation in ln S between exact inversions, whose error, h²/8 · d²T/d(ln S)² with h
+#: the node spacing, is below 1e-5 K over any span of ln S up to 20 (d²T/d(ln S)² < 1e3 K
+#: for T < 3000 K in the infrared bands).
+_INVERSION_NODES = 1 << 16
+
+
+def _signal_temperature(signal: np.ndarray, calibration) -> np.ndarray:
+    """Temperature [K] of each object signal (NaN where none): the response's exact inversion
+    at :data:`_INVERSION_NODES` signals spanning the frame's, interpolated in ln S between them
+    (a frame's million distinct signals inverted at the cost of a table's)."""
+    response, emissivity = calibration.response, calibration.emissivity
+    positive = np.isfinite(signal) & (signal > 0)
+    if positive.sum() <= _INVERSION_NODES:
+        return response.temperature(np.where(positive, signal, np.nan), emissivity)
+    log_signal = np.log(np.where(positive, signal, 1.0))
+    nodes = np.linspace(log_signal[positive].min(), log_signal[positive].max(),
+                        _INVERSION_NODES)
+    at_nodes = response.temperature(np.exp(nodes), emissivity)
+    inside = np.isfinite(at_nodes)  # contiguous: the inversion is monotonic
+    temperature = np.full(signal.shape, np.nan)
+    if inside.sum() >= 2:
+        first, last = np.flatnonzero(inside)[[0, -1]]
+        within = positive & (log_signal >= nodes[first]) & (log_signal <= nodes[last])
+        # the nodes are evenly spaced: each value's interval by arithmetic, not a search
+        step = (nodes[-1] - nodes[0]) / (_INVERSION_NODES - 1)
+        position = (log_signal[within] - nodes[0]) / step
+        k = np.clip(position.astype(np.intp), first, last - 1)
+        fraction = position - k
+        temperature[within] = at_nodes[k] + fraction * (at_nodes[k + 1] - at_nodes[k])
+    rest = positive & np.isnan(temperature)  # beyond the tabulated range's ends: exactly
+    if rest.any():
+        temperature[rest] = response.temperature(signal[rest], emissivity)
+    return temperature
 
 
 def correct(measurement, velocity=None, rng=None) -> Correction:
@@ -179,7 +222,8 @@ def correct(measurement, velocity=None, rng=None) -> Correction:
     signal = calibration.object_signal(counts)  # ε·L(T) [signal unit]
     filled = fill_from_nearest(signal, valid)
     typical = float(np.median(measurement.apparent_temperature[valid]))
-    h, reach = _transfer(camera, signal.shape, typical, velocity, t_int)
+    shape = signal.shape
+    h, reach = _transfer(camera, shape, typical, velocity, t_int)
     # The noise of one pixel's object signal [signal unit]: temporal noise at the mean charge
     # (shot, read and the converter's step), through the signal's rate.
     electrons = float(np.mean(np.asarray(measurement.electrons)[valid]))
@@ -187,7 +231,7 @@ def correct(measurement, velocity=None, rng=None) -> Correction:
     per_signal = calibration.rate_per_signal * t_int  # [e⁻ per signal unit]
     sigma = float(el.temporal_noise(electrons)) / per_signal  # with the converter's step
     sigma = max(sigma, 1e-9 * float(np.mean(np.abs(filled))))  # noise-free: a floor
-    spectrum = np.fft.fft2(filled)
+    spectrum = fft.rfft2(filled)
     h2 = np.abs(h) ** 2
     # The noise-to-signal ratio, one number (the parametric Wiener filter): the noise's
     # variance over the scene's, whose spectrum the blur and the noise leave unknown per
@@ -199,33 +243,32 @@ def correct(measurement, velocity=None, rng=None) -> Correction:
     # The frame's mean is measured through the noise of every pixel at once: never damped
     # (a low-contrast frame would otherwise lose its level with its detail).
     wiener[0, 0] = 1.0 / h[0, 0] if abs(h[0, 0]) > 0 else 1.0
-    corrected = np.fft.ifft2(wiener * spectrum).real
+    corrected_spectrum = wiener * spectrum
+    corrected = fft.irfft2(corrected_spectrum, s=shape)
     # Uncertainty: the noise through the filter, each pixel's own variance σ_j² (shot noise
     # follows the signal) weighted by the filter's kernel: var_i = Σ_j |w_(i−j)|² σ_j²; and the
     # filter's bias, (W·H − 1) applied to the corrected signal.
     variance = np.broadcast_to(el.temporal_noise(np.asarray(measurement.electrons,
                                                             dtype=float)) ** 2,
-                               signal.shape) / per_signal ** 2  # [signal unit²]
+                               shape) / per_signal ** 2  # [signal unit²]
     variance = np.where(valid, variance, sigma ** 2)
-    kernel_power = np.abs(np.fft.ifft2(wiener)) ** 2  # |w|² on the grid (circular)
-    noise = np.sqrt(np.maximum(np.fft.ifft2(np.fft.fft2(variance)
-                                            * np.fft.fft2(kernel_power)).real, 0.0))
-    bias = np.fft.ifft2((wiener * h - 1.0) * np.fft.fft2(corrected)).real
-    temperature = calibration.response.temperature(np.clip(corrected, 1e-300, None),
-                                                   calibration.emissivity)  # [K], NaN: none
+    kernel_power = fft.rfft2(fft.irfft2(wiener, s=shape) ** 2)  # |w|² on the grid (circular)
+    noise = np.sqrt(np.maximum(fft.irfft2(fft.rfft2(variance) * kernel_power, s=shape), 0.0))
+    bias = fft.irfft2((wiener * h - 1.0) * corrected_spectrum, s=shape)
+    temperature = _signal_temperature(corrected, calibration)  # [K], NaN: none
     low, high = calibration.temperature_range
     at = np.clip(np.where(np.isfinite(temperature), temperature, typical), low + 1, high - 1)
     slope = np.abs(calibration.response.slope(at, calibration.emissivity))  # [unit/K]
     uncertainty = np.hypot(noise, bias) / np.where(slope > 0, slope, np.nan)
     edge = math.ceil(reach)
-    near_edge = np.zeros(signal.shape, dtype=bool)
+    near_edge = np.zeros(shape, dtype=bool)
     if edge:
         near_edge[:edge, :] = near_edge[-edge:, :] = True
         near_edge[:, :edge] = near_edge[:, -edge:] = True
     # a pixel whose flagged neighbours fed the filter is no reading either
-    from scipy.ndimage import binary_dilation
-
-    reach_of_flags = binary_dilation(~valid, iterations=max(edge, 1))
+    reach_of_flags = ~valid
+    if not valid.all():
+        reach_of_flags = ndimage.maximum_filter(reach_of_flags, size=2 * max(edge, 1) + 1)
     # mostly regularisation: the filter's estimated bias above 3 × the noise and a tenth of
     # the pixel's signal (the filter damped, rather than inverted, what made the pixel)
     regularised = np.abs(bias) > np.maximum(3 * noise, 0.1 * np.abs(filled))
