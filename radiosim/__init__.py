@@ -75,7 +75,7 @@ CHAIN = (
     "kernels", "scenes", "response", "fpa", "frame_reading", "integrator",
     "psf", "optics",
     "imaging", "electronics", "calibration", "flir", "measurement", "ratio", "presets", "acquisition",
-    "camera", "characterization", "defects", "correction", "calibration_table", "scheduling", "moments", "budget_reuse",
+    "camera", "characterization", "defects", "psf_measurement", "correction", "calibration_table", "scheduling", "moments", "budget_reuse",
     "uncertainty", "io", "study_spec", "study", "plotting", "comparison", "reporting",
     "paper",
     "example_data", "console", "warmup", "cli_checks", "cli_signals", "cli_recording",

@@ -2,6 +2,7 @@
 files written here in the format's header variants, and the FLIR Planck calibration with its
 object parameters against an implementation written here from the published formula."""
 
+import functools
 import math
 import struct
 from pathlib import Path
@@ -669,3 +670,54 @@ def test_damaged_tiff_fff_and_jpeg_files_end_in_one_line(tmp_path):
     with pytest.raises(RadiosimError) as info:
         read_recording(fff)
     one_line_naming(info, "end.fff")
+
+
+@functools.cache
+def fitted_jade():
+    from radiosim.calibration import fit_calibration
+
+    t = np.concatenate([TABLE_C, TABLE_C]) + 273.15
+    counts = np.array(COUNTS_17 + COUNTS_34, dtype=float)
+    housing = np.repeat([17.1 + 273.15, 34.4 + 273.15], 9)
+    return fit_calibration(jade_camera(), t, counts, 150e-6,
+                           instrument_temperatures=housing)[0]
+
+
+def test_a_recorded_frame_becomes_a_measurement_through_a_camera():
+    """Recording.measurement: the reading is Recording.temperature's; the charge is the one the
+    camera's conversion turns back into the recorded counts; the scene's truth is unknown."""
+    recording = read_recording(JADE)
+    camera = fitted_jade()
+    m = recording.measurement(camera, frame=1)
+    reading = recording.temperature(camera, frames=[1])[0]
+    assert np.array_equal(np.isfinite(m.apparent_temperature), m.valid)
+    np.testing.assert_allclose(m.apparent_temperature[m.valid], reading[m.valid], rtol=1e-12)
+    el = m.camera.electronics
+    photo = m.electrons - el.dark_current * m.integration_time
+    np.testing.assert_allclose(el.mean_counts(photo, m.integration_time), m.counts, atol=1e-6)
+    assert m.integration_time == pytest.approx(150e-6, rel=1e-6)
+    assert m.t_start == recording.frame_times[1] and m.scene["frame"] == 1
+    assert np.isnan(m.tensor_mean).all()
+    # the recording's housing temperature is the camera's instrument temperature
+    assert m.camera.optics.instrument_temperature == recording.housing_temperature
+    # bad pixels replaced by their good neighbours' median, as cameras do
+    hot = recording.defect_pixels(k=500.0).hot
+    assert hot.sum() > 0
+    clean = recording.measurement(camera, frame=1, bad_pixels=hot)
+    r, c = np.argwhere(hot)[0]
+    neighbours = recording.frames(1)[0][max(r - 1, 0):r + 2, max(c - 1, 0):c + 2]
+    good = ~hot[max(r - 1, 0):r + 2, max(c - 1, 0):c + 2]
+    assert clean.counts[r, c] == np.median(neighbours[good])
+
+
+@pytest.mark.parametrize("kwargs, said", [
+    ({"bad_pixels": np.zeros((3, 3), bool)}, ("bad_pixels", "240 × 320", "(3, 3)")),
+    ({"frame": 7}, ("frame 7", "2 frames")),
+    ({"integration_time": 1e-3}, ("integration_time", "contradicts")),
+])
+def test_a_recorded_measurements_bad_arguments_are_named(kwargs, said):
+    from radiosim.errors import RadiosimError
+
+    with pytest.raises(RadiosimError) as info:
+        read_recording(JADE).measurement(fitted_jade(), **kwargs)
+    one_line_naming(info, "LWIR-BBref-150C-150us.ptw", *said)

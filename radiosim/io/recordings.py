@@ -146,6 +146,16 @@ class Recording:
                 raise RadiosimError(f"{self.path}: unknown object parameter {unknown[0]!r}")
             parameters = ObjectParameters(**(stated | object_parameters))
             return raw_to_temperature(counts, self.curve, parameters)
+        if object_parameters:
+            raise RadiosimError(f"{self.path}: object parameters "
+                                f"({', '.join(sorted(object_parameters))}) apply to the file's "
+                                "own calibration; a radiosim camera states its own")
+        camera, t_int = self._camera_at_housing(camera, integration_time)
+        return camera.calibration(t_int).temperature(counts)
+
+    def _camera_at_housing(self, camera, integration_time):
+        """``camera`` at the recording's housing temperature, and the integration time [s]
+        its calibration is taken at (the file's, or ``integration_time`` agreeing with it)."""
         if not hasattr(camera, "calibration") or not hasattr(camera, "channel_cameras"):
             raise RadiosimError(f"{self.path}: camera must be a radiosim Camera, got "
                                 f"{type(camera).__name__} {camera!r:.60}")
@@ -153,10 +163,6 @@ class Recording:
             raise RadiosimError(f"{self.path}: {camera.name} has {len(camera.channels)} "
                                 "channels; a recording's counts are one band's: give the "
                                 "channel's camera (camera.channel_cameras[k])")
-        if object_parameters:
-            raise RadiosimError(f"{self.path}: object parameters "
-                                f"({', '.join(sorted(object_parameters))}) apply to the file's "
-                                "own calibration; a radiosim camera states its own")
         if integration_time is not None:
             from radiosim.checks import check_time
 
@@ -173,7 +179,55 @@ class Recording:
         if self.housing_temperature is not None:
             camera = camera.replace(optics=dataclasses.replace(
                 camera.optics, instrument_temperature=self.housing_temperature))
-        return camera.calibration(t_int).temperature(counts)
+        return camera, t_int
+
+    def measurement(self, camera, frame: int = 0, integration_time: float | None = None,
+                    bad_pixels=None):
+        """
+        One recorded frame read through a radiosim ``camera`` as a
+        :class:`~radiosim.measurement.Measurement`: its counts [DN], the charge [e⁻] they
+        stand for (the camera's conversion inverted), the calibration's reading and flags
+        (saturated at the converter's top code, under range at code 0 or below the detection
+        limit), as :meth:`temperature` reads them. The scene's truth is unknown: the
+        ``tensor_*`` fields and ``signal_mean`` are NaN. What
+        :func:`radiosim.correction.correct` takes.
+
+        ``bad_pixels`` (a boolean mask shaped like a frame, for instance
+        ``recording.defect_pixels().any``) are replaced by the median of their good
+        neighbours first, as cameras replace them.
+        """
+        from radiosim.electronics import Exposure
+        from radiosim.measurement import Measurement
+
+        index = int(self.frame_indices([frame])[0]) if not isinstance(frame, bool) else None
+        if index is None:
+            raise RadiosimError(f"{self.path}: frame must be a frame index, got {frame!r}")
+        camera, t_int = self._camera_at_housing(camera, integration_time)
+        counts = np.asarray(self.counts[index], dtype=float)  # [DN]
+        if bad_pixels is not None:
+            from radiosim.calibration import replace_bad_pixels
+
+            bad = np.asarray(bad_pixels)
+            if bad.dtype != bool or bad.shape != counts.shape:
+                raise RadiosimError(f"{self.path}: bad_pixels must be a boolean mask of "
+                                    f"{counts.shape[0]} × {counts.shape[1]} pixels, got "
+                                    f"{bad.dtype} of shape {bad.shape}")
+            counts = replace_bad_pixels(counts, bad)
+        if camera.fpa.shape is not None and tuple(camera.fpa.shape) != counts.shape:
+            raise RadiosimError(f"{self.path}: frames of {counts.shape[0]} × {counts.shape[1]} "
+                                f"pixels, but {camera.name}'s array is {camera.fpa.shape[0]} "
+                                f"× {camera.fpa.shape[1]}")
+        el = camera.electronics
+        electrons = el.photoelectrons(counts, t_int) + el.dark_current * t_int  # [e⁻]
+        exposure = Exposure(electrons, counts, counts >= el.max_count, counts <= 0)
+        reading = camera.calibration(t_int).read(exposure)
+        unknown = np.full(counts.shape, np.nan)
+        start = float(self.frame_times[index]) if len(self.frame_times) > index else 0.0
+        return Measurement(reading.apparent_temperature, counts, electrons, reading.saturated,
+                           reading.under_range, unknown, unknown, unknown, unknown,
+                           camera.response_model.unit, camera, t_int, start, 1,
+                           {"recording": str(self.path), "frame": index}, "given",
+                           reading.over_range)
 
 
     def to_xarray(self, camera=None, frames=None, chunk: int = 16, **object_parameters):
