@@ -10,7 +10,7 @@ is, in frequency, S_meas(f) = F(f) · H(f) · S(f): F the footprint's transfer, 
 is what a perfect lens and an instantaneous exposure would read: the footprint mean), and H
 the optics' transfer function — for a polychromatic PSF the sub-bands' OTFs weighted by their
 shares of the frame's signal — times sinc(f · v·t_int) for the motion. The correction is the
-Wiener filter
+Wiener filter::
 
     W(f) = H*(f) / (|H(f)|² + σ² / σ_S²),   W(0) = 1 / H(0),
 
@@ -21,7 +21,7 @@ where not, W tends to 0 and the frequency is given up rather than invented; the 
 (f = 0), which every pixel's noise averages down, is kept.
 
 The uncertainty per pixel has two parts: the noise carried through the (linear) filter,
-√(Σ_k |w_k|² σ²) with w the filter's kernel, and the regularisation's bias, estimated from the
+√(Σ_k w_k² σ²) with w the filter's (real) kernel, and the regularisation's bias, estimated from the
 corrected signal as (W·H − 1) applied to it; both are carried to temperature through the
 response's slope dS/dT. It covers the camera's temporal noise and the filter's bias; not a PSF
 or a velocity other than the camera's and the caller's, not the emissivity, not the

@@ -2,7 +2,7 @@
 A camera maker's own calibration: FLIR's Planck curve and object parameters.
 
 FLIR radiometric cameras store, with every file, the curve that turns a blackbody temperature
-into raw counts (the Sakuma–Hattori form, linear in radiance)
+into raw counts (the Sakuma–Hattori form, linear in radiance)::
 
     raw(T) = R1 / (R2 · (exp(B / T) − F)) − O
 
@@ -10,14 +10,14 @@ and the parameters of the measurement: the object's emissivity, the temperature 
 the atmosphere's temperature, humidity and path length, and an external window's
 temperature and transmission. The object's temperature follows by removing, in raw counts,
 what the reflection, the atmosphere and the window add, and inverting the curve (Minkina &
-Dudzik; the form ThermImage's ``raw2temp`` and exiftool document):
+Dudzik; the form ThermImage's ``raw2temp`` and exiftool document)::
 
     raw_obj = raw / (ε τ₁ τ_w τ₂) − (1 − ε)/ε · raw(T_refl)
               − (1 − τ₁)/(ε τ₁) · raw(T_atm) − (1 − τ₂)/(ε τ₁ τ_w τ₂) · raw(T_atm)
               − (1 − τ_w)/(ε τ₁ τ_w) · raw(T_w)
     T = B / ln(R1 / (R2 · (raw_obj + O)) + F)
 
-with τ₁ = τ₂ the atmosphere's transmission over half the distance each side of the window,
+with τ₁ = τ₂ the atmosphere's transmission over half the distance each side of the window::
 
     τ = X exp(−√(d/2) (α₁ + β₁ √h)) + (1 − X) exp(−√(d/2) (α₂ + β₂ √h)),
     h = RH · exp(1.5587 + 0.06939 t − 2.7816e-4 t² + 6.8455e-7 t³)  (t in °C),
