@@ -26,9 +26,11 @@ corrected signal as (W·H − 1) applied to it; both are carried to temperature 
 response's slope dS/dT. It covers the camera's temporal noise and the filter's bias; not a PSF
 or a velocity other than the camera's and the caller's, not the emissivity, not the
 calibration's own error. Pixels are NaN (flagged ``untrusted``) where the measurement has no
-reading (saturated, under or over range), within the PSF's and the motion's reach of the
-frame's edge (the filter sees beyond the frame there), or where the correction is mostly
-regularisation (the bias estimate above 3 × the noise and a tenth of the pixel's signal).
+reading (saturated, under or over range) or such a pixel's light reaches them, within the
+PSF's and the motion's reach of the frame's edge (nearer than the radius beyond which 5 % of
+the PSF's light lies: the filter sees the frame's mirror image beyond its edge, the world
+there being unknown), or where the correction is mostly regularisation (the bias estimate
+above 3 × the noise and a tenth of the pixel's signal).
 
 References
 ----------
@@ -48,7 +50,7 @@ from scipy import fft, ndimage
 from radiosim.calibration import fill_from_nearest
 from radiosim.errors import RadiosimError
 
-__all__ = ["Correction", "correct", "MODEL_FLOOR"]
+__all__ = ["Correction", "correct", "MODEL_FLOOR", "REACH_LIGHT"]
 
 #: The least noise-to-signal ratio the filter assumes, even for noise-free electronics: the
 #: filter stays finite where the transfer function has zeros (a motion's), and the forward
@@ -75,7 +77,8 @@ class Correction:
     noise_uncertainty : numpy.ndarray
         The part of ``uncertainty`` the camera's temporal noise makes, through the filter [K].
     transfer : numpy.ndarray
-        H on the pixel grid's frequencies (``numpy.fft.fft2`` order), for inspection.
+        H on the frequencies of the frame extended by its mirror image as far as the blur
+        reaches (``scipy.fft.rfft2`` order: the half spectrum), for inspection.
     """
 
     temperature: np.ndarray
@@ -101,16 +104,46 @@ def _velocity(velocity) -> tuple[float, float] | None:
     return float(v[0]), float(v[1])
 
 
+#: The share of a PSF's light that may come from beyond the frame's edge for a pixel to be
+#: trusted: the world beyond the edge is unknown (the filter sees the frame's mirror image
+#: there), so pixels nearer the edge than the radius that holds 1 − this of the light are
+#: flagged.
+REACH_LIGHT = 0.05
+
+
+def _reach(camera, velocity, integration_time: float) -> float:
+    """How far [pixels] the blur carries light: the radius beyond which less than
+    :data:`REACH_LIGHT` of each PSF's light lies, at each sub-band's wavelength, and half the
+    motion over the window."""
+    pitch = camera.fpa.pixel_pitch
+    reach = 0.0
+    psfs = camera.optics.psf or ()
+    if psfs:
+        from radiosim.imaging import sub_band_count
+
+        na = camera.optics.object_na(camera.fpa)
+        lam_mid = 0.5 * sum(camera.optics.band)
+        wavelengths = [lam_mid] + [w for _, w in camera.response_model.sub_bands(
+            sub_band_count(psfs)) if np.isfinite(w)]
+        reach = max(psf.radius(REACH_LIGHT, lam, na) / pitch for psf in psfs
+                    for lam in wavelengths)
+    if velocity is not None:
+        reach += math.hypot(*velocity) * integration_time / pitch / 2
+    return reach
+
+
 def _transfer(camera, shape, stats_temperature: float, velocity, integration_time: float):
-    """H(fy, fx) on the pixel grid's half spectrum (``scipy.fft.rfft2`` order) [1], and the
-    reach [pixels] of the blur (the PSF's 99 % energy radius and half the motion). A real PSF's
-    transfer is Hermitian, H(−f) = H*(f): the half holds all of it."""
+    """H(fy, fx) on the half spectrum (``scipy.fft.rfft2`` order) of a grid of ``shape``
+    pixels [1], and the variance of the sub-bands' transfers about it, Σ_b s_b |H_b − H|²
+    [1] (s_b each sub-band's share of the signal: how far a pixel whose spectrum is not the
+    frame's may be blurred otherwise). A real PSF's transfer is Hermitian, H(−f) = H*(f):
+    the half holds all of it."""
     pitch = camera.fpa.pixel_pitch
     fy = np.fft.fftfreq(shape[0], d=pitch)[:, None]  # [cycles/m]
     fx = np.fft.rfftfreq(shape[1], d=pitch)[None, :]
     psfs = camera.optics.psf or ()
     h = np.ones((shape[0], fx.size), dtype=complex)
-    reach = 0.0
+    spread = np.zeros(h.shape)
     if psfs:
         from radiosim.imaging import sub_band_count
 
@@ -118,8 +151,6 @@ def _transfer(camera, shape, stats_temperature: float, velocity, integration_tim
         lam_mid = 0.5 * sum(camera.optics.band)
         for psf in (p for p in psfs if not p.chromatic):  # one transfer for every sub-band
             h = h * psf.otf(fx, fy, lam_mid, na)
-            # the frame's edge feeds a pixel through the PSF's 99 % circle
-            reach = max(reach, psf.radius(0.99, lam_mid, na) / pitch)
         chromatic = [p for p in psfs if p.chromatic]
         if chromatic:
             bands = camera.response_model.sub_bands(sub_band_count(psfs))
@@ -129,19 +160,21 @@ def _transfer(camera, shape, stats_temperature: float, velocity, integration_tim
                 shares = np.ones(len(bands))
             shares = shares / shares.sum()  # each sub-band's part of the frame's signal
             total = np.zeros(h.shape, dtype=complex)
+            second = np.zeros(h.shape)
             for (_, wavelength), share in zip(bands, shares):
                 lam = wavelength if np.isfinite(wavelength) else lam_mid
-                otf = share
+                otf = 1.0
                 for psf in chromatic:
                     otf = otf * psf.otf(fx, fy, lam, na)
-                    reach = max(reach, psf.radius(0.99, lam, na) / pitch)
-                total += otf
+                total += share * otf
+                second += share * np.abs(otf) ** 2
+            spread = np.maximum(second - np.abs(total) ** 2, 0.0) * np.abs(h) ** 2
             h = h * total
     if velocity is not None:
         dx, dy = (v * integration_time / pitch for v in velocity)  # [pixels] over the window
-        h = h * np.sinc(fx * pitch * dx) * np.sinc(fy * pitch * dy)
-        reach += math.hypot(dx, dy) / 2
-    return h, reach
+        motion = np.sinc(fx * pitch * dx) * np.sinc(fy * pitch * dy)
+        h, spread = h * motion, spread * motion ** 2
+    return h, spread
 
 
 #: Nodes of the table through which corrected signals are turned into temperatures: linear
@@ -223,7 +256,18 @@ def correct(measurement, velocity=None, rng=None) -> Correction:
     filled = fill_from_nearest(signal, valid)
     typical = float(np.median(measurement.apparent_temperature[valid]))
     shape = signal.shape
-    h, reach = _transfer(camera, shape, typical, velocity, t_int)
+    reach = _reach(camera, velocity, t_int)
+    # The frame extended by its mirror image as far as the blur reaches: the filter's
+    # circular convolution then meets no jump where the frame's opposite edges would wrap
+    # onto each other (a jump the blur never smoothed, which the filter would invert).
+    # (each axis's extension rounded up to a length the FFT takes fast)
+    extra = [fft.next_fast_len(n + 2 * min(math.ceil(reach) + 2, n - 1), real=True) - n
+             for n in shape]
+    widths = tuple((e // 2, e - e // 2) for e in extra)
+    inner = tuple(slice(w[0], w[0] + n) for w, n in zip(widths, shape))
+    filled = np.pad(filled, widths, mode="symmetric")
+    grid = filled.shape
+    h, spread = _transfer(camera, grid, typical, velocity, t_int)
     # The noise of one pixel's object signal [signal unit]: temporal noise at the mean charge
     # (shot, read and the converter's step), through the signal's rate.
     electrons = float(np.mean(np.asarray(measurement.electrons)[valid]))
@@ -239,22 +283,26 @@ def correct(measurement, velocity=None, rng=None) -> Correction:
     # would be inverted where H is small).
     ratio = max(sigma ** 2 / max(float(np.var(filled)) - sigma ** 2, sigma ** 2 * 1e-6),
                 MODEL_FLOOR)
-    wiener = np.conj(h) / (h2 + ratio)
+    # The transfer is known to within the sub-bands' spread about it (a pixel hotter or colder
+    # than the frame's median is blurred by its own mixture of sub-bands): a frequency is
+    # inverted only where H stands out of that spread as well as out of the noise.
+    wiener = np.conj(h) / (h2 + ratio + spread)
     # The frame's mean is measured through the noise of every pixel at once: never damped
     # (a low-contrast frame would otherwise lose its level with its detail).
     wiener[0, 0] = 1.0 / h[0, 0] if abs(h[0, 0]) > 0 else 1.0
     corrected_spectrum = wiener * spectrum
-    corrected = fft.irfft2(corrected_spectrum, s=shape)
+    corrected = fft.irfft2(corrected_spectrum, s=grid)
     # Uncertainty: the noise through the filter, each pixel's own variance σ_j² (shot noise
     # follows the signal) weighted by the filter's kernel: var_i = Σ_j |w_(i−j)|² σ_j²; and the
     # filter's bias, (W·H − 1) applied to the corrected signal.
     variance = np.broadcast_to(el.temporal_noise(np.asarray(measurement.electrons,
                                                             dtype=float)) ** 2,
                                shape) / per_signal ** 2  # [signal unit²]
-    variance = np.where(valid, variance, sigma ** 2)
-    kernel_power = fft.rfft2(fft.irfft2(wiener, s=shape) ** 2)  # |w|² on the grid (circular)
-    noise = np.sqrt(np.maximum(fft.irfft2(fft.rfft2(variance) * kernel_power, s=shape), 0.0))
-    bias = fft.irfft2((wiener * h - 1.0) * corrected_spectrum, s=shape)
+    variance = np.pad(np.where(valid, variance, sigma ** 2), widths, mode="symmetric")
+    kernel_power = fft.rfft2(fft.irfft2(wiener, s=grid) ** 2)  # |w|² on the grid (circular)
+    noise = np.sqrt(np.maximum(fft.irfft2(fft.rfft2(variance) * kernel_power, s=grid), 0.0))
+    bias = fft.irfft2((wiener * h - 1.0) * corrected_spectrum, s=grid)
+    corrected, noise, bias, filled = (v[inner] for v in (corrected, noise, bias, filled))
     temperature = _signal_temperature(corrected, calibration)  # [K], NaN: none
     low, high = calibration.temperature_range
     at = np.clip(np.where(np.isfinite(temperature), temperature, typical), low + 1, high - 1)

@@ -57,7 +57,7 @@ def test_the_size_of_source_bias_of_an_8_pixel_feature_is_cut_over_3_times():
 def test_with_the_real_electronics_the_uncertainty_covers_the_truth():
     """nist-ir's noise and converter: |corrected − truth| ≤ 3 u in at least 90 % of the pixels
     the correction trusts (the requirement), and it trusts at least half of the frame (the
-    rest: within the PSF's 99 % circle of the frame's edge)."""
+    rest: within the PSF's reach of the frame's edge)."""
     camera = BASE.replace(fpa=FPA, optics=BLURRED)
     scene = FrameStack(square(24.0)[None].repeat(2, 0), dt=10e-6, dx=PITCH / SUB)
     c = correct(camera.measure(scene, 10e-6, rng=3))

@@ -2,7 +2,7 @@
 files written here in the format's header variants, and the FLIR Planck calibration with its
 object parameters against an implementation written here from the published formula."""
 
-import functools
+import sys
 import math
 import struct
 from pathlib import Path
@@ -238,46 +238,11 @@ def test_bad_object_parameters_are_named(kwargs, said):
 # -- the real recording through a camera fitted to that camera's own tables ----------------------
 
 # The Jade's calibration tables (pyradi's lwir100mm150us10ND20090910.xml): blackbody [°C]
-# against counts at housing temperatures of 17.1 °C and 34.4 °C, 150 µs, 10 % ND filter.
-TABLE_C = np.array([50, 100, 150, 200, 250, 300, 350, 400, 450.0])
-COUNTS_17 = [4571, 5132, 5906, 6887, 8034, 9338, 10834, 12386, 14042]
-COUNTS_34 = [5477, 6050, 6817, 7789, 8922, 10262, 11694, 13299, 14921]
-
-
-def _curve(name):
-    from colour import SpectralDistribution
-
-    rows = np.array([[float(v) for v in line.split()[:2]]
-                     for line in (JADE.parent / name).read_text().splitlines() if line.strip()])
-    keep = np.concatenate([[True], np.diff(rows[:, 0]) > 0])
-    return SpectralDistribution(dict(zip(rows[keep, 0] * 1e-6, rows[keep, 1])), name=name)
-
-
-def jade_camera():
-    """The Jade LWIR as its calibration file describes it: 30 µm pixels, fill factor 0.7,
-    f/2, 150 µs, the lens and the ND filter in the filter slot, the detector's relative
-    response as its quantum efficiency (the absolute scale is the fitted gain's)."""
-    from dataclasses import replace
-
-    from colour import SpectralDistribution
-
-    from radiosim import Camera
-
-    lens, nd = _curve("LW100mmLens.txt"), _curve("LWND10.txt")
-    lam = np.linspace(6.9e-6, 13.5e-6, 400)
-    slot = SpectralDistribution(dict(zip(lam, np.interp(lam, lens.wavelengths, lens.values)
-                                         * np.interp(lam, nd.wavelengths, nd.values))),
-                                name="lens × ND 10 %")
-    base = Camera.preset("nist-ir")
-    return base.replace(
-        name="jade-lwir",
-        optics=replace(base.optics, band=(7.0e-6, 13.0e-6), spectral_filter=slot,
-                       transmission=1.0, f_number=2.0, objective_na=None, psf=None),
-        fpa=replace(base.fpa, pixel_pitch=30e-6, detector_pitch=30e-6, fill_factor=0.7,
-                    shape=(240, 320), quantum_efficiency=_curve("LWIRsensor.txt")),
-        electronics=replace(base.electronics, full_well=1e12, dark_current=0.0, gain=1e-6,
-                            offset=0.0, adc_bits=14),
-        calibration_range=(250.0, 800.0))
+# against counts at housing temperatures of 17.1 °C and 34.4 °C, 150 µs, 10 % ND filter; the
+# camera as its files describe it (validation/jade.py, shared with notebooks 08 and 09).
+sys.path.insert(0, str(Path(__file__).resolve().parent.parent / "validation"))
+from jade import COUNTS_17, COUNTS_34, TABLE_C, camera as jade_camera  # noqa: E402
+from jade import fitted_camera  # noqa: E402
 
 
 def test_a_real_blackbody_recording_reads_its_temperature_through_the_cameras_own_tables():
@@ -672,15 +637,8 @@ def test_damaged_tiff_fff_and_jpeg_files_end_in_one_line(tmp_path):
     one_line_naming(info, "end.fff")
 
 
-@functools.cache
 def fitted_jade():
-    from radiosim.calibration import fit_calibration
-
-    t = np.concatenate([TABLE_C, TABLE_C]) + 273.15
-    counts = np.array(COUNTS_17 + COUNTS_34, dtype=float)
-    housing = np.repeat([17.1 + 273.15, 34.4 + 273.15], 9)
-    return fit_calibration(jade_camera(), t, counts, 150e-6,
-                           instrument_temperatures=housing)[0]
+    return fitted_camera()[0]
 
 
 def test_a_recorded_frame_becomes_a_measurement_through_a_camera():
