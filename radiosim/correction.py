@@ -20,6 +20,10 @@ variance less the noise's): where the blur left the signal above the noise, W in
 where not, W tends to 0 and the frequency is given up rather than invented; the frame's mean
 (f = 0), which every pixel's noise averages down, is kept.
 
+A rolling shutter's row r integrates r·row_time after the first: with a velocity, the
+corrected rows are brought to the first row's window (the scene a row saw, moved back by
+v·r·row_time; resampled by cubic splines).
+
 The uncertainty per pixel has two parts: the noise carried through the (linear) filter,
 √(Σ_k w_k² σ²) with w the filter's (real) kernel, and the regularisation's bias, estimated from the
 corrected signal as (W·H − 1) applied to it; both are carried to temperature through the
@@ -303,11 +307,6 @@ def correct(measurement, velocity=None, rng=None) -> Correction:
     noise = np.sqrt(np.maximum(fft.irfft2(fft.rfft2(variance) * kernel_power, s=grid), 0.0))
     bias = fft.irfft2((wiener * h - 1.0) * corrected_spectrum, s=grid)
     corrected, noise, bias, filled = (v[inner] for v in (corrected, noise, bias, filled))
-    temperature = _signal_temperature(corrected, calibration)  # [K], NaN: none
-    low, high = calibration.temperature_range
-    at = np.clip(np.where(np.isfinite(temperature), temperature, typical), low + 1, high - 1)
-    slope = np.abs(calibration.response.slope(at, calibration.emissivity))  # [unit/K]
-    uncertainty = np.hypot(noise, bias) / np.where(slope > 0, slope, np.nan)
     edge = math.ceil(reach)
     near_edge = np.zeros(shape, dtype=bool)
     if edge:
@@ -320,8 +319,42 @@ def correct(measurement, velocity=None, rng=None) -> Correction:
     # mostly regularisation: the filter's estimated bias above 3 × the noise and a tenth of
     # the pixel's signal (the filter damped, rather than inverted, what made the pixel)
     regularised = np.abs(bias) > np.maximum(3 * noise, 0.1 * np.abs(filled))
-    untrusted = (reach_of_flags | near_edge | regularised | ~np.isfinite(temperature))
+    flagged = reach_of_flags | near_edge | regularised
+    if velocity is not None and camera.fpa.shutter == "rolling" and camera.fpa.row_time > 0:
+        corrected, noise, bias, flagged = _unroll(corrected, noise, bias, flagged, velocity,
+                                                  camera.fpa.row_time / camera.fpa.pixel_pitch)
+    temperature = _signal_temperature(corrected, calibration)  # [K], NaN: none
+    low, high = calibration.temperature_range
+    at = np.clip(np.where(np.isfinite(temperature), temperature, typical), low + 1, high - 1)
+    slope = np.abs(calibration.response.slope(at, calibration.emissivity))  # [unit/K]
+    uncertainty = np.hypot(noise, bias) / np.where(slope > 0, slope, np.nan)
+    untrusted = flagged | ~np.isfinite(temperature)
     noise_only = noise / np.where(slope > 0, slope, np.nan)
     return Correction(np.where(untrusted, np.nan, temperature),
                       np.where(untrusted, np.nan, uncertainty), untrusted,
                       np.where(untrusted, np.nan, noise_only), h)
+
+
+def _unroll(corrected, noise, bias, flagged, velocity, row_time_per_pitch: float):
+    """A rolling shutter's rows brought to its first row's window: row r integrates
+    r·row_time later, when a scene moving at v has moved by v·r·row_time, so the scene that
+    row i saw at the first row's time lies at the row r = i / (1 − v_y·row_time/p) and the
+    column c = j + v_x·r·row_time/p of the reading (p the pitch). The corrected signal is
+    resampled there by cubic splines (it is band-limited by the filter), its noise and bias
+    bilinearly; a pixel is flagged where that falls outside the frame or next to a flagged
+    one."""
+    vx, vy = (v * row_time_per_pitch for v in velocity)  # [pixels per row of delay]
+    if not 0 < 1 - vy:
+        raise RadiosimError(f"the scene moves up the rolling shutter's rows as fast as they "
+                            f"are read ({velocity[1]:g} m/s): its rows cannot be brought to "
+                            "one time")
+    rows, cols = corrected.shape
+    i, j = np.mgrid[0:rows, 0:cols].astype(float)
+    r = i / (1 - vy)
+    where = [r, j + vx * r]
+    outside = (where[0] > rows - 1) | (where[1] < 0) | (where[1] > cols - 1)
+    flagged = ndimage.map_coordinates(ndimage.maximum_filter(flagged, size=3).astype(float),
+                                      where, order=1, mode="nearest") > 0
+    return (ndimage.map_coordinates(corrected, where, order=3, mode="nearest"),
+            *(ndimage.map_coordinates(v, where, order=1, mode="nearest") for v in (noise, bias)),
+            flagged | outside)

@@ -83,6 +83,47 @@ def test_a_uniformly_moving_feature_is_corrected_for_its_motion():
     assert raw > 20 and fixed < raw / 2, (raw, fixed)
 
 
+def test_a_rolling_shutters_rows_are_brought_to_its_first_rows_window():
+    """A rolling shutter reading a smooth feature (a Gaussian blob, σ = 2.5 pixels) that moves
+    2 pixels along the rows during the window: row r integrates r·row_time later, so the raw
+    blob is sheared, its centre 0.05 pixel further a row (row 20: one pixel). With the
+    velocity, every corrected row shows the blob where it was during the first row's window:
+    its centre at 22 pixels (the scene's own position at that window's middle) within 0.01."""
+    v = 2 * PITCH / 20e-6  # [m/s]
+    row_time = 0.05 * PITCH / v  # [s]
+    dt = 0.5e-6
+    y, x = (np.mgrid[0:N * SUB, 0:N * SUB] + 0.5) / SUB
+
+    def blob(cx):
+        return 400.0 + 500.0 * np.exp(-((x - cx) ** 2 + (y - 24.0) ** 2) / (2 * 2.5 ** 2))
+
+    n = int(round((20e-6 + N * row_time) / dt)) + 2
+    frames = np.array([blob(21.0 + v * (k + 0.5) * dt / PITCH) for k in range(n)])
+    fpa = dataclasses.replace(FPA, shutter="rolling", row_time=row_time)
+    m = BASE.replace(fpa=fpa, electronics=IDEAL).measure(
+        FrameStack(frames, dt=dt, dx=PITCH / SUB), 20e-6, t_start=0.0)
+    c = correct(m, velocity=(v, 0.0))
+    columns = np.arange(10, 36) + 0.5
+
+    def centre(image, row):  # the blob's centre along a row: its excess's centroid
+        excess = np.clip(image[row, 10:36] - 400.0, 0.0, None)
+        return float(np.sum(excess * columns) / np.sum(excess))
+
+    for row in range(19, 30):
+        assert centre(m.apparent_temperature, row) == pytest.approx(22.0 + 0.05 * row,
+                                                                    abs=0.01)
+        assert centre(c.temperature, row) == pytest.approx(22.0, abs=0.01)
+
+
+def test_a_scene_outrunning_the_rolling_shutter_is_named():
+    fpa = dataclasses.replace(FPA, shutter="rolling", row_time=1e-6)
+    scene = FrameStack(square(24.0)[None].repeat(40, 0), dt=1e-6, dx=PITCH / SUB)
+    m = BASE.replace(fpa=fpa, electronics=IDEAL).measure(scene, 2e-6, t_start=0.0)
+    with pytest.raises(RadiosimError) as info:
+        correct(m, velocity=(0.0, 10.0))  # 10 µm/µs: 1.7 rows per row of delay
+    one_line_naming(info, "rolling shutter", "10 m/s")
+
+
 def test_saturated_pixels_are_flagged_not_invented():
     camera = BASE.replace(fpa=FPA, optics=BLURRED)
     hot = np.where(square(24.0) > 800, 3500.0, 400.0)  # saturates nist-ir at 10 µs
