@@ -117,7 +117,7 @@ def test_a_rolling_shutters_rows_are_brought_to_its_first_rows_window():
 
 def test_a_scene_outrunning_the_rolling_shutter_is_named():
     fpa = dataclasses.replace(FPA, shutter="rolling", row_time=1e-6)
-    scene = FrameStack(square(24.0)[None].repeat(40, 0), dt=1e-6, dx=PITCH / SUB)
+    scene = FrameStack(square(24.0)[None].repeat(60, 0), dt=1e-6, dx=PITCH / SUB)
     m = BASE.replace(fpa=fpa, electronics=IDEAL).measure(scene, 2e-6, t_start=0.0)
     with pytest.raises(RadiosimError) as info:
         correct(m, velocity=(0.0, 10.0))  # 10 µm/µs: 1.7 rows per row of delay
