@@ -203,8 +203,29 @@ def _correct(args) -> int:
     from radiosim.correction import correct
     from radiosim.io.netcdf import write_netcdf
 
+    from radiosim.errors import RadiosimError
+    from radiosim.io.recordings import RECORDING_READERS
+
     check_out_file(args, ".nc", "the corrected reading is a NetCDF file")
-    measurement = _read_measurement(args.measurement)
+    if Path(args.measurement).suffix.lower() in RECORDING_READERS:
+        from radiosim.cli_checks import camera_from_argument
+        from radiosim.io.recordings import read_recording
+
+        if args.camera is None:
+            raise RadiosimError(f"{args.measurement}: a recording is corrected through a "
+                                "camera fitted to it, with its PSF: give --camera FILE")
+        recording = read_recording(args.measurement)
+        camera = camera_from_argument(args.camera, command="correct")
+        bad = recording.defect_pixels().any if args.replace_defects else None
+        measurement = recording.measurement(camera, frame=args.frame, bad_pixels=bad,
+                                            integration_time=args.integration_time)
+    else:
+        if (args.camera is not None or args.frame != 0 or args.replace_defects
+                or args.integration_time is not None):
+            raise RadiosimError(f"{args.measurement}: --camera, --frame, --integration-time "
+                                "and --replace-defects apply to a recording; a measurement "
+                                "carries its camera and window")
+        measurement = _read_measurement(args.measurement)
     result = correct(measurement, velocity=args.velocity)
     dims = ("y", "x")
     dataset = xr.Dataset(
@@ -231,14 +252,28 @@ def _correct(args) -> int:
 
 def add_correct_parser(sub) -> None:
     """Add ``correct`` to the command's subparsers."""
+    from radiosim.units import parse_time
+
     cor = sub.add_parser("correct", help="a measurement's reading corrected for its camera's "
                          "blur (and a known motion), with its uncertainty",
                          description="Correct a simulated or recorded measurement (a .nc or "
                          ".exr of radiosim measure) for its camera's optical blur and, with "
                          "--velocity, a uniform motion over its window, in the calibrated "
                          "object signal (a Wiener filter); write the reading, the corrected "
-                         "temperature and its uncertainty to a new NetCDF file.")
-    cor.add_argument("measurement", help="a measurement (.nc or .exr)")
+                         "temperature and its uncertainty to a new NetCDF file. A camera's "
+                         "recording (.ptw, .seq, .fff, .jpg, .tif) is read through --camera "
+                         "(fitted to it, with its PSF).")
+    cor.add_argument("measurement", help="a measurement (.nc or .exr) or a recording")
+    cor.add_argument("--camera", default=None, metavar="FILE",
+                     help="a recording's camera (a camera TOML file or preset with its PSF)")
+    cor.add_argument("--frame", type=int, default=0, metavar="K",
+                     help="the recording's frame to correct (default 0)")
+    cor.add_argument("--integration-time", type=parse_time, default=None, metavar="T",
+                     help="a recording's integration time, for a file that states none "
+                     "(e.g. 10us)")
+    cor.add_argument("--replace-defects", action="store_true",
+                     help="replace the recording's defect pixels (EMVA 1288 rules) by their "
+                     "good neighbours' median first")
     _out_file(cor, "a new .nc file")
     cor.add_argument("--velocity", type=_shift, default=None, metavar="VX,VY",
                      help="the scene's uniform velocity in object space [m/s], x along the "

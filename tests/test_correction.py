@@ -184,6 +184,38 @@ def test_the_command_writes_the_corrected_reading(tmp_path, capsys):
     assert code == 2 and len(err) == 1 and "m/s" in err[0], err
 
 
+def test_the_command_corrects_a_recording_through_its_camera(tmp_path, capsys):
+    """A 16-bit TIFF stack of the counts nist-ir-psf recorded (a camera's file, no window
+    stated) corrected through that camera: the same corrected reading as the measurement's."""
+    import xarray as xr
+    from PIL import Image
+
+    from radiosim.cli import main
+
+    camera = rs.Camera.preset("nist-ir-psf")
+    rows, cols = camera.fpa.shape
+    y, x = (np.mgrid[0:rows * SUB, 0:cols * SUB] + 0.5) / SUB
+    frame = np.where(np.hypot(x - 80, y - 60) < 12, 900.0, 500.0)
+    m = camera.measure(FrameStack(frame[None].repeat(2, 0), dt=10e-6, dx=PITCH / SUB), 10e-6,
+                       rng=5)
+    pages = [Image.fromarray(m.counts.astype(np.uint16)) for _ in range(2)]
+    pages[0].save(tmp_path / "rec.tif", save_all=True, append_images=pages[1:])
+    args = ["correct", str(tmp_path / "rec.tif"), "--camera", "nist-ir-psf", "--frame", "1",
+            "--out", str(tmp_path / "c.nc")]
+    assert main(args) == 2  # the file states no integration time
+    assert "integration time" in capsys.readouterr().err
+    assert main(args + ["--integration-time", "10us"]) == 0
+    # The recording's charge is its counts' (within the converter's step of the simulation's
+    # own), which sets the filter's noise level: the readings agree to 1e-6, not to the bit.
+    with xr.open_dataset(tmp_path / "c.nc", engine="h5netcdf") as d:
+        np.testing.assert_allclose(d.corrected_temperature.values, correct(m).temperature,
+                                   rtol=1e-6, equal_nan=True)
+    capsys.readouterr()
+    assert main(["correct", str(tmp_path / "rec.tif"), "--out", str(tmp_path / "d.nc")]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "--camera" in err[0], err
+
+
 def test_the_noise_part_of_the_uncertainty_matches_monte_carlo_draws():
     """40 draws of nist-ir's noise on the same scene: the spread of each trusted pixel's
     corrected temperature against the noise part of the uncertainty the correction states.
