@@ -71,11 +71,11 @@ def __dir__():
 #: The package's modules in the order of the chain: a module imports only modules before it
 #: (tests/test_architecture.py checks this with ``ast``).
 CHAIN = (
-    "_version", "errors", "interrupts", "units", "checks", "config", "files", "spectral", "radiometry",
+    "_version", "errors", "interrupts", "units", "checks", "config", "files", "scheduling", "spectral", "radiometry",
     "kernels", "scenes", "response", "fpa", "frame_reading", "integrator",
     "psf", "optics",
     "imaging", "electronics", "calibration", "flir", "measurement", "ratio", "presets", "acquisition",
-    "camera", "characterization", "defects", "psf_measurement", "correction", "calibration_table", "scheduling", "moments", "budget_reuse",
+    "camera", "characterization", "defects", "psf_measurement", "correction", "calibration_table", "moments", "budget_reuse",
     "uncertainty", "io", "study_spec", "study", "plotting", "comparison", "reporting",
     "paper",
     "example_data", "console", "warmup", "cli_checks", "cli_signals", "cli_recording",

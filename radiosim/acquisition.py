@@ -41,7 +41,8 @@ from radiosim.units import readable_time
 
 __all__ = ["readout_shape", "frame_period", "check_frame_period", "check_readout_fits",
            "check_measurable", "frame_dtype", "is_rolling", "instrument_signal", "Exposure",
-           "ReadOut", "photoelectrons", "tensor_statistics", "rolling_statistics", "read_out",
+           "ReadOut", "photoelectrons", "tensor_statistics", "rolling_statistics",
+           "FRAME_CHUNK", "frame_ranges", "merge_statistics", "split_statistics", "read_out",
            "measure_many", "measure_many_statistics", "ChannelStatistics", "channel_cases",
            "record", "superframe"]
 
@@ -313,6 +314,120 @@ def tensor_statistics(scene: Scene, exposures, progress=None) -> list[TensorStat
         statistics[i] = image_statistics(scene, integrator(e), e.window, e.response, *e.image,
                                          next(passes))
     return [statistics[i] for i in range(len(exposures))]
+
+
+#: Frames of a window integrated into one partial sum: a longer window is split into parts of
+#: this many frames from its first (the last part shorter), each integrated on its own — in this
+#: process one after the other, or on a Dask cluster's workers, any number of them — and the
+#: parts' sums merged in their order (:func:`merge_statistics`): the same bits wherever the
+#: parts ran. A window of at most this many frames is one part, integrated as it always was.
+FRAME_CHUNK = 64
+
+
+def frame_ranges(scene: Scene, window: Window) -> list[tuple[int, int]]:
+    """The parts [first, stop) of ``window``'s frames on ``scene``, :data:`FRAME_CHUNK` frames
+    each from its first (the last part shorter)."""
+    first, weights = scene.window_frames(window)
+    n = int(weights.size)
+    return [(first + a, first + min(a + FRAME_CHUNK, n)) for a in range(0, n, FRAME_CHUNK)]
+
+
+def _part_statistics(scene: Scene, exposure: Exposure, frames, progress=None):
+    """The statistics of ``exposure`` over its window's ``frames`` [first, stop), with their
+    weights in the whole window, and the sum of those weights [1]."""
+    window = dataclasses.replace(exposure.window, frames=tuple(frames))
+    stats, = tensor_statistics(scene, [dataclasses.replace(exposure, window=window)], progress)
+    return stats, float(np.sum(scene.window_frames(window)[1]))
+
+
+class _MergedParts:
+    """Parts' statistics merged as they come (:func:`merge_statistics`), in their order."""
+
+    def __init__(self):
+        self.weight = None
+
+    def add(self, stats: TensorStatistics, weight: float) -> None:
+        if self.weight is None:
+            self.same = stats.signal_mean is stats.mean  # the linear response's signal: T
+            self.mean, self.m2 = stats.mean, weight * stats.std ** 2
+            self.signal, self.max, self.n = stats.signal_mean, stats.max, stats.n_frames
+            self.weight = weight
+            return
+        self.same = self.same and stats.signal_mean is stats.mean
+        total = self.weight + weight
+        delta = stats.mean - self.mean
+        self.mean = self.mean + delta * (weight / total)
+        self.m2 = self.m2 + weight * stats.std ** 2 + delta * delta * (self.weight * weight
+                                                                        / total)
+        self.signal = self.signal + stats.signal_mean
+        self.max, self.n = np.maximum(self.max, stats.max), self.n + stats.n_frames
+        self.weight = total
+
+    def statistics(self) -> TensorStatistics:
+        return TensorStatistics(self.mean if self.same else self.signal, self.mean,
+                                np.sqrt(np.maximum(self.m2 / self.weight, 0.0)), self.max,
+                                self.n)
+
+
+def merge_statistics(parts) -> TensorStatistics:
+    """
+    One window's statistics from its parts', ``[(statistics, weight), …]`` in frame order
+    (weight: the sum of the part's frame weights [1]): the means weighted by the parts'
+    weights and the variances merged by the parallel update of Chan, Golub & LeVeque (1979),
+    δ = m_b − m_a, m = m_a + δ·w_b/w, M2 = M2_a + M2_b + δ²·w_a·w_b/w; the signals, each a
+    sum over its part's frames with their weights in the whole window, added; the maxima's
+    maximum; one part after the other, in their order.
+    """
+    merged = _MergedParts()
+    for stats, weight in parts:
+        merged.add(stats, weight)
+    return merged.statistics()
+
+
+def split_statistics(scene: Scene, exposure: Exposure, progress=None,
+                     scheduler=None) -> TensorStatistics:
+    """
+    :func:`tensor_statistics` of one exposure, its window split into parts of
+    :data:`FRAME_CHUNK` frames (:func:`frame_ranges`) merged in order
+    (:func:`merge_statistics`): in this process (``scheduler`` ``None``), or one task a part
+    on ``scheduler`` (what :func:`radiosim.scheduling.connect` takes: a
+    ``distributed.Client`` or an address), with the same bits. A rolling shutter's rows each
+    have a window of their own: its exposure is one part.
+    """
+    ranges = [None] if exposure.row_time is not None else frame_ranges(scene, exposure.window)
+    if scheduler is None:
+        if len(ranges) == 1:
+            return tensor_statistics(scene, [exposure], progress)[0]
+        total, merged, done = ranges[-1][1] - ranges[0][0], _MergedParts(), 0
+        for a, b in ranges:  # merged as they come: memory holds one part's sums
+            def part_progress(k, n, done=done, frames=b - a):
+                progress(done + round(frames * k / max(n, 1)), total)
+
+            merged.add(*_part_statistics(scene, exposure, (a, b),
+                                         part_progress if progress else None))
+            done += b - a
+        return merged.statistics()
+    from radiosim.scheduling import connect
+
+    run, close = connect(scheduler)
+    try:
+        # Each task carries the scene and the exposure (a scene that travels is lazy: its
+        # path or its generator, not its frames), so a worker that dies takes nothing with
+        # it that another cannot run again.
+        if ranges == [None]:
+            parts = run(_whole_statistics, [(scene, exposure)])
+        else:
+            parts = run(_part_statistics, [(scene, exposure, r) for r in ranges])
+    finally:
+        close()
+    if progress is not None:
+        progress(1, 1)
+    return parts[0][0] if len(parts) == 1 else merge_statistics(parts)
+
+
+def _whole_statistics(scene: Scene, exposure: Exposure):
+    """:func:`tensor_statistics` of one exposure, as a part (its weight unused)."""
+    return tensor_statistics(scene, [exposure])[0], 1.0
 
 
 # -- after the integrator: optics, electronics, calibration ------------------------------------

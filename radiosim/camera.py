@@ -38,7 +38,7 @@ import numpy as np
 from radiosim.acquisition import (ChannelStatistics, Exposure, ReadOut, check_frame_period,
                                   check_readout_fits, instrument_signal, is_rolling,
                                   measure_many, measure_many_statistics, read_out,
-                                  tensor_statistics)
+                                  split_statistics)
 from radiosim.calibration import Calibration, NonUniformityCorrection
 from radiosim.checks import check_fraction, check_positive, check_rng, check_time
 from radiosim.config import build_checked, build_from_toml, dumps_toml, edge_field
@@ -516,7 +516,7 @@ class Camera:
         return read_out(self.readout(window.duration), stats, window, scene, rng)
 
     def measure(self, scene: Scene, integration_time: float, t_start: float | None = None,
-                rng=None, progress=None) -> Measurement:
+                rng=None, scheduler=None, progress=None) -> Measurement:
         """
         Measure ``scene`` over one integration.
 
@@ -531,21 +531,33 @@ class Camera:
             has one, else starting at t = 0.
         rng
             Seed or :class:`numpy.random.Generator` for shot and read noise.
+        scheduler
+            Where the window's frames are integrated: ``None``, in this process; a
+            ``distributed.Client`` or a scheduler's address (``"tcp://HOST:PORT"``), one task
+            per part of :data:`~radiosim.acquisition.FRAME_CHUNK` frames on its workers.
+            Either way the window is integrated in those parts, merged in order: the same
+            bits in this process and on any number of workers
+            (:func:`~radiosim.acquisition.split_statistics`). The noise is drawn here.
         progress
             Called as ``progress(done, total)`` after each frame of the window (with an image
-            stage, after each frame of both passes, counted together); ``None``: silent.
+            stage, after each frame of both passes, counted together; on a cluster once, at
+            the end); ``None``: silent.
 
         Returns
         -------
         Measurement
         """
         if self.channels is not None:  # each channel through the stages below, one pass
+            if scheduler is not None:
+                raise RadiosimError(f"{self.name} has {len(self.channels)} channels: their "
+                                    "measurement is one pass in this process (scheduler=None)")
             return measure_many(scene, [(self, integration_time, t_start)], rng, progress)[0]
         window = self.window(scene, integration_time, t_start)  # [s], made and checked
         readout = self.readout(window.duration)  # calibration, electronics, étendue
         readout.calibration.check_measurable(self.name)
-        # Scene → response → integrator (→ the optics' image): the tensor statistics.
-        stats, = tensor_statistics(scene, [self.exposure(scene, window)], progress)
+        # Scene → response → integrator (→ the optics' image): the tensor statistics, in
+        # parts of the window's frames merged in order, here or on a cluster's workers.
+        stats = split_statistics(scene, self.exposure(scene, window), progress, scheduler)
         # Optics → electronics → calibration: the measurement.
         return read_out(readout, stats, window, scene, rng)
 

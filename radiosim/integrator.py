@@ -98,11 +98,16 @@ class Window:
     alignment : str
         How the start was chosen: ``"given"``, ``"centred"`` on the scene's event, or
         ``"scene start"`` (no start given and the scene has no event).
+    frames : tuple of int or None
+        Frames [first, stop) of the window's, with their weights in the whole window, that
+        this window stands for: a part of a window, integrated into partial sums
+        (:func:`radiosim.acquisition.frame_ranges`); ``None``: all of them.
     """
 
     start: float
     duration: float
     alignment: str = "given"
+    frames: tuple[int, int] | None = None
 
     @property
     def stop(self) -> float:
@@ -124,7 +129,7 @@ def integration_window(scene: Scene, duration: float, t_start: float | None = No
     --------
     >>> from radiosim.scenes import UniformBlackbody
     >>> integration_window(UniformBlackbody(300.0), 1e-6)
-    Window(start=0.0, duration=1e-06, alignment='scene start')
+    Window(start=0.0, duration=1e-06, alignment='scene start', frames=None)
     """
     duration = check_time(duration, "integration_time")
     check_scale(scene, duration=duration)
@@ -605,8 +610,15 @@ class EnginePass:
                 group.merge(mine, _within(sample, region, inner), first)
 
     def statistics(self) -> list[TensorStatistics]:
-        """Each job's tensor statistics, in the order of the jobs."""
-        return [m.statistics() for m in self._merged]
+        """Each job's tensor statistics, in the order of the jobs (the pass is spent: its
+        groups and jobs let go of each other, so its sums are freed at once, not by the
+        cycle collector — a window's parts run one pass each)."""
+        out = [m.statistics() for m in self._merged]
+        for group in self._groups:
+            group.members.clear()
+        for m in self._merged:
+            m.group = None
+        return out
 
 
 class _Merged:

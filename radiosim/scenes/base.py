@@ -313,9 +313,18 @@ class Scene(ABC):
     def window_frames(self, window) -> tuple[int, np.ndarray]:
         """The first frame a window (``start``, ``duration`` [s]) overlaps and each frame's
         exact weight from it on (:func:`frame_weights` on this scene's frames); a window
-        outside the frames raises."""
-        return frame_weights(window.start, window.duration, self.dt, self.n_frames,
-                             self.frame_origin)
+        outside the frames raises. A window's part (its ``frames`` = (first, stop)) keeps
+        those frames' weights in the whole window."""
+        first, weights = frame_weights(window.start, window.duration, self.dt, self.n_frames,
+                                       self.frame_origin)
+        part = getattr(window, "frames", None)
+        if part is None:
+            return first, weights
+        start, stop = part
+        if not first <= start < stop <= first + weights.size:
+            raise RadiosimError(f"frames {start}–{stop - 1} are not within the window's "
+                                f"frames {first}–{first + weights.size - 1}")
+        return start, weights[start - first:stop - first]
 
     @abstractmethod
     def _read(self, k: int, region: Region) -> np.ndarray:

@@ -1,0 +1,126 @@
+"""One window's frames integrated in parts (acquisition.split_statistics): the parts merged in
+order give the window's statistics (against a naive weighted reference), and the same bits in
+this process and on a Dask cluster's workers, however many, a worker killed or not."""
+
+import dataclasses
+import os
+import signal
+import threading
+
+import numpy as np
+import pytest
+
+import radiosim as rs
+from radiosim.acquisition import FRAME_CHUNK, frame_ranges, merge_statistics
+from radiosim.integrator import TensorStatistics
+from radiosim.scenes import FrameStack
+
+N_FRAMES = 2 * FRAME_CHUNK + 37  # three parts, the last one shorter
+
+
+def stack(rows=12, cols=15, seed=0):
+    rng = np.random.default_rng(seed)
+    return rng.uniform(400.0, 900.0, (N_FRAMES + 4, rows, cols))
+
+
+def test_a_long_window_is_split_into_fixed_parts_from_its_first_frame():
+    scene = FrameStack(stack(), dt=1e-6, dx=1e-6)
+    window = rs.Camera.linear_ideal(1e-6).window(scene, N_FRAMES * 1e-6, 2e-6)
+    assert frame_ranges(scene, window) == [(2, 2 + FRAME_CHUNK),
+                                           (2 + FRAME_CHUNK, 2 + 2 * FRAME_CHUNK),
+                                           (2 + 2 * FRAME_CHUNK, 2 + N_FRAMES)]
+
+
+def test_the_merged_parts_are_the_windows_weighted_statistics():
+    """One sample a pixel, a window starting mid-frame (its first and last frames weighted by
+    the share they hold): the mean, population standard deviation and maximum of each pixel
+    over the frames with their weights, computed here in plain numpy."""
+    frames = stack()
+    scene = FrameStack(frames, dt=1e-6, dx=1e-6)
+    camera = rs.Camera.linear_ideal(1e-6)
+    start, duration = 1.25e-6, (N_FRAMES - 1) * 1e-6
+    m = camera.measure(scene, duration, start)
+    k = np.arange(frames.shape[0])
+    overlap = np.clip(np.minimum((k + 1) * 1e-6, start + duration) - np.maximum(k * 1e-6, start),
+                      0.0, None)
+    w = overlap / duration
+    mean = np.tensordot(w, frames, axes=1)
+    std = np.sqrt(np.tensordot(w, (frames - mean) ** 2, axes=1))
+    np.testing.assert_allclose(m.tensor_mean, mean, rtol=1e-12)
+    np.testing.assert_allclose(m.tensor_std, std, rtol=1e-9)
+    np.testing.assert_array_equal(m.tensor_max, frames[w > 0].max(axis=0))
+    assert m.n_frames == int(np.sum(w > 0))
+
+
+def test_merging_is_chans_parallel_update():
+    """Two parts of one and two frames (weights 1/3, 2/3) merged: the three frames' statistics."""
+    a = np.array([[1.0]]); b = np.array([[4.0]]); c = np.array([[7.0]])
+    first = TensorStatistics(a / 3, a, np.zeros((1, 1)), a, 1)
+    second = TensorStatistics((b + c) / 3, (b + c) / 2, np.abs(c - b) / 2, c, 2)
+    merged = merge_statistics([(first, 1 / 3), (second, 2 / 3)])
+    assert merged.mean[0, 0] == pytest.approx(4.0)
+    assert merged.signal_mean[0, 0] == pytest.approx(4.0)
+    assert merged.std[0, 0] == pytest.approx(np.std([1.0, 4.0, 7.0]))
+    assert merged.max[0, 0] == 7.0 and merged.n_frames == 3
+
+
+def _psf_camera():
+    camera = rs.Camera.preset("nist-ir-psf")
+    return camera.replace(fpa=dataclasses.replace(camera.fpa, shape=None))
+
+
+def _fields(m):
+    return {name: getattr(m, name) for name in ("counts", "apparent_temperature", "electrons",
+                                                "tensor_mean", "tensor_std", "tensor_max",
+                                                "signal_mean")}
+
+
+def test_two_workers_measure_a_scene_to_the_bit(tmp_path):
+    """nist-ir-psf (its image formed per sub-band) and a linear ideal camera, the window in
+    three parts: on two single-thread workers (a Client, then the scheduler's address) the
+    measurement is the one this process makes, to the bit."""
+    from distributed import Client, LocalCluster
+
+    scene = FrameStack(stack(24, 30), dt=1e-6, dx=2e-6)
+    cameras = [(_psf_camera(), 6e-6), (rs.Camera.linear_ideal(4e-6), 0.0)]
+    here = [camera.measure(scene, N_FRAMES * 1e-6, 0.0, rng=7) for camera, _ in cameras]
+    with LocalCluster(n_workers=2, threads_per_worker=1, processes=True,
+                      dashboard_address=None) as cluster, Client(cluster) as client:
+        for (camera, _), local in zip(cameras, here):
+            for scheduler in (client, cluster.scheduler_address):
+                there = camera.measure(scene, N_FRAMES * 1e-6, 0.0, rng=7, scheduler=scheduler)
+                for name, value in _fields(local).items():
+                    np.testing.assert_array_equal(getattr(there, name), value, err_msg=name)
+
+
+def test_a_worker_killed_mid_measurement_is_replaced_and_the_bits_hold():
+    """Two single-thread workers; while the window's parts run, one worker's process dies
+    (SIGKILL). Its nanny starts another, the scheduler gives its parts to the workers left,
+    and the measurement is the one this process makes."""
+    from distributed import Client, LocalCluster
+
+    scene = FrameStack(stack(60, 60), dt=1e-6, dx=2e-6)
+    camera = _psf_camera()
+    local = camera.measure(scene, N_FRAMES * 1e-6, 0.0, rng=3)
+    with LocalCluster(n_workers=2, threads_per_worker=1, processes=True,
+                      dashboard_address=None) as cluster, Client(cluster) as client:
+        pids = client.run(os.getpid)  # each worker's process
+        result = {}
+        thread = threading.Thread(target=lambda: result.update(m=camera.measure(
+            scene, N_FRAMES * 1e-6, 0.0, rng=3, scheduler=client)))
+        thread.start()
+        victim = None
+        for _ in range(600):  # until a part runs on a worker
+            busy = [w for w, tasks in client.processing().items() if tasks]
+            if busy:
+                victim = busy[0]
+                break
+            threading.Event().wait(0.01)
+        assert victim is not None
+        os.kill(pids[victim], signal.SIGKILL)
+        thread.join(timeout=300)
+        assert not thread.is_alive()
+        client.wait_for_workers(2, timeout=120)  # the nanny's new worker
+        assert pids[victim] not in client.run(os.getpid).values()
+    for name, value in _fields(local).items():
+        np.testing.assert_array_equal(getattr(result["m"], name), value, err_msg=name)
