@@ -148,6 +148,7 @@ def _measure(args) -> int:
     _compiling().announce_compile(args, frame_dtype(scene))
     try:
         m = camera.measure(scene, args.integration_time, args.start, args.seed,
+                           scheduler=args.scheduler,
                            progress=lambda done, total: progress(done, total, "frames"))
     except RadiosimError as exc:  # the library states SI values: add the user's own
         if "--integration-time" in str(exc):
@@ -456,6 +457,10 @@ def build_parser() -> argparse.ArgumentParser:
     measure.add_argument("--pixel-pitch", type=parse_length,
                          help="object-space pixel pitch, e.g. 6um (linear-ideal needs it)")
     measure.add_argument("--units", choices=["K", "C"], help="temperature unit of the file")
+    measure.add_argument("--scheduler", default=os.environ.get("RADIOSIM_SCHEDULER") or None,
+                         help="integrate the window's parts (64 frames each) as Dask tasks: "
+                         "synchronous, threads or tcp://HOST:PORT (default "
+                         "$RADIOSIM_SCHEDULER; none: in this process); the same bits")
     measure.add_argument("--time-unit", choices=["s", "ms", "us", "ns"],
                          help="FEA CSV time unit")
     measure.add_argument("--length-unit", choices=["m", "mm", "um"], help="FEA CSV length unit")

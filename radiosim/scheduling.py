@@ -106,6 +106,23 @@ def _probe(address: str, timeout: float) -> None:
                         f"{getattr(error, 'strerror', None) or error}")
 
 
+def _wait_while_answering(client, futures, timeout: float) -> None:
+    """Wait for ``futures`` as long as the scheduler answers: every ``timeout`` [s] without
+    them all, its handshake is tried again (:func:`_probe`), so a scheduler that stops
+    answering mid-run (stopped, its host gone) ends the wait in one error line within about
+    twice ``timeout``, where distributed would wait for ever."""
+    from distributed import wait
+
+    address = getattr(getattr(client, "scheduler", None), "address", None)
+    while True:
+        try:
+            wait(futures, timeout=timeout)
+            return
+        except TimeoutError:
+            if address is not None:
+                _probe(address, timeout)
+
+
 #: Seconds a local cluster costs before and after its work, measured on 2 cores by
 #: ``benchmarks/bench_cluster.py`` (warm numba cache, quiet host, 2026-11-26): a study of two
 #: one-frame measurements took 3.27 s on a ``LocalCluster`` of 2 single-threaded worker
@@ -314,11 +331,14 @@ def connect(scheduler=None, workers: int | None = None, timeout: float | None = 
                             f"or a tcp:// address, got {scheduler!r}")
 
     if client is not None:
+        wait = SCHEDULER_TIMEOUT if timeout is None else check_positive(timeout, "timeout", "s")
+
         def run(function, argument_lists, shared=()):
             scattered = (client.scatter(list(shared), broadcast=True, hash=False) if shared
                          else [])
             futures = [client.submit(function, *scattered, *args, pure=False)
                        for args in argument_lists]
+            _wait_while_answering(client, futures, wait)
             return client.gather(futures)
     else:
         name = "threads" if scheduler == "threads" else "synchronous"

@@ -93,7 +93,7 @@ def test_two_workers_measure_a_scene_to_the_bit(tmp_path):
                     np.testing.assert_array_equal(getattr(there, name), value, err_msg=name)
 
 
-def test_a_worker_killed_mid_measurement_is_replaced_and_the_bits_hold():
+def test_one_of_two_workers_killed_mid_measurement_is_replaced_and_the_bits_hold():
     """Two single-thread workers; while the window's parts run, one worker's process dies
     (SIGKILL). Its nanny starts another, the scheduler gives its parts to the workers left,
     and the measurement is the one this process makes."""
@@ -124,3 +124,64 @@ def test_a_worker_killed_mid_measurement_is_replaced_and_the_bits_hold():
         assert pids[victim] not in client.run(os.getpid).values()
     for name, value in _fields(local).items():
         np.testing.assert_array_equal(getattr(result["m"], name), value, err_msg=name)
+
+
+def test_a_scheduler_that_stops_answering_mid_measurement_never_answers_in_one_line(
+        monkeypatch, tmp_path):
+    """A real ``dask scheduler`` and ``dask worker`` (processes of their own); the scheduler is
+    stopped (SIGSTOP) while the window's parts run: the measurement ends in one error line
+    naming its address within about twice the scheduler timeout (2 s here), not never."""
+    import socket
+    import subprocess
+    import sys
+    import time
+
+    from radiosim import scheduling
+    from radiosim.errors import RadiosimError
+
+    with socket.socket() as probe:
+        probe.bind(("127.0.0.1", 0))
+        port = probe.getsockname()[1]
+    address = f"tcp://127.0.0.1:{port}"
+    quiet = {"stdout": subprocess.DEVNULL, "stderr": subprocess.DEVNULL, "cwd": tmp_path}
+    scheduler = subprocess.Popen([sys.executable, "-m", "distributed.cli.dask_scheduler",
+                                  "--host", "127.0.0.1", "--port", str(port),
+                                  "--dashboard-address", ":0"], **quiet)
+    worker = subprocess.Popen([sys.executable, "-m", "distributed.cli.dask_worker", address,
+                               "--nthreads", "1", "--nworkers", "1", "--no-dashboard"],
+                              **quiet)
+    try:
+        from distributed import Client
+
+        with Client(address, timeout=60) as client:
+            client.wait_for_workers(1, timeout=60)
+        monkeypatch.setattr(scheduling, "SCHEDULER_TIMEOUT", 2.0)
+        scene = FrameStack(stack(90, 90), dt=1e-6, dx=2e-6)
+        errors = []
+
+        def run():
+            try:
+                _psf_camera().measure(scene, N_FRAMES * 1e-6, 0.0, rng=1, scheduler=address)
+            except RadiosimError as exc:
+                errors.append((str(exc), time.monotonic()))
+
+        thread = threading.Thread(target=run)
+        thread.start()
+        time.sleep(1.0)  # connected, the parts submitted
+        scheduler.send_signal(signal.SIGSTOP)
+        stopped = time.monotonic()
+        thread.join(timeout=30)
+        assert not thread.is_alive()
+        assert errors, "the measurement finished before the scheduler was stopped"
+        text, when = errors[0]
+        assert when - stopped < 2 * 2.0 + 4.0
+        assert "\n" not in text and address in text and "did not answer" in text
+    finally:
+        scheduler.send_signal(signal.SIGCONT)
+        for process in (worker, scheduler):
+            process.terminate()
+        for process in (worker, scheduler):
+            try:
+                process.wait(timeout=20)
+            except subprocess.TimeoutExpired:
+                process.kill()
