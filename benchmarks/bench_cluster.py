@@ -15,9 +15,9 @@ The constants behind the estimate are measured here, from one run:
   the same study in this process (run a second time: its scene built); with more workers
   than cores this is ``cluster_overhead``, the constant times workers / cores;
 - ``STUDY_TASK_FACTOR``: the paper's study on the cluster, minus that start, times the
-  workers sharing it (at most its tasks: one a scene), over the study in this process (a
-  task measures a scene's cases in one pass over its frames on its worker's thread, where
-  this process does the same on every core). Before issue 43 each measurement was a task
+  workers sharing it (at most its tasks: one a part of a scene's frames), over the study in
+  this process (a task measures a scene's cases over one part of its frames in one pass on
+  its worker's thread, where this process does the same parts on every core). Before issue 43 each measurement was a task
   making its own frames: ``CLUSTER_TASK_FACTOR``, 12, which budgets' draw batches keep.
 
 It prints both runs, the estimate of each and the choice the estimate makes. The numba cache is

@@ -24,6 +24,7 @@ the real frame period) and :func:`superframe` (cycled integration times merged p
 from __future__ import annotations
 
 import dataclasses
+import math
 import warnings
 
 import numpy as np
@@ -42,7 +43,8 @@ from radiosim.units import readable_time
 __all__ = ["readout_shape", "frame_period", "check_frame_period", "check_readout_fits",
            "check_measurable", "frame_dtype", "is_rolling", "instrument_signal", "Exposure",
            "ReadOut", "photoelectrons", "tensor_statistics", "rolling_statistics",
-           "FRAME_CHUNK", "frame_ranges", "merge_statistics", "split_statistics", "read_out",
+           "FRAME_CHUNK", "PART_SAMPLES", "part_frames", "frame_ranges", "merge_statistics", "shared_statistics",
+           "split_statistics", "read_out",
            "measure_many", "measure_many_statistics", "ChannelStatistics", "channel_cases",
            "record", "superframe"]
 
@@ -316,28 +318,66 @@ def tensor_statistics(scene: Scene, exposures, progress=None) -> list[TensorStat
     return [statistics[i] for i in range(len(exposures))]
 
 
-#: Frames of a window integrated into one partial sum: a longer window is split into parts of
-#: this many frames from its first (the last part shorter), each integrated on its own — in this
-#: process one after the other, or on a Dask cluster's workers, any number of them — and the
-#: parts' sums merged in their order (:func:`merge_statistics`): the same bits wherever the
-#: parts ran. A window of at most this many frames is one part, integrated as it always was.
+#: Frames integrated into one partial sum, at least: the frames a pass spans (one window's, or
+#: those of a study's windows on one scene together) are split into parts of a multiple of this
+#: many frames from the earliest window's first (:func:`part_frames`; the last part shorter),
+#: each integrated on its own — in this process one after the other, or on a Dask cluster's
+#: workers, any number of them — and each window's parts merged in their order
+#: (:func:`merge_statistics`): the same bits wherever the parts ran. A pass over one part's
+#: frames or fewer is integrated as it always was.
 FRAME_CHUNK = 64
+
+#: Sample-frames [1] a part holds at least: a small scene's parts are longer, so that a part's
+#: work (about 0.03 s in this process on 2 cores, 6.6e-10 s a sample-frame) outweighs what a
+#: task costs on a cluster (the scene unpickled, the pass set up: a few milliseconds).
+PART_SAMPLES = 5e7
+
+
+def part_frames(samples: int) -> int:
+    """Frames of one part on a field of ``samples`` samples: the least multiple of
+    :data:`FRAME_CHUNK` holding :data:`PART_SAMPLES` sample-frames (a 1440 × 1113 chip: 64;
+    a 9 × 9 pixel's crop: 617 344, its whole windows)."""
+    return FRAME_CHUNK * max(1, math.ceil(PART_SAMPLES / (FRAME_CHUNK * max(1, samples))))
 
 
 def frame_ranges(scene: Scene, window: Window) -> list[tuple[int, int]]:
-    """The parts [first, stop) of ``window``'s frames on ``scene``, :data:`FRAME_CHUNK` frames
+    """The parts [first, stop) of ``window``'s frames on ``scene``, :func:`part_frames` frames
     each from its first (the last part shorter)."""
     first, weights = scene.window_frames(window)
-    n = int(weights.size)
-    return [(first + a, first + min(a + FRAME_CHUNK, n)) for a in range(0, n, FRAME_CHUNK)]
+    n, size = int(weights.size), part_frames(math.prod(scene.shape))
+    return [(first + a, first + min(a + size, n)) for a in range(0, n, size)]
 
 
-def _part_statistics(scene: Scene, exposure: Exposure, frames, progress=None):
-    """The statistics of ``exposure`` over its window's ``frames`` [first, stop), with their
-    weights in the whole window, and the sum of those weights [1]."""
-    window = dataclasses.replace(exposure.window, frames=tuple(frames))
-    stats, = tensor_statistics(scene, [dataclasses.replace(exposure, window=window)], progress)
-    return stats, float(np.sum(scene.window_frames(window)[1]))
+def _shared_ranges(scene: Scene, exposures) -> list[tuple[int, int]] | None:
+    """The parts of the frames the exposures' windows span together, :func:`part_frames`
+    frames each from the earliest first frame; ``None`` with a rolling shutter's exposure (its
+    rows each have a window of their own: one part)."""
+    if any(e.row_time is not None for e in exposures):
+        return None
+    spans = [scene.window_frames(e.window) for e in exposures]
+    low = min(first for first, _ in spans)
+    high = max(first + weights.size for first, weights in spans)
+    size = part_frames(math.prod(scene.shape))
+    return [(a, min(a + size, high)) for a in range(low, high, size)]
+
+
+def _range_statistics(scene: Scene, exposures, frames, progress=None) -> list:
+    """``(index, statistics, weight)`` of each exposure whose window holds some of the frames
+    [first, stop): its statistics over those frames, with their weights in its whole window,
+    and the sum of those weights [1] — the exposures sharing one pass over the part
+    (``progress`` as :func:`tensor_statistics` reports it)."""
+    start, stop = frames
+    picked, parts = [], []
+    for i, exposure in enumerate(exposures):
+        first, weights = scene.window_frames(exposure.window)
+        low, high = max(start, first), min(stop, first + weights.size)
+        if low < high:
+            window = dataclasses.replace(exposure.window, frames=(low, high))
+            picked.append(i)
+            parts.append(dataclasses.replace(exposure, window=window))
+    statistics = tensor_statistics(scene, parts, progress) if parts else []
+    return [(i, stats, float(np.sum(scene.window_frames(e.window)[1])))
+            for i, stats, e in zip(picked, statistics, parts)]
 
 
 class _MergedParts:
@@ -384,50 +424,86 @@ def merge_statistics(parts) -> TensorStatistics:
     return merged.statistics()
 
 
-def split_statistics(scene: Scene, exposure: Exposure, progress=None,
-                     scheduler=None) -> TensorStatistics:
+def _recorded_part(scene: Scene, exposures, frames=None):
+    """A task: :func:`_range_statistics` of ``frames`` (``None``: :func:`tensor_statistics`
+    of the whole), and the texts of the RadiosimWarnings it raised (raised again by the
+    caller, in its process: never lost on a worker)."""
+    from radiosim.scheduling import recorded_call
+
+    if frames is None:
+        return recorded_call(tensor_statistics, scene, exposures)
+    return recorded_call(_range_statistics, scene, exposures, frames)
+
+
+def _raise_again(texts) -> None:
+    for text in dict.fromkeys(texts):  # once each, in the order raised
+        warnings.warn(text, RadiosimWarning, stacklevel=3)
+
+
+def shared_statistics(scene: Scene, exposures, progress=None, run=None) -> list:
     """
-    :func:`tensor_statistics` of one exposure, its window split into parts of
-    :data:`FRAME_CHUNK` frames (:func:`frame_ranges`) merged in order
-    (:func:`merge_statistics`): in this process (``scheduler`` ``None``), or one task a part
-    on ``scheduler`` (what :func:`radiosim.scheduling.connect` takes: a
-    ``distributed.Client`` or an address), with the same bits. A rolling shutter's rows each
-    have a window of their own: its exposure is one part.
+    :func:`tensor_statistics` of ``exposures`` on ``scene``, the frames their windows span
+    split into parts of :data:`FRAME_CHUNK` frames (the exposures whose windows hold some of a
+    part's frames share one pass over it), each exposure's parts merged in order
+    (:func:`merge_statistics`): in this process (``run`` ``None``), or one task a part on a
+    Dask engine's ``run`` (:func:`radiosim.scheduling.connect`), with the same bits. A pass
+    over at most :data:`FRAME_CHUNK` frames in this process is :func:`tensor_statistics`'s.
     """
-    ranges = [None] if exposure.row_time is not None else frame_ranges(scene, exposure.window)
-    if scheduler is None:
-        if len(ranges) == 1:
-            return tensor_statistics(scene, [exposure], progress)[0]
-        total, merged, done = ranges[-1][1] - ranges[0][0], _MergedParts(), 0
+    exposures = list(exposures)
+    ranges = _shared_ranges(scene, exposures)
+    if run is None and (ranges is None or len(ranges) == 1):
+        return tensor_statistics(scene, exposures, progress)
+    # On an engine the scene and the exposures are sent to the workers once (scattered):
+    # a worker unpickles the scene, and builds what it keeps (a chip's geometry), once.
+    shared = (scene, exposures)
+    if run is not None and ranges is None:
+        outcomes = run(_recorded_part, [()], shared=shared)
+        _raise_again([t for _, texts in outcomes for t in texts])
+        return outcomes[0][0]
+    merged = [_MergedParts() for _ in exposures]
+
+    def add(part):
+        for i, stats, weight in part:
+            merged[i].add(stats, weight)
+
+    if run is not None:
+        outcomes = run(_recorded_part, [(r,) for r in ranges], shared=shared)
+        _raise_again([t for _, texts in outcomes for t in texts])
+        for part, _ in outcomes:  # in frame order
+            add(part)
+        if progress is not None:
+            progress(1, 1)
+    else:
+        total, done = ranges[-1][1] - ranges[0][0], 0
         for a, b in ranges:  # merged as they come: memory holds one part's sums
             def part_progress(k, n, done=done, frames=b - a):
                 progress(done + round(frames * k / max(n, 1)), total)
 
-            merged.add(*_part_statistics(scene, exposure, (a, b),
-                                         part_progress if progress else None))
+            add(_range_statistics(scene, exposures, (a, b),
+                                  part_progress if progress else None))
             done += b - a
-        return merged.statistics()
+    return [m.statistics() for m in merged]
+
+
+def split_statistics(scene: Scene, exposure: Exposure, progress=None,
+                     scheduler=None) -> TensorStatistics:
+    """
+    :func:`shared_statistics` of one exposure: its window in parts of :data:`FRAME_CHUNK`
+    frames merged in order, in this process (``scheduler`` ``None``) or one task a part on
+    ``scheduler`` (what :func:`radiosim.scheduling.connect` takes: a ``distributed.Client``
+    or an address), with the same bits. The scene and the exposure are sent to every worker
+    once (a scene that travels should be lazy: its path or its generator, not its frames); a
+    worker that dies is replaced and its parts run again elsewhere.
+    """
+    if scheduler is None:
+        return shared_statistics(scene, [exposure], progress)[0]
     from radiosim.scheduling import connect
 
     run, close = connect(scheduler)
     try:
-        # Each task carries the scene and the exposure (a scene that travels is lazy: its
-        # path or its generator, not its frames), so a worker that dies takes nothing with
-        # it that another cannot run again.
-        if ranges == [None]:
-            parts = run(_whole_statistics, [(scene, exposure)])
-        else:
-            parts = run(_part_statistics, [(scene, exposure, r) for r in ranges])
+        return shared_statistics(scene, [exposure], progress, run)[0]
     finally:
         close()
-    if progress is not None:
-        progress(1, 1)
-    return parts[0][0] if len(parts) == 1 else merge_statistics(parts)
-
-
-def _whole_statistics(scene: Scene, exposure: Exposure):
-    """:func:`tensor_statistics` of one exposure, as a part (its weight unused)."""
-    return tensor_statistics(scene, [exposure])[0], 1.0
 
 
 # -- after the integrator: optics, electronics, calibration ------------------------------------
@@ -508,11 +584,12 @@ def measure_many(scene: Scene, cases, rng=None, progress=None) -> list[Measureme
                 cases, measure_many_statistics(scene, cases, progress))]
 
 
-def measure_many_statistics(scene: Scene, cases, progress=None) -> list:
+def measure_many_statistics(scene: Scene, cases, progress=None, run=None) -> list:
     """
     The noise-free part of :func:`measure_many`: each case's window, checked
-    (:func:`check_measurable`), and tensor statistics (:func:`tensor_statistics`) from one
-    pass over the scene's frames. A read-out (:meth:`Camera.read_out
+    (:func:`check_measurable`), and tensor statistics from one pass over the scene's frames
+    in parts (:func:`shared_statistics`: in this process, or one task a part on a Dask
+    engine's ``run``, the same bits). A read-out (:meth:`Camera.read_out
     <radiosim.camera.Camera.read_out>`) with any generator turns each into a measurement, so
     callers can give each case its own seed.
 
@@ -532,10 +609,10 @@ def measure_many_statistics(scene: Scene, cases, progress=None) -> list:
     windows = [camera.window(scene, t_int, t_start) for camera, t_int, t_start in expanded]
     for (camera, _, _), window in zip(expanded, windows):
         check_measurable(camera, window.duration)
-    statistics = list(zip(windows, tensor_statistics(
+    statistics = list(zip(windows, shared_statistics(
         scene, [camera.exposure(scene, window) for (camera, _, _), window in zip(expanded,
                                                                                    windows)],
-        progress)))
+        progress, run)))
     return [statistics[i] if not multi else (statistics[i][0], ChannelStatistics(
         tuple(statistics[i:i + n]))) for i, n, multi in spans]
 

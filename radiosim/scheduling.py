@@ -106,6 +106,11 @@ def _probe(address: str, timeout: float) -> None:
                         f"{getattr(error, 'strerror', None) or error}")
 
 
+def _kept(value):
+    """A task's value as given: what the tasks share, kept on the workers (:func:`connect`)."""
+    return value
+
+
 def _wait_while_answering(client, futures, timeout: float) -> None:
     """Wait for ``futures`` as long as the scheduler answers: every ``timeout`` [s] without
     them all, its handshake is tried again (:func:`_probe`), so a scheduler that stops
@@ -144,14 +149,14 @@ CLUSTER_START_SECONDS = 3.2
 #: cores only, and ``benchmarks/bench_cluster.py`` measures it on the machine at hand.
 CLUSTER_TASK_FACTOR = 12.0
 
-#: The same for a study's tasks since issue 43 — one task per scene, its cases in one pass over
-#: its frames on a worker, as this process measures them — measured by
-#: ``benchmarks/bench_cluster.py`` (2 cores, quiet host, 2026-11-29): the paper's study, 2
-#: tasks (the chip, the pixel sweep's crop), took 7.4 s on 2 workers (3.1 s of it the start)
-#: against 3.2 s here (23.3 s with a task a measurement). Its 2.7 is mostly the tasks' unequal
-#: sizes (the chip's task is nearly all the work, on one worker's one thread, where this
-#: process uses both cores); per task, one thread against this process's two: ~1.3.
-STUDY_TASK_FACTOR = 2.7
+#: The same for a study's tasks since issue 43 — per scene, one task per part of the frames its
+#: cases' windows span (``radiosim.acquisition.part_frames``), its cases sharing each part's
+#: pass on a worker, as this process measures them — measured by ``benchmarks/bench_cluster.py``
+#: (2 cores, 2026-11-29): the paper's study, 9 tasks (8 parts of the chip's 450 frames, the
+#: pixel sweep's crop), took 6.34 s on 2 workers (2.57 s of it the start) against 3.29 s here
+#: (7.4 s with a task a scene, 23.3 s with a task a measurement). Its 2.3 is per core-second
+#: 1.15: a worker's one thread does the work of this process's two threads' half, and a bit.
+STUDY_TASK_FACTOR = 2.3
 
 #: Seconds [s] a measurement spends per sample it reads and frame of its window in this
 #: process, warm, on 2 cores: the paper's study (44 measurements reading 4.97e9 sample-frames
@@ -191,8 +196,8 @@ def worth_a_cluster(n_measurements: int, seconds_per_measurement: float, workers
     In this process the work takes ``n_measurements × seconds_per_measurement`` [s]; on the
     cluster, :func:`cluster_overhead` plus that work times ``task_factor`` (a task's work
     there over the same work here: :data:`CLUSTER_TASK_FACTOR` for tasks that each make their
-    own frames, :data:`STUDY_TASK_FACTOR` for a study's tasks, a scene each), shared by
-    ``min(workers, cores, n_measurements)`` processes. The cluster is chosen only if it
+    own frames, :data:`STUDY_TASK_FACTOR` for a study's tasks, a part of a scene's frames
+    each), shared by ``min(workers, cores, n_measurements)`` processes. The cluster is chosen only if it
     saves at least 10 % of the time.
 
     Parameters
@@ -334,8 +339,10 @@ def connect(scheduler=None, workers: int | None = None, timeout: float | None = 
         wait = SCHEDULER_TIMEOUT if timeout is None else check_positive(timeout, "timeout", "s")
 
         def run(function, argument_lists, shared=()):
-            scattered = (client.scatter(list(shared), broadcast=True, hash=False) if shared
-                         else [])
+            # What the tasks share, sent as tasks of its own (not scattered: a submission
+            # never blocks, and a worker that dies with it can make it again); each worker
+            # fetches it once and keeps it while the tasks run.
+            scattered = [client.submit(_kept, value, pure=False) for value in shared]
             futures = [client.submit(function, *scattered, *args, pure=False)
                        for args in argument_lists]
             _wait_while_answering(client, futures, wait)
@@ -355,7 +362,11 @@ def connect(scheduler=None, workers: int | None = None, timeout: float | None = 
                 client.close()
                 cluster.close()
         elif client is not None and isinstance(scheduler, str):
-            client.close()
+            with _quiet("distributed", "tornado", "asyncio"):  # a stopped scheduler: no wait
+                try:
+                    client.close(timeout=wait)
+                except (TimeoutError, OSError):
+                    pass  # the scheduler is gone or stopped: nothing left to tell it
 
     return run, close
 

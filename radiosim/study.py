@@ -364,12 +364,24 @@ class Study:
         return SECONDS_PER_SAMPLE * float(np.mean(work))
 
     def _tasks(self, plan) -> int:
-        """The tasks ``plan`` makes on a cluster (at least 1): one per scene its cases
-        measure — the study's scene for its field sweeps, one crop per pixel pitch of its
-        pixel sweeps (:meth:`_measure_all`)."""
-        field = any(p.sweep.kind != "pixel" for p in plan)
-        pitches = {p.camera.fpa.pixel_pitch for p in plan if p.sweep.kind == "pixel"}
-        return max(1, int(field) + len(pitches))
+        """The tasks ``plan`` makes on a cluster (at least 1): per scene its cases measure —
+        the study's scene for its field sweeps, one crop per pixel pitch of its pixel sweeps
+        (:meth:`_measure_all`) — one per part (:func:`~radiosim.acquisition.part_frames`) of
+        the frames its cases' windows span together."""
+        from radiosim.acquisition import part_frames
+
+        groups: dict = {}
+        for p in plan:
+            key = p.camera.fpa.pixel_pitch if p.sweep.kind == "pixel" else None
+            window = p.camera.window(self.scene, p.integration_time,
+                                     self._window_start(p.integration_time, p.alignment))
+            first, weights = self.scene.window_frames(window)
+            low, high = groups.get(key, (first, first + weights.size))
+            groups[key] = (min(low, first), max(high, first + weights.size))
+        # a pixel sweep's crop: a pixel's samples
+        sizes = {key: part_frames(math.prod(self.scene.shape) if key is None else
+                                  max(1, round(key / self.scene.dx)) ** 2) for key in groups}
+        return max(1, sum(-(-(high - low) // sizes[key]) for key, (low, high) in groups.items()))
 
     def _window_start(self, t_int: float, alignment: str) -> float | None:
         scene = self.scene
@@ -452,8 +464,10 @@ class Study:
             Called as ``progress(done, total, label)`` after each measurement.
         scheduler, workers
             Run on Dask (:func:`radiosim.uncertainty.connect`): the measurements of a scene
-            (the study's scene, or a pixel sweep's crop) are one task, one pass over its
-            frames on a worker, as in this process; the scene travels as its recipe.
+            (the study's scene, or a pixel sweep's crop) share a pass over each part of its
+            frames (:func:`radiosim.acquisition.part_frames`), one task a part on a worker,
+            merged in order as in this process (the same bits); the scene travels as its
+            recipe, once to each worker.
         cluster
             With ``workers`` (and no ``scheduler``): ``"auto"`` starts the local cluster only
             where it pays (:func:`radiosim.scheduling.local_workers`: a study too small to gain
@@ -623,10 +637,9 @@ class Study:
             group_seeds = seeds[done:done + len(group)]
             triples = [(c.camera, c.integration_time,
                         self._window_start(c.integration_time, c.alignment)) for c in group]
-            if run is not None:  # one task per scene: its cases in one pass, as here
-                outcomes = run(_measure_group, [(triples, group_seeds)], shared=(scene,))[0]
-            else:
-                outcomes = _measure_group(scene, triples, group_seeds)
+            # The scene's frames in parts, one task a part on the engine (its cases sharing
+            # each part's pass), merged and read out here: the same bits as in this process.
+            outcomes = _measure_group(scene, triples, group_seeds, run)
             for case, (m, caught) in zip(group, outcomes):
                 raise_if_interrupted()  # and between rows
                 done += 1
@@ -732,11 +745,12 @@ def _write_csv(path: Path, columns: list[str], rows: list[dict]):
         writer.writerows({k: format_value(v) for k, v in row.items()} for row in rows)
 
 
-def _measure_group(scene: Scene, cases, seeds) -> list:
-    """In this process: (measurement, warning texts) of each ``(camera, integration time,
-    start)`` case, case ``i``'s noise from ``seeds[i]``; the cases share one pass over the
-    scene's frames (:func:`~radiosim.acquisition.measure_many_statistics`)."""
-    statistics, caught = recorded_call(measure_many_statistics, scene, cases)
+def _measure_group(scene: Scene, cases, seeds, run=None) -> list:
+    """(measurement, warning texts) of each ``(camera, integration time, start)`` case, case
+    ``i``'s noise from ``seeds[i]``; the cases share one pass over the scene's frames in parts
+    (:func:`~radiosim.acquisition.measure_many_statistics`), here or one task a part on the
+    Dask engine's ``run``."""
+    statistics, caught = recorded_call(measure_many_statistics, scene, cases, None, run)
     out = []
     for ((camera, _, _), (window, stats)), seed in zip(zip(cases, statistics), seeds):
         m, texts = recorded_call(camera.read_out, stats, window, scene,

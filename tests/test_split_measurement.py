@@ -18,6 +18,26 @@ from radiosim.scenes import FrameStack
 N_FRAMES = 2 * FRAME_CHUNK + 37  # three parts, the last one shorter
 
 
+@pytest.fixture(autouse=True)
+def parts_of_one_chunk(monkeypatch):
+    """These scenes are small: parts of FRAME_CHUNK frames all the same (the parts are
+    decided in this process and sent to the workers as frame ranges)."""
+    import radiosim.acquisition
+
+    monkeypatch.setattr(radiosim.acquisition, "PART_SAMPLES", 1)
+
+
+def test_a_part_holds_enough_sample_frames_to_pay_for_its_task(monkeypatch):
+    import radiosim.acquisition
+    from radiosim.acquisition import part_frames
+
+    monkeypatch.setattr(radiosim.acquisition, "PART_SAMPLES", 5e7)  # radiosim's own
+
+    assert part_frames(1113 * 1440) == FRAME_CHUNK  # the paper's chip: 64 frames a part
+    assert part_frames(512 * 512) == 3 * FRAME_CHUNK  # 5e7 sample-frames: 191 frames, up
+    assert part_frames(81) % FRAME_CHUNK == 0 and part_frames(81) * 81 >= 5e7
+
+
 def stack(rows=12, cols=15, seed=0):
     rng = np.random.default_rng(seed)
     return rng.uniform(400.0, 900.0, (N_FRAMES + 4, rows, cols))

@@ -773,10 +773,10 @@ def test_a_seed_sequence_and_its_integer_agree(tmp_path):
                   study.run(None, rng=np.random.SeedSequence(9)).rows)
 
 
-def test_a_studys_cluster_tasks_are_one_a_scene(tmp_path, monkeypatch):
-    """On an engine a study submits one task per scene (its cases in one pass), not one per
-    measurement: the noisy study's cases share its one scene, so one task; the rows are the
-    in-process run's bits."""
+def test_a_studys_cluster_tasks_are_parts_of_a_scenes_frames(tmp_path, monkeypatch):
+    """On an engine a study submits, per scene, one task per part of the frames its cases'
+    windows span (its cases sharing each part's pass), not one per measurement; the rows are
+    the in-process run's bits."""
     import radiosim.study as study_module
     from radiosim.scheduling import connect
 
@@ -795,5 +795,5 @@ def test_a_studys_cluster_tasks_are_one_a_scene(tmp_path, monkeypatch):
     local = study.run(None, rng=5).rows
     remote = study.run(None, rng=5, scheduler="synchronous").rows
     columns_equal(local, remote)
-    assert submitted == [("_measure_group", 1)] * len(submitted) and len(submitted) == \
-        study._tasks(list(study.plan()))
+    assert {name for name, _ in submitted} == {"_recorded_part"}
+    assert sum(n for _, n in submitted) == study._tasks(list(study.plan()))
