@@ -4,11 +4,11 @@ Benchmark: one scene's frames split across Dask workers (issue 43), in one run.
 A scene larger than a worker's memory limit — 1024 frames of 512 × 512 float32 samples
 (1 GiB) in a NetCDF file chunked by 16 frames, opened with xarray as Dask arrays
 (``FrameStack.from_xarray``) — measured by ``nist-ir`` (Planck response, 2 µm pixels on 1 µm
-samples) over the whole scene: sixteen parts of ``FRAME_CHUNK`` frames. The measurement runs
-in this process, on a local cluster of one single-thread worker and on one of two (each
-worker's memory limit 768 MiB, three quarters of the scene's size: a worker holds about
-160 MiB once it has imported radiosim, and a part's frames in float64, 128 MiB, at once), the
-clusters started and warmed (a first measurement) before the clock. It
+samples) over the whole scene: six parts (``part_frames``: 192 frames, the last 64). The
+measurement runs in this process, on a local cluster of one single-thread worker and on one of
+two (each worker's memory limit 768 MiB, three quarters of the scene's size; a worker holds
+about 160 MiB once it has imported radiosim), the clusters started and warmed (a first
+measurement) before the clock. It
 prints each time, two workers' speed-up over one (issue 43 asks at least 1.5×), each worker's
 peak resident memory against its limit, and whether the three results are the same bits.
 

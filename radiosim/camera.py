@@ -534,7 +534,8 @@ class Camera:
         scheduler
             Where the window's frames are integrated: ``None``, in this process; a
             ``distributed.Client`` or a scheduler's address (``"tcp://HOST:PORT"``), one task
-            per part of :data:`~radiosim.acquisition.FRAME_CHUNK` frames on its workers.
+            per part of the window's frames (:func:`~radiosim.acquisition.part_frames`) on its
+            workers.
             Either way the window is integrated in those parts, merged in order: the same
             bits in this process and on any number of workers
             (:func:`~radiosim.acquisition.split_statistics`). The noise is drawn here.

@@ -458,7 +458,7 @@ def build_parser() -> argparse.ArgumentParser:
                          help="object-space pixel pitch, e.g. 6um (linear-ideal needs it)")
     measure.add_argument("--units", choices=["K", "C"], help="temperature unit of the file")
     measure.add_argument("--scheduler", default=os.environ.get("RADIOSIM_SCHEDULER") or None,
-                         help="integrate the window's parts (64 frames each) as Dask tasks: "
+                         help="integrate the window's parts (64 frames or more each) as Dask tasks: "
                          "synchronous, threads or tcp://HOST:PORT (default "
                          "$RADIOSIM_SCHEDULER; none: in this process); the same bits")
     measure.add_argument("--time-unit", choices=["s", "ms", "us", "ns"],
