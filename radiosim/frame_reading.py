@@ -99,14 +99,18 @@ def prefetched(scene: Scene, indices, region: Region, checked: bool = True, batc
 def read_ahead(scene: Scene, indices, region: Region):
     """Scene frames of ``indices`` in order, unchecked. The first is made on this thread; frames
     of at most :data:`INLINE_BYTES` stay on it, larger ones are read ahead on a worker thread
-    in batches of at most :data:`STACK_BYTES` (one hand-over between the threads per batch)."""
+    in batches of at most :data:`STACK_BYTES` (one hand-over between the threads per batch) —
+    unless the kernels have one thread (a single-thread Dask worker's ``NUMBA_NUM_THREADS=1``):
+    a process given one core reads on its one thread too."""
+    from radiosim.kernels.launch import thread_count
+
     indices = list(indices)
     if not indices:
         return
     first = scene.sample_unchecked(indices[0], region)
     yield first
     size = getattr(first.temperature, "nbytes", STACK_BYTES)
-    if size <= INLINE_BYTES:
+    if size <= INLINE_BYTES or thread_count() == 1:
         for k in indices[1:]:
             yield scene.sample_unchecked(k, region)
         return

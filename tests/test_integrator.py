@@ -450,6 +450,36 @@ def test_slow_frames_are_read_ahead_in_batches_in_order_and_in_full():
                 assert here == ([True] + [False] * 34 if ahead else [True] * 35)
 
 
+def test_a_process_given_one_kernel_thread_reads_its_frames_on_that_thread():
+    """A single-thread Dask worker (NUMBA_NUM_THREADS=1, as radiosim's local clusters set it
+    with as many workers as cores) reads large frames on its one thread: no read-ahead thread
+    takes a second core."""
+    import threading
+
+    import numba
+
+    from radiosim.frame_reading import INLINE_BYTES, read_ahead
+
+    rows, cols = 3 + INLINE_BYTES // (8 * 40), 40
+    frames = np.arange(9 * rows * cols, dtype=float).reshape(9, rows, cols) + 300.0
+    readers = []
+
+    class Watched(FrameStack):
+        def sample_unchecked(self, k, region=None):
+            readers.append(threading.current_thread())
+            return super().sample_unchecked(k, region)
+
+    stack = Watched(frames, 1e-6, 1e-6)
+    before = numba.get_num_threads()
+    numba.set_num_threads(1)
+    try:
+        got = list(read_ahead(stack, range(9), (slice(0, rows), slice(0, cols))))
+    finally:
+        numba.set_num_threads(before)
+    assert [f.index for f in got] == list(range(9))
+    assert all(t is threading.current_thread() for t in readers)
+
+
 def test_a_frame_that_cannot_be_read_ahead_fails_after_the_frames_before_it():
     # Read ahead in batches, an unreadable frame raises its own error after every frame
     # before it was delivered, whatever the batch: the same as read one by one.
