@@ -147,11 +147,15 @@ def _measure(args) -> int:
     progress = _Progress("frame", args.quiet, delay=2.0, terminal_only=True)
     _compiling().announce_compile(args, frame_dtype(scene))
     try:
+        # $RADIOSIM_SCHEDULER for a camera whose measurement can be split (one band); a
+        # --scheduler given for one of several channels is refused in one line
+        scheduler = args.scheduler if args.scheduler is not None else (
+            os.environ.get("RADIOSIM_SCHEDULER") or None if camera.channels is None else None)
         m = camera.measure(scene, args.integration_time, args.start, args.seed,
-                           scheduler=args.scheduler,
+                           scheduler=scheduler,
                            progress=lambda done, total: progress(done, total, "frames"))
     except RadiosimError as exc:  # the library states SI values: add the user's own
-        if "--integration-time" in str(exc):
+        if "--integration-time" in str(exc) or "Dask" in str(exc):  # not the window's
             raise
         if is_bad_sample(str(exc)):  # the file's fault, not the window's
             raise type(exc)(f"{path}: {bad_sample_in(str(exc), args.units)}") from None
@@ -457,7 +461,7 @@ def build_parser() -> argparse.ArgumentParser:
     measure.add_argument("--pixel-pitch", type=parse_length,
                          help="object-space pixel pitch, e.g. 6um (linear-ideal needs it)")
     measure.add_argument("--units", choices=["K", "C"], help="temperature unit of the file")
-    measure.add_argument("--scheduler", default=os.environ.get("RADIOSIM_SCHEDULER") or None,
+    measure.add_argument("--scheduler", default=None,
                          help="integrate the window's parts (64 frames or more each) as Dask tasks: "
                          "synchronous, threads or tcp://HOST:PORT (default "
                          "$RADIOSIM_SCHEDULER; none: in this process); the same bits")

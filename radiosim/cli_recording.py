@@ -216,7 +216,11 @@ def _correct(args) -> int:
                                 "camera fitted to it, with its PSF: give --camera FILE")
         recording = read_recording(args.measurement)
         camera = camera_from_argument(args.camera, command="correct")
-        bad = recording.defect_pixels().any if args.replace_defects else None
+        bad = None
+        if args.replace_defects:  # from the frames around the one corrected, not all of them
+            index = int(recording.frame_indices([args.frame])[0])
+            near = slice(max(0, index - 8), index + 8)
+            bad = recording.defect_pixels(near).any
         measurement = recording.measurement(camera, frame=args.frame, bad_pixels=bad,
                                             integration_time=args.integration_time)
     else:
@@ -272,8 +276,8 @@ def add_correct_parser(sub) -> None:
                      help="a recording's integration time, for a file that states none "
                      "(e.g. 10us)")
     cor.add_argument("--replace-defects", action="store_true",
-                     help="replace the recording's defect pixels (EMVA 1288 rules) by their "
-                     "good neighbours' median first")
+                     help="replace the recording's defect pixels (EMVA 1288 rules, on the 16 "
+                     "frames around --frame) by their good neighbours' median first")
     _out_file(cor, "a new .nc file")
     cor.add_argument("--velocity", type=_shift, default=None, metavar="VX,VY",
                      help="the scene's uniform velocity in object space [m/s], x along the "

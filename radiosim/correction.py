@@ -12,13 +12,16 @@ the optics' transfer function — for a polychromatic PSF the sub-bands' OTFs we
 shares of the frame's signal — times sinc(f · v·t_int) for the motion. The correction is the
 Wiener filter::
 
-    W(f) = H*(f) / (|H(f)|² + σ² / σ_S²),   W(0) = 1 / H(0),
+    W(f) = H*(f) / (|H(f)|² + σ² / σ_S² + Σ_b s_b |H_b(f) − H(f)|²),   W(0) = 1 / H(0),
 
 σ² the white noise variance of a pixel's object signal (the camera's temporal noise at the
 frame's mean charge, in signal units, and the converter's step), σ_S² the scene's (the frame's
-variance less the noise's): where the blur left the signal above the noise, W inverts it;
+variance less the noise's), and the last term the spread of the sub-bands' transfers H_b
+(shares s_b) about H, how far a pixel hotter or colder than the frame's median is blurred
+otherwise: where the blur left the signal above the noise and that spread, W inverts it;
 where not, W tends to 0 and the frequency is given up rather than invented; the frame's mean
-(f = 0), which every pixel's noise averages down, is kept.
+(f = 0), which every pixel's noise averages down, is kept. The filter works on the frame
+extended by its mirror image as far as the blur reaches.
 
 A rolling shutter's row r integrates r·row_time after the first: with a velocity, the
 corrected rows are brought to the first row's window (the scene a row saw, moved back by
@@ -117,8 +120,8 @@ REACH_LIGHT = 0.05
 
 def _reach(camera, velocity, integration_time: float) -> float:
     """How far [pixels] the blur carries light: the radius beyond which less than
-    :data:`REACH_LIGHT` of each PSF's light lies, at each sub-band's wavelength, and half the
-    motion over the window."""
+    :data:`REACH_LIGHT` of the PSFs' (convolved) light lies, at each sub-band's wavelength
+    (:func:`radiosim.psf.padding`), and half the motion over the window."""
     pitch = camera.fpa.pixel_pitch
     reach = 0.0
     psfs = camera.optics.psf or ()
@@ -129,8 +132,10 @@ def _reach(camera, velocity, integration_time: float) -> float:
         lam_mid = 0.5 * sum(camera.optics.band)
         wavelengths = [lam_mid] + [w for _, w in camera.response_model.sub_bands(
             sub_band_count(psfs)) if np.isfinite(w)]
-        reach = max(psf.radius(REACH_LIGHT, lam, na) / pitch for psf in psfs
-                    for lam in wavelengths)
+        from radiosim.psf import padding
+
+        # the PSFs' convolution: beyond Σ of each one's radius at its share of the light
+        reach = max(padding(psfs, lam, na, REACH_LIGHT) / pitch for lam in wavelengths)
     if velocity is not None:
         reach += math.hypot(*velocity) * integration_time / pitch / 2
     return reach
@@ -183,9 +188,10 @@ def _transfer(camera, shape, stats_temperature: float, velocity, integration_tim
 
 #: Nodes of the table through which corrected signals are turned into temperatures: linear
 #: interpolation in ln S between exact inversions, whose error, h²/8 · d²T/d(ln S)² with h
-#: the node spacing, is below 1e-5 K over any span of ln S up to 20 (d²T/d(ln S)² < 1e3 K
-#: for T < 3000 K in the infrared bands).
-_INVERSION_NODES = 1 << 16
+#: the node spacing, is below 5e-6 K over a span of ln S of 25 (d²T/d(ln S)² < 1e3 K for
+#: T < 3000 K in the infrared bands; the span is the frame's signals' within the radiance
+#: table's temperatures).
+_INVERSION_NODES = 1 << 17
 
 
 def _signal_temperature(signal: np.ndarray, calibration) -> np.ndarray:
@@ -197,8 +203,15 @@ def _signal_temperature(signal: np.ndarray, calibration) -> np.ndarray:
     if positive.sum() <= _INVERSION_NODES:
         return response.temperature(np.where(positive, signal, np.nan), emissivity)
     log_signal = np.log(np.where(positive, signal, 1.0))
-    nodes = np.linspace(log_signal[positive].min(), log_signal[positive].max(),
-                        _INVERSION_NODES)
+    low, high = log_signal[positive].min(), log_signal[positive].max()
+    if hasattr(response, "table"):  # a radiance table: no temperature beyond its ends
+        ends = response.table().temperature_range  # [K]
+        low, high = (max(low, math.log(float(response.grey_signal(ends[0], emissivity)))),
+                     min(high, math.log(float(response.grey_signal(ends[1], emissivity)))))
+    if not low < high:
+        return response.temperature(np.where(positive, signal, np.nan), emissivity)
+    # (a ringing pixel's signal far below the table would otherwise spread the nodes thin)
+    nodes = np.linspace(low, high, _INVERSION_NODES)
     at_nodes = response.temperature(np.exp(nodes), emissivity)
     inside = np.isfinite(at_nodes)  # contiguous: the inversion is monotonic
     temperature = np.full(signal.shape, np.nan)

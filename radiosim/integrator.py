@@ -450,8 +450,12 @@ class _Accumulator:
             self.signal_mean += weight * integrator.pixel_mean(integrator.expand(signal))
 
     def statistics(self) -> TensorStatistics:
-        mean = self.reference + self.mean_dev
-        variance = np.clip(self.mean_sq - self.mean_dev * self.mean_dev, 0.0, None)
+        mean_dev, mean_sq = self.mean_dev, self.mean_sq
+        if self.job.window.frames is not None:  # a part: its weights sum to less than 1
+            total = float(np.sum(self.weights))
+            mean_dev, mean_sq = mean_dev / total, mean_sq / total
+        mean = self.reference + mean_dev
+        variance = np.clip(mean_sq - mean_dev * mean_dev, 0.0, None)
         return TensorStatistics(
             signal_mean=mean if self.signal_is_temperature else self.signal_mean,
             mean=mean, std=np.sqrt(variance), max=self.t_max, n_frames=int(self.weights.size))

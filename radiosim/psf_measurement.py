@@ -23,6 +23,7 @@ radiation thermometers. Metrologia 46, 62–74.
 from __future__ import annotations
 
 import math
+import numbers
 from dataclasses import dataclass
 
 import numpy as np
@@ -81,7 +82,7 @@ def _disc(shape, cy, cx, radius, side):
     safe = np.where(r > 0, r, 1.0)
     a = side * np.maximum(np.abs(x), np.abs(y)) / safe  # the larger projection [pixels]
     b = side * np.minimum(np.abs(x), np.abs(y)) / safe
-    t = np.clip(radius - r + 0.5 * (a + b), 0.0, a + b)  # from the outermost corner [pixels]
+    t = np.clip(radius - r + 0.5 * (a + b), 0.0, a + b)  # from the innermost corner [pixels]
     ab = np.maximum(2 * a * b, 1e-12)
     share = np.where(t < b, t * t / ab,
                      np.where(t < a, (t - 0.5 * b) / np.maximum(a, 1e-12),
@@ -142,14 +143,20 @@ def fit_disc_psf(image, pixel_pitch: float, fill_factor: float = 1.0, valid=None
     if image.ndim != 2 or min(image.shape) < 16:
         raise RadiosimError(f"the disc's image must be 2-D, at least 16 × 16 pixels, got "
                             f"shape {image.shape}")
-    if not (isinstance(pixel_pitch, (int, float)) and math.isfinite(pixel_pitch)
-            and pixel_pitch > 0):
-        raise RadiosimError(f"pixel_pitch must be a length > 0 [m], got {pixel_pitch!r}")
-    if not 0 < fill_factor <= 1:
+    for name, value, least in (("pixel_pitch", pixel_pitch, 0.0), ("reach", reach, 6.0)):
+        if isinstance(value, bool) or not isinstance(value, numbers.Real) or \
+                not (math.isfinite(value) and value > least):
+            unit = "[m]" if least == 0 else "[pixels]"
+            raise RadiosimError(f"{name} must be a number > {least:g} {unit}, got {value!r}")
+    if isinstance(fill_factor, bool) or not isinstance(fill_factor, numbers.Real) or \
+            not 0 < fill_factor <= 1:
         raise RadiosimError(f"fill_factor must be in (0, 1], got {fill_factor!r}")
+    if valid is not None and np.shape(valid) != image.shape:
+        raise RadiosimError(f"valid must be a mask shaped like the image {image.shape}, got "
+                            f"shape {np.shape(valid)}")
     usable = np.isfinite(image) if valid is None else np.asarray(valid, bool) & np.isfinite(image)
-    if usable.shape != image.shape or usable.sum() < 64:
-        raise RadiosimError("fit_disc_psf needs at least 64 valid pixels, shaped like the image")
+    if usable.sum() < 64:
+        raise RadiosimError("fit_disc_psf needs at least 64 valid pixels")
     # A start: the disc is the side of the median level farther from the frame's border.
     border = np.concatenate([image[0], image[-1], image[:, 0], image[:, -1]])
     outside0 = float(np.nanmedian(border))
@@ -180,7 +187,7 @@ def fit_disc_psf(image, pixel_pitch: float, fill_factor: float = 1.0, valid=None
     def residuals(p):
         return (_model(p, image.shape, pad, side) - image)[used] / scale
 
-    start = [cy, cx, radius0, inside0, outside0, 1.0, 0.05, 5.0]
+    start = [cy, cx, radius0, inside0, outside0, 1.0, 0.05, min(5.0, 0.5 * reach)]
     low = [cy - 5, cx - 5, 0.5 * radius0, -np.inf, -np.inf, 0.05, 0.0, 0.5]
     high = [cy + 5, cx + 5, 1.5 * radius0, np.inf, np.inf, reach / 3, 0.9, reach]
     fit = optimize.least_squares(residuals, start, bounds=(low, high), loss="soft_l1",

@@ -111,6 +111,17 @@ def _kept(value):
     return value
 
 
+def _lost_scheduler() -> tuple:
+    """The errors distributed raises for futures whose scheduler went away mid-run."""
+    import asyncio
+
+    from distributed.client import FutureCancelledError, FuturesCancelledError
+    from distributed.comm.core import CommClosedError
+
+    return (FutureCancelledError, FuturesCancelledError, asyncio.CancelledError,
+            CommClosedError)
+
+
 def _wait_while_answering(client, futures, timeout: float) -> None:
     """Wait for ``futures`` as long as the scheduler answers: every ``timeout`` [s] without
     them all, its handshake is tried again (:func:`_probe`), so a scheduler that stops
@@ -332,7 +343,7 @@ def connect(scheduler=None, workers: int | None = None, timeout: float | None = 
     elif scheduler is not None and not isinstance(scheduler, str):
         client = scheduler  # a distributed.Client
     elif scheduler not in (None, "synchronous", "sync", "threads"):
-        raise RadiosimError(f"scheduler must be 'synchronous', 'threads', a distributed Client "
+        raise RadiosimError(f"the Dask scheduler must be 'synchronous', 'threads', a Client "
                             f"or a tcp:// address, got {scheduler!r}")
 
     if client is not None:
@@ -345,8 +356,14 @@ def connect(scheduler=None, workers: int | None = None, timeout: float | None = 
             scattered = [client.submit(_kept, value, pure=False) for value in shared]
             futures = [client.submit(function, *scattered, *args, pure=False)
                        for args in argument_lists]
-            _wait_while_answering(client, futures, wait)
-            return client.gather(futures)
+            try:
+                _wait_while_answering(client, futures, wait)
+                return client.gather(futures)
+            except _lost_scheduler() as exc:  # the scheduler gone mid-run: one line
+                address = getattr(getattr(client, "scheduler", None), "address", "")
+                raise RadiosimError(f"lost the Dask scheduler {address} mid-run "
+                                    f"({type(exc).__name__}: {str(exc).splitlines()[0][:120]})"
+                                    ) from None
     else:
         name = "threads" if scheduler == "threads" else "synchronous"
 

@@ -206,10 +206,16 @@ def test_the_command_corrects_a_recording_through_its_camera(tmp_path, capsys):
     assert "integration time" in capsys.readouterr().err
     assert main(args + ["--integration-time", "10us"]) == 0
     # The recording's charge is its counts' (within the converter's step of the simulation's
-    # own), which sets the filter's noise level: the readings agree to 1e-6, not to the bit.
+    # own), which sets the filter's noise level: the readings agree within a hundredth of
+    # their stated uncertainty, not to the bit.
+    reference = correct(m)
     with xr.open_dataset(tmp_path / "c.nc", engine="h5netcdf") as d:
-        np.testing.assert_allclose(d.corrected_temperature.values, correct(m).temperature,
-                                   rtol=1e-6, equal_nan=True)
+        got = d.corrected_temperature.values
+    assert np.array_equal(np.isnan(got), np.isnan(reference.temperature))
+    trusted = np.isfinite(got)
+    assert trusted.mean() > 0.5
+    assert np.max(np.abs(got - reference.temperature)[trusted]
+                  / reference.uncertainty[trusted]) < 0.01
     capsys.readouterr()
     assert main(["correct", str(tmp_path / "rec.tif"), "--out", str(tmp_path / "d.nc")]) == 2
     err = capsys.readouterr().err.strip().splitlines()
@@ -246,13 +252,14 @@ def test_a_uniform_scene_keeps_its_level(level):
 def test_corrected_signals_turn_into_temperatures_within_10_microkelvin():
     # The inversion through a table of exact inversions, interpolated in ln S, against the
     # temperatures whose Planck signals were inverted (more values than the table has nodes,
-    # so the table is used): its bound, h²/8 · d²T/d(ln S)², is below 1e-5 K.
+    # so the table is used): its bound, h²/8 · d²T/d(ln S)², is below 5e-6 K — also with a
+    # ringing pixel's signal far below the radiance table (the nodes stay within it).
     from radiosim.correction import _INVERSION_NODES, _signal_temperature
 
     calibration = BASE.calibration(10e-6)
     truth = np.random.default_rng(3).uniform(300.0, 2500.0, 2 * _INVERSION_NODES)
     signal = calibration.response.grey_signal(truth, calibration.emissivity)
-    signal[:3] = (np.nan, 0.0, -1.0)  # no temperature: NaN
+    signal[:4] = (np.nan, 0.0, -1.0, 1e-300 * signal.min())  # no temperature: NaN
     temperature = _signal_temperature(signal, calibration)
-    assert np.isnan(temperature[:3]).all()
-    assert np.max(np.abs(temperature[3:] - truth[3:])) < 1e-5
+    assert np.isnan(temperature[:4]).all()
+    assert np.max(np.abs(temperature[4:] - truth[4:])) < 1e-5

@@ -72,3 +72,23 @@ def test_what_is_no_disc_is_named():
     with pytest.raises(RadiosimError) as info:
         fit_disc_psf(np.ones((40, 40)), -1.0)
     one_line_naming(info, "pixel_pitch", "-1.0")
+
+
+@pytest.mark.parametrize("kwargs, said", [
+    ({"reach": 2.0}, ("reach", "2.0")),
+    ({"reach": float("nan")}, ("reach", "nan")),
+    ({"valid": np.ones((10, 10), bool)}, ("valid", "(10, 10)")),
+    ({"valid": np.ones(72, bool)}, ("valid", "(72,)")),
+    ({"fill_factor": 1.5}, ("fill_factor", "1.5")),
+])
+def test_bad_fit_arguments_are_named(kwargs, said):
+    signal, _ = disc_measurement((GaussianBlur(1.5 * PITCH),))
+    with pytest.raises(RadiosimError) as info:
+        fit_disc_psf(signal, PITCH, **kwargs)
+    one_line_naming(info, *said)
+
+
+def test_a_numpy_pitch_and_a_short_reach_are_taken():
+    signal, _ = disc_measurement((GaussianBlur(1.5 * PITCH),))
+    fit = fit_disc_psf(signal, np.float32(PITCH), reach=8)
+    assert fit.sigma == pytest.approx(1.5, rel=0.05)

@@ -146,11 +146,13 @@ def test_one_of_two_workers_killed_mid_measurement_is_replaced_and_the_bits_hold
         np.testing.assert_array_equal(getattr(result["m"], name), value, err_msg=name)
 
 
+@pytest.mark.parametrize("stop", ["SIGSTOP", "SIGKILL"])
 def test_a_scheduler_that_stops_answering_mid_measurement_never_answers_in_one_line(
-        monkeypatch, tmp_path):
+        monkeypatch, tmp_path, stop):
     """A real ``dask scheduler`` and ``dask worker`` (processes of their own); the scheduler is
-    stopped (SIGSTOP) while the window's parts run: the measurement ends in one error line
-    naming its address within about twice the scheduler timeout (2 s here), not never."""
+    stopped (SIGSTOP) or killed (SIGKILL) while the window's parts run: the measurement ends
+    in one error line naming its address within about twice the scheduler timeout (2 s
+    here), not never and not in a traceback."""
     import socket
     import subprocess
     import sys
@@ -188,14 +190,15 @@ def test_a_scheduler_that_stops_answering_mid_measurement_never_answers_in_one_l
         thread = threading.Thread(target=run)
         thread.start()
         time.sleep(1.0)  # connected, the parts submitted
-        scheduler.send_signal(signal.SIGSTOP)
+        scheduler.send_signal(getattr(signal, stop))
         stopped = time.monotonic()
         thread.join(timeout=30)
         assert not thread.is_alive()
         assert errors, "the measurement finished before the scheduler was stopped"
         text, when = errors[0]
         assert when - stopped < 2 * 2.0 + 4.0
-        assert "\n" not in text and address in text and "did not answer" in text
+        assert "\n" not in text and address in text
+        assert ("did not answer" if stop == "SIGSTOP" else "scheduler") in text
     finally:
         scheduler.send_signal(signal.SIGCONT)
         for process in (worker, scheduler):
@@ -205,3 +208,26 @@ def test_a_scheduler_that_stops_answering_mid_measurement_never_answers_in_one_l
                 process.wait(timeout=20)
             except subprocess.TimeoutExpired:
                 process.kill()
+
+
+@pytest.mark.parametrize("response", ["planck", "linear", "maker-curve"])
+def test_the_parts_merge_to_the_whole_windows_statistics_for_every_response(response):
+    """The parts' statistics (the engine's for responses with a signal table, numpy's
+    accumulator for the maker's curve, which has none) merged against the whole window
+    integrated in one pass: the same to rounding."""
+    from radiosim.acquisition import split_statistics, tensor_statistics
+
+    # the maker's curve: exiftool's PlanckR1, R2, B, F, O of the FLIR test frame, at 10 µs
+    curve = {"maker_curve": (17096.453, 0.046642166, 1428.0, 1.0, -6201.0),
+             "maker_curve_time": 10e-6} if response == "maker-curve" else {}
+    camera = rs.Camera.preset("nist-ir").replace(response=response, **curve)
+    camera = camera.replace(fpa=dataclasses.replace(camera.fpa, shape=None, pixel_pitch=2e-6))
+    scene = FrameStack(stack(8, 8, seed=4)[:, :8, :8], dt=1e-6, dx=1e-6)
+    window = camera.window(scene, (N_FRAMES - 2) * 1e-6, 1.5e-6)
+    exposure = camera.exposure(scene, window)
+    whole = tensor_statistics(scene, [exposure])[0]
+    split = split_statistics(scene, exposure)
+    for name in ("mean", "std", "max", "signal_mean"):
+        np.testing.assert_allclose(getattr(split, name), getattr(whole, name), rtol=1e-12,
+                                   err_msg=name)
+    assert split.n_frames == whole.n_frames
