@@ -151,7 +151,8 @@ def _transfer(camera, shape, stats_temperature: float, velocity, integration_tim
     fy = np.fft.fftfreq(shape[0], d=pitch)[:, None]  # [cycles/m]
     fx = np.fft.rfftfreq(shape[1], d=pitch)[None, :]
     psfs = camera.optics.psf or ()
-    h = np.ones((shape[0], fx.size), dtype=complex)
+    # real where every OTF is (a symmetric PSF's): complex arithmetic only where needed
+    h = np.ones((shape[0], fx.size))
     spread = np.zeros(h.shape)
     if psfs:
         from radiosim.imaging import sub_band_count
@@ -168,16 +169,17 @@ def _transfer(camera, shape, stats_temperature: float, velocity, integration_tim
             if not (np.all(np.isfinite(shares)) and shares.sum() > 0):
                 shares = np.ones(len(bands))
             shares = shares / shares.sum()  # each sub-band's part of the frame's signal
-            total = np.zeros(h.shape, dtype=complex)
-            second = np.zeros(h.shape)
+            total, second = 0.0, 0.0
             for (_, wavelength), share in zip(bands, shares):
                 lam = wavelength if np.isfinite(wavelength) else lam_mid
                 otf = 1.0
                 for psf in chromatic:
                     otf = otf * psf.otf(fx, fy, lam, na)
-                total += share * otf
-                second += share * np.abs(otf) ** 2
-            spread = np.maximum(second - np.abs(total) ** 2, 0.0) * np.abs(h) ** 2
+                total = total + share * otf
+                second = second + share * (otf * otf if np.isrealobj(otf) else np.abs(otf) ** 2)
+            total_power = total * total if np.isrealobj(total) else np.abs(total) ** 2
+            h_power = h * h if np.isrealobj(h) else np.abs(h) ** 2
+            spread = np.maximum(second - total_power, 0.0) * h_power
             h = h * total
     if velocity is not None:
         dx, dy = (v * integration_time / pitch for v in velocity)  # [pixels] over the window
@@ -194,14 +196,24 @@ def _transfer(camera, shape, stats_temperature: float, velocity, integration_tim
 _INVERSION_NODES = 1 << 17
 
 
-def _signal_temperature(signal: np.ndarray, calibration) -> np.ndarray:
-    """Temperature [K] of each object signal (NaN where none): the response's exact inversion
-    at :data:`_INVERSION_NODES` signals spanning the frame's, interpolated in ln S between them
-    (a frame's million distinct signals inverted at the cost of a table's)."""
+def _signal_temperature(signal: np.ndarray, calibration) -> tuple[np.ndarray, np.ndarray]:
+    """Temperature [K] of each object signal (NaN where none), and its slope dT/dS
+    [K per signal unit]: the response's exact inversion at :data:`_INVERSION_NODES` signals
+    spanning the frame's, interpolated in ln S between them (a frame's million distinct
+    signals inverted at the cost of a table's; the slope is the interval's)."""
     response, emissivity = calibration.response, calibration.emissivity
     positive = np.isfinite(signal) & (signal > 0)
+
+    def exactly(where):
+        t = response.temperature(np.where(where, signal, np.nan), emissivity)
+        finite = np.isfinite(t)
+        slope = np.full(signal.shape, np.nan)
+        if finite.any():
+            slope[finite] = 1.0 / response.slope(t[finite], emissivity)
+        return t, slope
+
     if positive.sum() <= _INVERSION_NODES:
-        return response.temperature(np.where(positive, signal, np.nan), emissivity)
+        return exactly(positive)
     log_signal = np.log(np.where(positive, signal, 1.0))
     low, high = log_signal[positive].min(), log_signal[positive].max()
     if hasattr(response, "table"):  # a radiance table: no temperature beyond its ends
@@ -209,25 +221,29 @@ def _signal_temperature(signal: np.ndarray, calibration) -> np.ndarray:
         low, high = (max(low, math.log(float(response.grey_signal(ends[0], emissivity)))),
                      min(high, math.log(float(response.grey_signal(ends[1], emissivity)))))
     if not low < high:
-        return response.temperature(np.where(positive, signal, np.nan), emissivity)
+        return exactly(positive)
     # (a ringing pixel's signal far below the table would otherwise spread the nodes thin)
     nodes = np.linspace(low, high, _INVERSION_NODES)
     at_nodes = response.temperature(np.exp(nodes), emissivity)
     inside = np.isfinite(at_nodes)  # contiguous: the inversion is monotonic
-    temperature = np.full(signal.shape, np.nan)
-    if inside.sum() >= 2:
-        first, last = np.flatnonzero(inside)[[0, -1]]
-        within = positive & (log_signal >= nodes[first]) & (log_signal <= nodes[last])
-        # the nodes are evenly spaced: each value's interval by arithmetic, not a search
-        step = (nodes[-1] - nodes[0]) / (_INVERSION_NODES - 1)
-        position = (log_signal[within] - nodes[0]) / step
-        k = np.clip(position.astype(np.intp), first, last - 1)
-        fraction = position - k
-        temperature[within] = at_nodes[k] + fraction * (at_nodes[k + 1] - at_nodes[k])
-    rest = positive & np.isnan(temperature)  # beyond the tabulated range's ends: exactly
+    if inside.sum() < 2:
+        return exactly(positive)
+    first, last = np.flatnonzero(inside)[[0, -1]]
+    # the nodes are evenly spaced: each value's interval by arithmetic, not a search
+    step = (nodes[-1] - nodes[0]) / (_INVERSION_NODES - 1)
+    position = (log_signal - nodes[0]) / step
+    k = np.clip(position, first, last - 1).astype(np.intp)
+    rise = at_nodes[k + 1] - at_nodes[k]  # [K] over the interval
+    temperature = at_nodes[k] + (position - k) * rise
+    within = positive & (log_signal >= nodes[first]) & (log_signal <= nodes[last])
+    temperature = np.where(within, temperature, np.nan)
+    slope = np.where(within, rise / (step * np.where(positive, signal, 1.0)), np.nan)
+    rest = positive & ~within  # beyond the nodes' ends: exactly
     if rest.any():
-        temperature[rest] = response.temperature(signal[rest], emissivity)
-    return temperature
+        t, g = exactly(rest)
+        temperature = np.where(rest, t, temperature)
+        slope = np.where(rest, g, slope)
+    return temperature, slope
 
 
 def correct(measurement, velocity=None, rng=None) -> Correction:
@@ -271,7 +287,7 @@ def correct(measurement, velocity=None, rng=None) -> Correction:
                             "are valid (saturated or under range)")
     signal = calibration.object_signal(counts)  # ε·L(T) [signal unit]
     filled = fill_from_nearest(signal, valid)
-    typical = float(np.median(measurement.apparent_temperature[valid]))
+    typical = float(np.median(measurement.apparent_temperature[valid][::7]))  # (a sample)
     shape = signal.shape
     reach = _reach(camera, velocity, t_int)
     # The frame extended by its mirror image as far as the blur reaches: the filter's
@@ -292,8 +308,12 @@ def correct(measurement, velocity=None, rng=None) -> Correction:
     per_signal = calibration.rate_per_signal * t_int  # [e⁻ per signal unit]
     sigma = float(el.temporal_noise(electrons)) / per_signal  # with the converter's step
     sigma = max(sigma, 1e-9 * float(np.mean(np.abs(filled))))  # noise-free: a floor
-    spectrum = fft.rfft2(filled)
-    h2 = np.abs(h) ** 2
+    # The transforms on as many threads as the kernels have (one in a single-thread worker)
+    from radiosim.kernels.launch import thread_count
+
+    threads = thread_count()
+    spectrum = fft.rfft2(filled, workers=threads)
+    h2 = h * h if np.isrealobj(h) else np.abs(h) ** 2
     # The noise-to-signal ratio, one number (the parametric Wiener filter): the noise's
     # variance over the scene's, whose spectrum the blur and the noise leave unknown per
     # frequency (estimated per frequency from the measured one, the noise's own fluctuations
@@ -303,12 +323,12 @@ def correct(measurement, velocity=None, rng=None) -> Correction:
     # The transfer is known to within the sub-bands' spread about it (a pixel hotter or colder
     # than the frame's median is blurred by its own mixture of sub-bands): a frequency is
     # inverted only where H stands out of that spread as well as out of the noise.
-    wiener = np.conj(h) / (h2 + ratio + spread)
+    wiener = (h if np.isrealobj(h) else np.conj(h)) / (h2 + ratio + spread)
     # The frame's mean is measured through the noise of every pixel at once: never damped
     # (a low-contrast frame would otherwise lose its level with its detail).
     wiener[0, 0] = 1.0 / h[0, 0] if abs(h[0, 0]) > 0 else 1.0
     corrected_spectrum = wiener * spectrum
-    corrected = fft.irfft2(corrected_spectrum, s=grid)
+    corrected = fft.irfft2(corrected_spectrum, s=grid, workers=threads)
     # Uncertainty: the noise through the filter, each pixel's own variance σ_j² (shot noise
     # follows the signal) weighted by the filter's kernel: var_i = Σ_j |w_(i−j)|² σ_j²; and the
     # filter's bias, (W·H − 1) applied to the corrected signal.
@@ -316,9 +336,11 @@ def correct(measurement, velocity=None, rng=None) -> Correction:
                                                             dtype=float)) ** 2,
                                shape) / per_signal ** 2  # [signal unit²]
     variance = np.pad(np.where(valid, variance, sigma ** 2), widths, mode="symmetric")
-    kernel_power = fft.rfft2(fft.irfft2(wiener, s=grid) ** 2)  # |w|² on the grid (circular)
-    noise = np.sqrt(np.maximum(fft.irfft2(fft.rfft2(variance) * kernel_power, s=grid), 0.0))
-    bias = fft.irfft2((wiener * h - 1.0) * corrected_spectrum, s=grid)
+    kernel = fft.irfft2(wiener, s=grid, workers=threads)  # w on the grid (circular)
+    kernel_power = fft.rfft2(kernel * kernel, workers=threads)
+    noise = np.sqrt(np.maximum(fft.irfft2(fft.rfft2(variance, workers=threads) * kernel_power,
+                                          s=grid, workers=threads), 0.0))
+    bias = fft.irfft2((wiener * h - 1.0) * corrected_spectrum, s=grid, workers=threads)
     corrected, noise, bias, filled = (v[inner] for v in (corrected, noise, bias, filled))
     edge = math.ceil(reach)
     near_edge = np.zeros(shape, dtype=bool)
@@ -336,13 +358,10 @@ def correct(measurement, velocity=None, rng=None) -> Correction:
     if velocity is not None and camera.fpa.shutter == "rolling" and camera.fpa.row_time > 0:
         corrected, noise, bias, flagged = _unroll(corrected, noise, bias, flagged, velocity,
                                                   camera.fpa.row_time / camera.fpa.pixel_pitch)
-    temperature = _signal_temperature(corrected, calibration)  # [K], NaN: none
-    low, high = calibration.temperature_range
-    at = np.clip(np.where(np.isfinite(temperature), temperature, typical), low + 1, high - 1)
-    slope = np.abs(calibration.response.slope(at, calibration.emissivity))  # [unit/K]
-    uncertainty = np.hypot(noise, bias) / np.where(slope > 0, slope, np.nan)
+    temperature, per_signal_unit = _signal_temperature(corrected, calibration)  # [K], [K/unit]
+    uncertainty = np.hypot(noise, bias) * np.abs(per_signal_unit)  # [K]
     untrusted = flagged | ~np.isfinite(temperature)
-    noise_only = noise / np.where(slope > 0, slope, np.nan)
+    noise_only = noise * np.abs(per_signal_unit)
     return Correction(np.where(untrusted, np.nan, temperature),
                       np.where(untrusted, np.nan, uncertainty), untrusted,
                       np.where(untrusted, np.nan, noise_only), h)

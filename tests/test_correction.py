@@ -260,6 +260,11 @@ def test_corrected_signals_turn_into_temperatures_within_10_microkelvin():
     truth = np.random.default_rng(3).uniform(300.0, 2500.0, 2 * _INVERSION_NODES)
     signal = calibration.response.grey_signal(truth, calibration.emissivity)
     signal[:4] = (np.nan, 0.0, -1.0, 1e-300 * signal.min())  # no temperature: NaN
-    temperature = _signal_temperature(signal, calibration)
-    assert np.isnan(temperature[:4]).all()
+    temperature, per_signal = _signal_temperature(signal, calibration)
+    assert np.isnan(temperature[:4]).all() and np.isnan(per_signal[:4]).all()
     assert np.max(np.abs(temperature[4:] - truth[4:])) < 1e-5
+    # dT/dS, the interval's secant, against the response's own derivative (a 1 mK central
+    # difference) at the true temperatures: the secant over h = 1.3e-4 in ln S differs by
+    # about h/2 · (d²T/d(ln S)²)/(dT/d(ln S)), below 1e-4 relative
+    exact = 1.0 / calibration.response.slope(truth[4:], calibration.emissivity)
+    np.testing.assert_allclose(per_signal[4:], exact, rtol=1e-4)
