@@ -35,8 +35,8 @@ or a velocity other than the camera's and the caller's, not the emissivity, not 
 calibration's own error. Pixels are NaN (flagged ``untrusted``) where the measurement has no
 reading (saturated, under or over range) or such a pixel's light reaches them, within the
 PSF's and the motion's reach of the frame's edge (nearer than the radius beyond which 5 % of
-the PSF's light lies: the filter sees the frame's mirror image beyond its edge, the world
-there being unknown), or where the correction is mostly regularisation (the bias estimate
+the widest PSF's light lies: the filter sees the frame's mirror image beyond its edge, the
+world there being unknown), or where the correction is mostly regularisation (the bias estimate
 above 3 × the noise and a tenth of the pixel's signal).
 
 References
@@ -120,8 +120,8 @@ REACH_LIGHT = 0.05
 
 def _reach(camera, velocity, integration_time: float) -> float:
     """How far [pixels] the blur carries light: the radius beyond which less than
-    :data:`REACH_LIGHT` of the PSFs' (convolved) light lies, at each sub-band's wavelength
-    (:func:`radiosim.psf.padding`), and half the motion over the window."""
+    :data:`REACH_LIGHT` of the widest PSF's light lies, at each sub-band's wavelength (their
+    convolution reaches a little further), and half the motion over the window."""
     pitch = camera.fpa.pixel_pitch
     reach = 0.0
     psfs = camera.optics.psf or ()
@@ -132,10 +132,10 @@ def _reach(camera, velocity, integration_time: float) -> float:
         lam_mid = 0.5 * sum(camera.optics.band)
         wavelengths = [lam_mid] + [w for _, w in camera.response_model.sub_bands(
             sub_band_count(psfs)) if np.isfinite(w)]
-        from radiosim.psf import padding
-
-        # the PSFs' convolution: beyond Σ of each one's radius at its share of the light
-        reach = max(padding(psfs, lam, na, REACH_LIGHT) / pitch for lam in wavelengths)
+        # the widest PSF's (the union bound over a convolution, Σ of each one's radius at its
+        # share, flags the whole of a small frame behind diffraction and a halo)
+        reach = max(psf.radius(REACH_LIGHT, lam, na) / pitch for psf in psfs
+                    for lam in wavelengths)
     if velocity is not None:
         reach += math.hypot(*velocity) * integration_time / pitch / 2
     return reach
