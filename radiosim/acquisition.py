@@ -43,8 +43,8 @@ from radiosim.units import readable_time
 __all__ = ["readout_shape", "frame_period", "check_frame_period", "check_readout_fits",
            "check_measurable", "frame_dtype", "is_rolling", "instrument_signal", "Exposure",
            "ReadOut", "photoelectrons", "tensor_statistics", "rolling_statistics",
-           "FRAME_CHUNK", "PART_SAMPLES", "part_frames", "frame_ranges", "merge_statistics", "shared_statistics",
-           "split_statistics", "read_out",
+           "FRAME_CHUNK", "PART_SAMPLES", "part_frames", "frame_ranges", "merge_statistics",
+           "shared_statistics", "split_statistics", "read_out",
            "measure_many", "measure_many_statistics", "ChannelStatistics", "channel_cases",
            "record", "superframe"]
 
@@ -340,25 +340,22 @@ def part_frames(samples: int) -> int:
     return FRAME_CHUNK * max(1, math.ceil(PART_SAMPLES / (FRAME_CHUNK * max(1, samples))))
 
 
-def frame_ranges(scene: Scene, window: Window) -> list[tuple[int, int]]:
-    """The parts [first, stop) of ``window``'s frames on ``scene``, :func:`part_frames` frames
-    each from its first (the last part shorter)."""
-    first, weights = scene.window_frames(window)
-    n, size = int(weights.size), part_frames(math.prod(scene.shape))
-    return [(first + a, first + min(a + size, n)) for a in range(0, n, size)]
-
-
-def _shared_ranges(scene: Scene, exposures) -> list[tuple[int, int]] | None:
-    """The parts of the frames the exposures' windows span together, :func:`part_frames`
-    frames each from the earliest first frame; ``None`` with a rolling shutter's exposure (its
-    rows each have a window of their own: one part)."""
-    if any(e.row_time is not None for e in exposures):
-        return None
-    spans = [scene.window_frames(e.window) for e in exposures]
+def frame_ranges(scene: Scene, *windows: Window) -> list[tuple[int, int]]:
+    """The parts [first, stop) of the frames ``windows`` span together on ``scene``,
+    :func:`part_frames` frames each from the earliest first frame (the last part shorter)."""
+    spans = [scene.window_frames(window) for window in windows]
     low = min(first for first, _ in spans)
     high = max(first + weights.size for first, weights in spans)
     size = part_frames(math.prod(scene.shape))
     return [(a, min(a + size, high)) for a in range(low, high, size)]
+
+
+def _shared_ranges(scene: Scene, exposures) -> list[tuple[int, int]] | None:
+    """:func:`frame_ranges` of the exposures' windows; ``None`` with a rolling shutter's
+    exposure (its rows each have a window of their own: one part)."""
+    if any(e.row_time is not None for e in exposures):
+        return None
+    return frame_ranges(scene, *(e.window for e in exposures))
 
 
 def _range_statistics(scene: Scene, exposures, frames, progress=None) -> list:
@@ -443,18 +440,18 @@ def _raise_again(texts) -> None:
 def shared_statistics(scene: Scene, exposures, progress=None, run=None) -> list:
     """
     :func:`tensor_statistics` of ``exposures`` on ``scene``, the frames their windows span
-    split into parts of :data:`FRAME_CHUNK` frames (the exposures whose windows hold some of a
-    part's frames share one pass over it), each exposure's parts merged in order
+    split into parts (:func:`frame_ranges`; the exposures whose windows hold some of a part's
+    frames share one pass over it), each exposure's parts merged in order
     (:func:`merge_statistics`): in this process (``run`` ``None``), or one task a part on a
     Dask engine's ``run`` (:func:`radiosim.scheduling.connect`), with the same bits. A pass
-    over at most :data:`FRAME_CHUNK` frames in this process is :func:`tensor_statistics`'s.
+    over one part's frames or fewer in this process is :func:`tensor_statistics`'s.
     """
     exposures = list(exposures)
     ranges = _shared_ranges(scene, exposures)
     if run is None and (ranges is None or len(ranges) == 1):
         return tensor_statistics(scene, exposures, progress)
-    # On an engine the scene and the exposures are sent to the workers once (scattered):
-    # a worker unpickles the scene, and builds what it keeps (a chip's geometry), once.
+    # On an engine the scene and the exposures are shared by the tasks, sent to each worker
+    # once: a worker unpickles the scene, and builds what it keeps (a chip's geometry), once.
     shared = (scene, exposures)
     if run is not None and ranges is None:
         outcomes = run(_recorded_part, [()], shared=shared)
@@ -488,8 +485,8 @@ def shared_statistics(scene: Scene, exposures, progress=None, run=None) -> list:
 def split_statistics(scene: Scene, exposure: Exposure, progress=None,
                      scheduler=None) -> TensorStatistics:
     """
-    :func:`shared_statistics` of one exposure: its window in parts of :data:`FRAME_CHUNK`
-    frames merged in order, in this process (``scheduler`` ``None``) or one task a part on
+    :func:`shared_statistics` of one exposure: its window in parts (:func:`frame_ranges`)
+    merged in order, in this process (``scheduler`` ``None``) or one task a part on
     ``scheduler`` (what :func:`radiosim.scheduling.connect` takes: a ``distributed.Client``
     or an address), with the same bits. The scene and the exposure are sent to every worker
     once (a scene that travels should be lazy: its path or its generator, not its frames); a

@@ -54,6 +54,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy import fft, ndimage
 
+from radiosim.acquisition import is_rolling
 from radiosim.calibration import fill_from_nearest
 from radiosim.errors import RadiosimError
 
@@ -355,7 +356,7 @@ def correct(measurement, velocity=None, rng=None) -> Correction:
     # the pixel's signal (the filter damped, rather than inverted, what made the pixel)
     regularised = np.abs(bias) > np.maximum(3 * noise, 0.1 * np.abs(filled))
     flagged = reach_of_flags | near_edge | regularised
-    if velocity is not None and camera.fpa.shutter == "rolling" and camera.fpa.row_time > 0:
+    if velocity is not None and is_rolling(camera):
         corrected, noise, bias, flagged = _unroll(corrected, noise, bias, flagged, velocity,
                                                   camera.fpa.row_time / camera.fpa.pixel_pitch)
     temperature, per_signal_unit = _signal_temperature(corrected, calibration)  # [K], [K/unit]
