@@ -550,8 +550,9 @@ class Camera:
         """
         if self.channels is not None:  # each channel through the stages below, one pass
             if scheduler is not None:
-                raise RadiosimError(f"{self.name} has {len(self.channels)} channels: their "
-                                    "measurement is one pass in this process (scheduler=None)")
+                raise RadiosimError(f"{self.name} has {len(self.channels)} channels: they are "
+                                    "measured in one pass in this process, not on a Dask "
+                                    "scheduler (give none)")
             return measure_many(scene, [(self, integration_time, t_start)], rng, progress)[0]
         window = self.window(scene, integration_time, t_start)  # [s], made and checked
         readout = self.readout(window.duration)  # calibration, electronics, étendue

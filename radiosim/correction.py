@@ -107,8 +107,8 @@ def _velocity(velocity) -> tuple[float, float] | None:
         raise RadiosimError(f"velocity must be two finite numbers (vx, vy) in m/s, got "
                             f"{velocity!r}")
     if np.max(np.abs(v)) > 1e4:
-        raise RadiosimError(f"velocity {tuple(v)} m/s is faster than any machined chip (10 km/s): "
-                            "is it in µm/s or mm/s? velocity is in m/s")
+        raise RadiosimError(f"velocity ({v[0]:g}, {v[1]:g}) m/s is faster than any machined "
+                            "chip (10 km/s): is it in µm/s or mm/s? velocity is in m/s")
     return float(v[0]), float(v[1])
 
 
